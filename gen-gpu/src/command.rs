@@ -1,0 +1,503 @@
+use std::ffi::CString;
+use std::time::Instant;
+
+use ash::vk;
+
+use crate::error::VkResultExt;
+use crate::{Buffer, BufferDesc, Context, GpuError, Image, MemoryLocation, Pipeline, Result};
+
+/// Most timestamp scopes one submission records.
+const MAX_SCOPES: u32 = 64;
+
+/// GPU time of one pass.
+#[derive(Clone, Debug, PartialEq)]
+pub struct PassTiming {
+    pub name: String,
+    /// Nesting depth (0 for top-level passes).
+    pub depth: u32,
+    /// GPU time in milliseconds; `None` when the device has no timestamps.
+    pub gpu_ms: Option<f64>,
+}
+
+/// What one submission cost.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct FrameTimings {
+    pub passes: Vec<PassTiming>,
+    /// Wall-clock time from submit to fence, milliseconds.
+    pub cpu_wait_ms: f64,
+}
+
+impl FrameTimings {
+    /// GPU time of the first pass named `name`.
+    pub fn pass_ms(&self, name: &str) -> Option<f64> {
+        self.passes.iter().find(|p| p.name == name).and_then(|p| p.gpu_ms)
+    }
+}
+
+impl std::fmt::Display for FrameTimings {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        for p in &self.passes {
+            let indent = "  ".repeat(p.depth as usize);
+            match p.gpu_ms {
+                Some(ms) => writeln!(f, "  {indent}{:<28} {ms:9.3} ms", p.name)?,
+                None => writeln!(f, "  {indent}{:<28}       n/a", p.name)?,
+            }
+        }
+        write!(f, "  {:<28} {:9.3} ms (wall, submit to fence)", "total", self.cpu_wait_ms)
+    }
+}
+
+struct Scope {
+    name: String,
+    depth: u32,
+    begin: u32,
+    end: Option<u32>,
+}
+
+/// Records one command buffer. Every pass is wrapped in a debug label and a timestamp scope.
+pub struct Recorder<'a> {
+    ctx: &'a Context,
+    pub cmd: vk::CommandBuffer,
+    query_pool: vk::QueryPool,
+    scopes: Vec<Scope>,
+    depth: u32,
+    next_query: u32,
+}
+
+impl std::fmt::Debug for Recorder<'_> {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("Recorder").field("scopes", &self.scopes.len()).finish()
+    }
+}
+
+impl<'a> Recorder<'a> {
+    pub fn ctx(&self) -> &'a Context {
+        self.ctx
+    }
+
+    fn device(&self) -> &ash::Device {
+        self.ctx.device()
+    }
+
+    /// Runs `f` inside a debug label and a timestamp scope named `name`.
+    pub fn pass<R>(&mut self, name: &str, f: impl FnOnce(&mut Self) -> R) -> R {
+        let label = CString::new(name).unwrap_or_default();
+        if let Some(du) = &self.ctx.shared.debug_utils {
+            let info = vk::DebugUtilsLabelEXT::default().label_name(&label);
+            // SAFETY: recording command buffer; label outlives the call.
+            unsafe { du.cmd_begin_debug_utils_label(self.cmd, &info) };
+        }
+        let scope = self.write_timestamp().map(|begin| {
+            self.scopes.push(Scope { name: name.into(), depth: self.depth, begin, end: None });
+            self.scopes.len() - 1
+        });
+        self.depth += 1;
+        let result = f(self);
+        self.depth -= 1;
+        if let Some(i) = scope {
+            self.scopes[i].end = self.write_timestamp();
+        }
+        if let Some(du) = &self.ctx.shared.debug_utils {
+            // SAFETY: matches the begin above.
+            unsafe { du.cmd_end_debug_utils_label(self.cmd) };
+        }
+        result
+    }
+
+    fn write_timestamp(&mut self) -> Option<u32> {
+        if self.query_pool == vk::QueryPool::null() {
+            return None;
+        }
+        let index = self.next_query;
+        if index >= 2 * MAX_SCOPES {
+            return None;
+        }
+        self.next_query += 1;
+        // SAFETY: the pool was reset before recording and `index` is in range.
+        unsafe {
+            self.device().cmd_write_timestamp2(
+                self.cmd,
+                vk::PipelineStageFlags2::ALL_COMMANDS,
+                self.query_pool,
+                index,
+            );
+        }
+        Some(index)
+    }
+
+    pub fn bind_pipeline(&self, pipeline: &Pipeline) {
+        // SAFETY: recording; the pipeline outlives the synchronous submission.
+        unsafe { self.device().cmd_bind_pipeline(self.cmd, pipeline.bind_point, pipeline.raw) };
+    }
+
+    /// Binds whole storage buffers to set 0 with push descriptors.
+    pub fn push_storage_buffers(&self, pipeline: &Pipeline, buffers: &[(u32, &Buffer)]) {
+        let infos: Vec<[vk::DescriptorBufferInfo; 1]> = buffers
+            .iter()
+            .map(|(_, b)| [vk::DescriptorBufferInfo { buffer: b.raw, offset: 0, range: vk::WHOLE_SIZE }])
+            .collect();
+        let writes: Vec<_> = buffers
+            .iter()
+            .zip(&infos)
+            .map(|((binding, _), info)| {
+                vk::WriteDescriptorSet::default()
+                    .dst_binding(*binding)
+                    .descriptor_type(vk::DescriptorType::STORAGE_BUFFER)
+                    .buffer_info(info)
+            })
+            .collect();
+        // SAFETY: recording; the writes point at live buffers and match the set layout.
+        unsafe {
+            self.ctx.shared.push_descriptor.cmd_push_descriptor_set(
+                self.cmd,
+                pipeline.bind_point,
+                pipeline.layout,
+                0,
+                &writes,
+            );
+        }
+    }
+
+    pub fn push_constants<T: bytemuck::Pod>(&self, pipeline: &Pipeline, data: &T) {
+        // SAFETY: recording; the layout declares a push-constant range at offset 0 that the
+        // caller sized for `T`.
+        unsafe {
+            self.device().cmd_push_constants(
+                self.cmd,
+                pipeline.layout,
+                pipeline.push_constant_stages,
+                0,
+                bytemuck::bytes_of(data),
+            );
+        }
+    }
+
+    pub fn dispatch(&self, x: u32, y: u32, z: u32) {
+        // SAFETY: recording with a compute pipeline bound.
+        unsafe { self.device().cmd_dispatch(self.cmd, x, y, z) };
+    }
+
+    /// A full memory barrier between two stage/access sets.
+    pub fn memory_barrier(
+        &self,
+        src: (vk::PipelineStageFlags2, vk::AccessFlags2),
+        dst: (vk::PipelineStageFlags2, vk::AccessFlags2),
+    ) {
+        let barriers = [vk::MemoryBarrier2::default()
+            .src_stage_mask(src.0)
+            .src_access_mask(src.1)
+            .dst_stage_mask(dst.0)
+            .dst_access_mask(dst.1)];
+        let dep = vk::DependencyInfo::default().memory_barriers(&barriers);
+        // SAFETY: recording.
+        unsafe { self.device().cmd_pipeline_barrier2(self.cmd, &dep) };
+    }
+
+    /// Transitions a whole image between layouts.
+    pub fn image_barrier(
+        &self,
+        image: &Image,
+        layouts: (vk::ImageLayout, vk::ImageLayout),
+        src: (vk::PipelineStageFlags2, vk::AccessFlags2),
+        dst: (vk::PipelineStageFlags2, vk::AccessFlags2),
+    ) {
+        let barriers = [vk::ImageMemoryBarrier2::default()
+            .src_stage_mask(src.0)
+            .src_access_mask(src.1)
+            .dst_stage_mask(dst.0)
+            .dst_access_mask(dst.1)
+            .old_layout(layouts.0)
+            .new_layout(layouts.1)
+            .src_queue_family_index(vk::QUEUE_FAMILY_IGNORED)
+            .dst_queue_family_index(vk::QUEUE_FAMILY_IGNORED)
+            .image(image.raw)
+            .subresource_range(image.full_range())];
+        let dep = vk::DependencyInfo::default().image_memory_barriers(&barriers);
+        // SAFETY: recording; the image is live.
+        unsafe { self.device().cmd_pipeline_barrier2(self.cmd, &dep) };
+    }
+
+    /// Begins dynamic rendering into `color` (cleared) and an optional depth image (cleared to
+    /// 1), both already in attachment layouts; sets viewport and scissor to the full image.
+    pub fn begin_rendering(&self, color: &Image, clear: [f32; 4], depth: Option<&Image>) {
+        let extent = vk::Extent2D { width: color.desc.extent.width, height: color.desc.extent.height };
+        let color_att = [vk::RenderingAttachmentInfo::default()
+            .image_view(color.view)
+            .image_layout(vk::ImageLayout::COLOR_ATTACHMENT_OPTIMAL)
+            .load_op(vk::AttachmentLoadOp::CLEAR)
+            .store_op(vk::AttachmentStoreOp::STORE)
+            .clear_value(vk::ClearValue { color: vk::ClearColorValue { float32: clear } })];
+        let depth_att = depth.map(|d| {
+            vk::RenderingAttachmentInfo::default()
+                .image_view(d.view)
+                .image_layout(vk::ImageLayout::DEPTH_ATTACHMENT_OPTIMAL)
+                .load_op(vk::AttachmentLoadOp::CLEAR)
+                .store_op(vk::AttachmentStoreOp::DONT_CARE)
+                .clear_value(vk::ClearValue {
+                    depth_stencil: vk::ClearDepthStencilValue { depth: 1.0, stencil: 0 },
+                })
+        });
+        let area = vk::Rect2D { offset: vk::Offset2D::default(), extent };
+        let mut info =
+            vk::RenderingInfo::default().render_area(area).layer_count(1).color_attachments(&color_att);
+        if let Some(d) = &depth_att {
+            info = info.depth_attachment(d);
+        }
+        let viewport = vk::Viewport {
+            x: 0.0,
+            y: 0.0,
+            width: extent.width as f32,
+            height: extent.height as f32,
+            min_depth: 0.0,
+            max_depth: 1.0,
+        };
+        // SAFETY: recording; attachments are live and in the stated layouts.
+        unsafe {
+            self.device().cmd_begin_rendering(self.cmd, &info);
+            self.device().cmd_set_viewport(self.cmd, 0, &[viewport]);
+            self.device().cmd_set_scissor(self.cmd, 0, &[area]);
+        }
+    }
+
+    pub fn end_rendering(&self) {
+        // SAFETY: matches begin_rendering.
+        unsafe { self.device().cmd_end_rendering(self.cmd) };
+    }
+
+    pub fn draw(&self, vertex_count: u32, instance_count: u32) {
+        // SAFETY: recording inside rendering with a graphics pipeline bound.
+        unsafe { self.device().cmd_draw(self.cmd, vertex_count, instance_count, 0, 0) };
+    }
+
+    /// `vkCmdDrawIndirect` with one `VkDrawIndirectCommand` at `offset`.
+    pub fn draw_indirect(&self, args: &Buffer, offset: u64) {
+        // SAFETY: recording inside rendering; `args` holds a draw command at `offset`.
+        unsafe { self.device().cmd_draw_indirect(self.cmd, args.raw, offset, 1, 16) };
+    }
+
+    /// `vkCmdDrawMeshTasksEXT`; the caller keeps counts within the device's limits.
+    pub fn draw_mesh_tasks(&self, x: u32, y: u32, z: u32) -> Result<()> {
+        let ext = self.ctx.mesh_shader_ext().ok_or_else(|| GpuError::MeshShaderUnsupported {
+            requested: "mesh",
+            device: self.ctx.capabilities().device_name.clone(),
+        })?;
+        // SAFETY: recording inside rendering with a mesh pipeline bound.
+        unsafe { ext.cmd_draw_mesh_tasks(self.cmd, x, y, z) };
+        Ok(())
+    }
+
+    pub fn copy_buffer(&self, src: &Buffer, dst: &Buffer, size: u64) {
+        let region = vk::BufferCopy { src_offset: 0, dst_offset: 0, size };
+        // SAFETY: recording; both buffers are live and at least `size` bytes.
+        unsafe { self.device().cmd_copy_buffer(self.cmd, src.raw, dst.raw, &[region]) };
+    }
+
+    /// Copies a whole image in TRANSFER_SRC layout into a tightly packed buffer.
+    pub fn copy_image_to_buffer(&self, src: &Image, dst: &Buffer) {
+        let region =
+            vk::BufferImageCopy::default().image_subresource(src.layers()).image_extent(src.desc.extent);
+        // SAFETY: recording; the image is in TRANSFER_SRC_OPTIMAL and the buffer large enough.
+        unsafe {
+            self.device().cmd_copy_image_to_buffer(
+                self.cmd,
+                src.raw,
+                vk::ImageLayout::TRANSFER_SRC_OPTIMAL,
+                dst.raw,
+                &[region],
+            );
+        }
+    }
+}
+
+/// Owns the per-submission objects and frees them whatever happens.
+struct Submission<'a> {
+    ctx: &'a Context,
+    cmd: vk::CommandBuffer,
+    fence: vk::Fence,
+    query_pool: vk::QueryPool,
+}
+
+impl Drop for Submission<'_> {
+    fn drop(&mut self) {
+        let d = self.ctx.device();
+        let pool = self.ctx.shared.command_pool.lock().unwrap_or_else(|e| e.into_inner());
+        // SAFETY: the fence was waited on (or never submitted), so nothing is in flight.
+        unsafe {
+            if self.fence != vk::Fence::null() {
+                d.destroy_fence(self.fence, None);
+            }
+            if self.query_pool != vk::QueryPool::null() {
+                d.destroy_query_pool(self.query_pool, None);
+            }
+            d.free_command_buffers(*pool, &[self.cmd]);
+        }
+    }
+}
+
+impl Context {
+    /// Records commands with `f`, submits them, waits, and returns `f`'s result with the
+    /// per-pass GPU times. Synchronous, so resources may be dropped as soon as it returns.
+    pub fn submit<R>(
+        &self,
+        name: &str,
+        f: impl FnOnce(&mut Recorder<'_>) -> Result<R>,
+    ) -> Result<(R, FrameTimings)> {
+        let device = self.device();
+        let cmd = {
+            let pool = self.shared.command_pool.lock().unwrap_or_else(|e| e.into_inner());
+            let info = vk::CommandBufferAllocateInfo::default()
+                .command_pool(*pool)
+                .level(vk::CommandBufferLevel::PRIMARY)
+                .command_buffer_count(1);
+            // SAFETY: valid pool, externally synchronized by the mutex.
+            unsafe { device.allocate_command_buffers(&info) }.call("vkAllocateCommandBuffers")?[0]
+        };
+        let mut sub =
+            Submission { ctx: self, cmd, fence: vk::Fence::null(), query_pool: vk::QueryPool::null() };
+        self.set_name(cmd, name);
+        if self.capabilities().timestamp_period_ns.is_some() {
+            let info = vk::QueryPoolCreateInfo::default()
+                .query_type(vk::QueryType::TIMESTAMP)
+                .query_count(2 * MAX_SCOPES);
+            // SAFETY: valid device.
+            sub.query_pool = unsafe { device.create_query_pool(&info, None) }.call("vkCreateQueryPool")?;
+            // SAFETY: host query reset is enabled at device creation.
+            unsafe { device.reset_query_pool(sub.query_pool, 0, 2 * MAX_SCOPES) };
+        }
+        let begin = vk::CommandBufferBeginInfo::default().flags(vk::CommandBufferUsageFlags::ONE_TIME_SUBMIT);
+        // SAFETY: freshly allocated command buffer.
+        unsafe { device.begin_command_buffer(cmd, &begin) }.call("vkBeginCommandBuffer")?;
+        let mut rec = Recorder {
+            ctx: self,
+            cmd,
+            query_pool: sub.query_pool,
+            scopes: Vec::new(),
+            depth: 0,
+            next_query: 0,
+        };
+        let result = rec.pass(name, f);
+        // Make every write visible to the host before the fence signals.
+        rec.memory_barrier(
+            (vk::PipelineStageFlags2::ALL_COMMANDS, vk::AccessFlags2::MEMORY_WRITE),
+            (vk::PipelineStageFlags2::HOST, vk::AccessFlags2::HOST_READ),
+        );
+        let scopes = std::mem::take(&mut rec.scopes);
+        // SAFETY: recording state.
+        unsafe { device.end_command_buffer(cmd) }.call("vkEndCommandBuffer")?;
+        let value = result?;
+
+        // SAFETY: valid device.
+        sub.fence =
+            unsafe { device.create_fence(&vk::FenceCreateInfo::default(), None) }.call("vkCreateFence")?;
+        let cmds = [cmd];
+        let submit = vk::SubmitInfo::default().command_buffers(&cmds);
+        let start = Instant::now();
+        {
+            let queue = self.queue();
+            // SAFETY: the queue is externally synchronized by its mutex; the command buffer is
+            // executable.
+            unsafe { device.queue_submit(*queue, &[submit], sub.fence) }.call("vkQueueSubmit")?;
+        }
+        // SAFETY: the fence belongs to this submission.
+        unsafe { device.wait_for_fences(&[sub.fence], true, u64::MAX) }.call("vkWaitForFences")?;
+        let cpu_wait_ms = start.elapsed().as_secs_f64() * 1e3;
+
+        let mut timings = FrameTimings { passes: Vec::new(), cpu_wait_ms };
+        let period = self.capabilities().timestamp_period_ns;
+        let used = scopes.iter().filter_map(|s| s.end).max().map_or(0, |m| m + 1);
+        let mut stamps = vec![0u64; used as usize];
+        let have_stamps = used > 0
+            // SAFETY: every query below `used` was written in the submission we waited for.
+            && unsafe {
+                device.get_query_pool_results(sub.query_pool, 0, &mut stamps, vk::QueryResultFlags::TYPE_64)
+            }
+            .is_ok();
+        for s in scopes {
+            let gpu_ms = match (have_stamps, s.end, period) {
+                (true, Some(end), Some(p)) => {
+                    let ticks = stamps[end as usize].saturating_sub(stamps[s.begin as usize]);
+                    Some(ticks as f64 * f64::from(p) * 1e-6)
+                }
+                _ => None,
+            };
+            timings.passes.push(PassTiming { name: s.name, depth: s.depth, gpu_ms });
+        }
+        Ok((value, timings))
+    }
+
+    /// A device-local buffer filled with `data` (mapped directly where the memory is
+    /// host-visible, as on lavapipe; through a staging copy elsewhere).
+    pub fn create_buffer_with_data(&self, name: &str, desc: BufferDesc, data: &[u8]) -> Result<Buffer> {
+        let mut buffer = Buffer::new(self, name, desc)?;
+        if let Some(mapped) = buffer.mapped_mut() {
+            mapped[..data.len()].copy_from_slice(data);
+            return Ok(buffer);
+        }
+        let mut staging = Buffer::new(
+            self,
+            &format!("{name} (upload)"),
+            BufferDesc {
+                size: desc.size,
+                usage: vk::BufferUsageFlags::TRANSFER_SRC,
+                location: MemoryLocation::CpuToGpu,
+            },
+        )?;
+        if let Some(m) = staging.mapped_mut() {
+            m[..data.len()].copy_from_slice(data);
+        }
+        self.submit(&format!("upload {name}"), |rec| {
+            rec.copy_buffer(&staging, &buffer, data.len() as u64);
+            Ok(())
+        })?;
+        Ok(buffer)
+    }
+
+    /// Reads the first `len` bytes of a buffer back (after all submitted work, since
+    /// submissions are synchronous).
+    pub fn read_buffer(&self, buffer: &Buffer, len: u64) -> Result<Vec<u8>> {
+        if len > buffer.size() {
+            return Err(GpuError::OutOfRange {
+                name: buffer.name().into(),
+                size: buffer.size(),
+                requested: len,
+            });
+        }
+        if let Some(mapped) = buffer.mapped() {
+            return Ok(mapped[..len as usize].to_vec());
+        }
+        let staging = Buffer::new(
+            self,
+            &format!("{} (readback)", buffer.name()),
+            BufferDesc {
+                size: len.max(1),
+                usage: vk::BufferUsageFlags::TRANSFER_DST,
+                location: MemoryLocation::GpuToCpu,
+            },
+        )?;
+        self.submit(&format!("read back {}", buffer.name()), |rec| {
+            rec.copy_buffer(buffer, &staging, len);
+            Ok(())
+        })?;
+        Ok(staging.mapped().map(|m| m[..len as usize].to_vec()).unwrap_or_default())
+    }
+
+    /// Reads a whole image (in TRANSFER_SRC_OPTIMAL layout) back as tightly packed texels.
+    pub fn read_image(&self, image: &Image, bytes_per_texel: u64) -> Result<Vec<u8>> {
+        let e = image.desc.extent;
+        let len = u64::from(e.width) * u64::from(e.height) * u64::from(e.depth) * bytes_per_texel;
+        let staging = Buffer::new(
+            self,
+            &format!("{} (readback)", image.name()),
+            BufferDesc {
+                size: len,
+                usage: vk::BufferUsageFlags::TRANSFER_DST,
+                location: MemoryLocation::GpuToCpu,
+            },
+        )?;
+        self.submit(&format!("read back {}", image.name()), |rec| {
+            rec.copy_image_to_buffer(image, &staging);
+            Ok(())
+        })?;
+        Ok(staging.mapped().map(|m| m.to_vec()).unwrap_or_default())
+    }
+}

@@ -1,0 +1,37 @@
+//! Vulkan through `ash` for hairkit: a headless context, RAII resources, build-time shaders,
+//! per-pass GPU timing, and (built on these) on-the-fly strand generation.
+//!
+//! ```no_run
+//! use gen_gpu::{Context, ContextDesc};
+//! let ctx = Context::new(&ContextDesc::default())?;
+//! println!("{}", ctx.capabilities());
+//! # Ok::<(), gen_gpu::GpuError>(())
+//! ```
+
+mod caps;
+mod command;
+mod context;
+pub mod diagnostics;
+mod error;
+mod path;
+mod pipeline;
+mod resource;
+
+pub use ash::vk;
+pub use caps::{Capabilities, MeshShaderLimits};
+pub use command::{FrameTimings, PassTiming, Recorder};
+pub use context::{Context, ContextDesc, Validation, ValidationMessage};
+pub use error::{GpuError, Result};
+pub use gpu_allocator::MemoryLocation;
+pub use path::{GenerationPath, PathChoice};
+pub use pipeline::{
+    Binding, ComputePipeline, ComputePipelineDesc, GraphicsPipeline, GraphicsPipelineDesc, GraphicsStages,
+    Pipeline,
+};
+pub use resource::{Buffer, BufferDesc, Image, ImageDesc};
+
+/// The SPIR-V modules of this crate, compiled from `gen-gpu/shaders` at build time.
+pub mod shaders {
+    pub use shader_build::{ShaderSpirv, ShaderStage};
+    include!(concat!(env!("OUT_DIR"), "/shaders.rs"));
+}

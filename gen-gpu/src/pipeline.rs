@@ -1,0 +1,329 @@
+use std::sync::Arc;
+
+use ash::vk;
+use shader_build::{ShaderSpirv, ShaderStage};
+
+use crate::context::DeviceShared;
+use crate::error::VkResultExt;
+use crate::{Context, Result};
+
+/// One descriptor binding of set 0 (bound with push descriptors).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub struct Binding {
+    pub binding: u32,
+    pub ty: vk::DescriptorType,
+    pub stages: vk::ShaderStageFlags,
+}
+
+impl Binding {
+    pub fn storage_buffer(binding: u32, stages: vk::ShaderStageFlags) -> Self {
+        Self { binding, ty: vk::DescriptorType::STORAGE_BUFFER, stages }
+    }
+}
+
+/// How to create a compute [`Pipeline`].
+#[derive(Clone, Copy, Debug)]
+pub struct ComputePipelineDesc<'a> {
+    pub name: &'a str,
+    pub shader: &'a ShaderSpirv,
+    pub bindings: &'a [Binding],
+    pub push_constant_size: u32,
+    /// `(constant_id, value)` specialization constants, all 32-bit.
+    pub specialization: &'a [(u32, u32)],
+}
+
+/// The stages before rasterization.
+#[derive(Clone, Copy, Debug)]
+pub enum GraphicsStages<'a> {
+    /// A vertex shader (vertex pulling: no vertex input state).
+    Vertex(&'a ShaderSpirv),
+    /// Optional task shader + mesh shader (VK_EXT_mesh_shader).
+    Mesh { task: Option<&'a ShaderSpirv>, mesh: &'a ShaderSpirv },
+}
+
+/// How to create a graphics [`Pipeline`] drawing triangles with dynamic rendering.
+#[derive(Clone, Copy, Debug)]
+pub struct GraphicsPipelineDesc<'a> {
+    pub name: &'a str,
+    pub stages: GraphicsStages<'a>,
+    pub fragment: &'a ShaderSpirv,
+    pub bindings: &'a [Binding],
+    pub push_constant_size: u32,
+    pub specialization: &'a [(u32, u32)],
+    pub color_format: vk::Format,
+    pub depth_format: Option<vk::Format>,
+    /// Premultiplied-alpha blending instead of replacing.
+    pub blend: bool,
+}
+
+/// A pipeline with its layout and push-descriptor set layout; all destroyed on drop.
+pub struct Pipeline {
+    shared: Arc<DeviceShared>,
+    pub raw: vk::Pipeline,
+    pub layout: vk::PipelineLayout,
+    set_layout: vk::DescriptorSetLayout,
+    pub bind_point: vk::PipelineBindPoint,
+    pub push_constant_stages: vk::ShaderStageFlags,
+    name: String,
+}
+
+pub type ComputePipeline = Pipeline;
+pub type GraphicsPipeline = Pipeline;
+
+impl std::fmt::Debug for Pipeline {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("Pipeline").field("name", &self.name).field("bind_point", &self.bind_point).finish()
+    }
+}
+
+impl Drop for Pipeline {
+    fn drop(&mut self) {
+        // SAFETY: submissions are synchronous, so the pipeline is idle; objects are destroyed
+        // in reverse order of creation.
+        unsafe {
+            let d = &self.shared.device;
+            if self.raw != vk::Pipeline::null() {
+                d.destroy_pipeline(self.raw, None);
+            }
+            d.destroy_pipeline_layout(self.layout, None);
+            d.destroy_descriptor_set_layout(self.set_layout, None);
+        }
+    }
+}
+
+/// A shader module that lives only while a pipeline is created.
+struct ShaderModule<'a> {
+    device: &'a ash::Device,
+    raw: vk::ShaderModule,
+}
+
+impl<'a> ShaderModule<'a> {
+    fn new(ctx: &'a Context, shader: &ShaderSpirv) -> Result<Self> {
+        let words = shader.words();
+        let info = vk::ShaderModuleCreateInfo::default().code(&words);
+        // SAFETY: `words` is SPIR-V produced by glslang at build time and outlives the call.
+        let raw = unsafe { ctx.device().create_shader_module(&info, None) }.call("vkCreateShaderModule")?;
+        ctx.set_name(raw, shader.name);
+        Ok(Self { device: ctx.device(), raw })
+    }
+}
+
+impl Drop for ShaderModule<'_> {
+    fn drop(&mut self) {
+        // SAFETY: pipelines created from the module do not need it after creation.
+        unsafe { self.device.destroy_shader_module(self.raw, None) };
+    }
+}
+
+pub(crate) fn stage_flag(stage: ShaderStage) -> vk::ShaderStageFlags {
+    match stage {
+        ShaderStage::Vertex => vk::ShaderStageFlags::VERTEX,
+        ShaderStage::Fragment => vk::ShaderStageFlags::FRAGMENT,
+        ShaderStage::Compute => vk::ShaderStageFlags::COMPUTE,
+        ShaderStage::Task => vk::ShaderStageFlags::TASK_EXT,
+        ShaderStage::Mesh => vk::ShaderStageFlags::MESH_EXT,
+    }
+}
+
+struct Specialization {
+    entries: Vec<vk::SpecializationMapEntry>,
+    data: Vec<u8>,
+}
+
+impl Specialization {
+    fn new(constants: &[(u32, u32)]) -> Self {
+        let entries = constants
+            .iter()
+            .enumerate()
+            .map(|(i, (id, _))| vk::SpecializationMapEntry {
+                constant_id: *id,
+                offset: (i * 4) as u32,
+                size: 4,
+            })
+            .collect();
+        let data = constants.iter().flat_map(|(_, v)| v.to_le_bytes()).collect();
+        Self { entries, data }
+    }
+
+    fn info(&self) -> vk::SpecializationInfo<'_> {
+        vk::SpecializationInfo::default().map_entries(&self.entries).data(&self.data)
+    }
+}
+
+impl Pipeline {
+    fn layout(
+        ctx: &Context,
+        name: &str,
+        bindings: &[Binding],
+        push_constant_size: u32,
+        push_stages: vk::ShaderStageFlags,
+    ) -> Result<(vk::DescriptorSetLayout, vk::PipelineLayout)> {
+        let vk_bindings: Vec<_> = bindings
+            .iter()
+            .map(|b| {
+                vk::DescriptorSetLayoutBinding::default()
+                    .binding(b.binding)
+                    .descriptor_type(b.ty)
+                    .descriptor_count(1)
+                    .stage_flags(b.stages)
+            })
+            .collect();
+        let set_info = vk::DescriptorSetLayoutCreateInfo::default()
+            .flags(vk::DescriptorSetLayoutCreateFlags::PUSH_DESCRIPTOR_KHR)
+            .bindings(&vk_bindings);
+        let device = ctx.device();
+        // SAFETY: valid device and create info.
+        let set_layout = unsafe { device.create_descriptor_set_layout(&set_info, None) }
+            .call("vkCreateDescriptorSetLayout")?;
+        let ranges =
+            [vk::PushConstantRange { stage_flags: push_stages, offset: 0, size: push_constant_size }];
+        let set_layouts = [set_layout];
+        let mut layout_info = vk::PipelineLayoutCreateInfo::default().set_layouts(&set_layouts);
+        if push_constant_size > 0 {
+            layout_info = layout_info.push_constant_ranges(&ranges);
+        }
+        // SAFETY: valid device, the set layout was just created.
+        match unsafe { device.create_pipeline_layout(&layout_info, None) } {
+            Ok(layout) => {
+                ctx.set_name(set_layout, &format!("{name} set layout"));
+                ctx.set_name(layout, &format!("{name} layout"));
+                Ok((set_layout, layout))
+            }
+            Err(result) => {
+                // SAFETY: unused set layout.
+                unsafe { device.destroy_descriptor_set_layout(set_layout, None) };
+                Err(crate::GpuError::Vulkan { call: "vkCreatePipelineLayout", result })
+            }
+        }
+    }
+
+    /// Creates a compute pipeline.
+    pub fn compute(ctx: &Context, desc: &ComputePipelineDesc<'_>) -> Result<Self> {
+        let push_stages = vk::ShaderStageFlags::COMPUTE;
+        let (set_layout, layout) =
+            Self::layout(ctx, desc.name, desc.bindings, desc.push_constant_size, push_stages)?;
+        let mut pipeline = Pipeline {
+            shared: ctx.shared.clone(),
+            raw: vk::Pipeline::null(),
+            layout,
+            set_layout,
+            bind_point: vk::PipelineBindPoint::COMPUTE,
+            push_constant_stages: push_stages,
+            name: desc.name.into(),
+        };
+        let module = ShaderModule::new(ctx, desc.shader)?;
+        let spec = Specialization::new(desc.specialization);
+        let spec_info = spec.info();
+        let stage = vk::PipelineShaderStageCreateInfo::default()
+            .stage(vk::ShaderStageFlags::COMPUTE)
+            .module(module.raw)
+            .name(c"main")
+            .specialization_info(&spec_info);
+        let info = vk::ComputePipelineCreateInfo::default().stage(stage).layout(layout);
+        // SAFETY: valid device; module, layout and create info outlive the call.
+        let raw = unsafe { ctx.device().create_compute_pipelines(vk::PipelineCache::null(), &[info], None) }
+            .map_err(|(_, e)| e)
+            .call("vkCreateComputePipelines")?;
+        pipeline.raw = raw[0];
+        ctx.set_name(pipeline.raw, desc.name);
+        Ok(pipeline)
+    }
+
+    /// Creates a graphics pipeline (triangle lists, no culling, optional depth test).
+    pub fn graphics(ctx: &Context, desc: &GraphicsPipelineDesc<'_>) -> Result<Self> {
+        let pre_raster: Vec<&ShaderSpirv> = match desc.stages {
+            GraphicsStages::Vertex(v) => vec![v],
+            GraphicsStages::Mesh { task, mesh } => task.into_iter().chain([mesh]).collect(),
+        };
+        let push_stages = pre_raster
+            .iter()
+            .chain([&desc.fragment])
+            .fold(vk::ShaderStageFlags::empty(), |acc, s| acc | stage_flag(s.stage));
+        let (set_layout, layout) =
+            Self::layout(ctx, desc.name, desc.bindings, desc.push_constant_size, push_stages)?;
+        let mut pipeline = Pipeline {
+            shared: ctx.shared.clone(),
+            raw: vk::Pipeline::null(),
+            layout,
+            set_layout,
+            bind_point: vk::PipelineBindPoint::GRAPHICS,
+            push_constant_stages: push_stages,
+            name: desc.name.into(),
+        };
+        let shaders: Vec<&ShaderSpirv> = pre_raster.into_iter().chain([desc.fragment]).collect();
+        let modules = shaders.iter().map(|s| ShaderModule::new(ctx, s)).collect::<Result<Vec<_>>>()?;
+        let spec = Specialization::new(desc.specialization);
+        let spec_info = spec.info();
+        let stages: Vec<_> = shaders
+            .iter()
+            .zip(&modules)
+            .map(|(s, m)| {
+                vk::PipelineShaderStageCreateInfo::default()
+                    .stage(stage_flag(s.stage))
+                    .module(m.raw)
+                    .name(c"main")
+                    .specialization_info(&spec_info)
+            })
+            .collect();
+        let is_mesh = matches!(desc.stages, GraphicsStages::Mesh { .. });
+        let vertex_input = vk::PipelineVertexInputStateCreateInfo::default();
+        let input_assembly = vk::PipelineInputAssemblyStateCreateInfo::default()
+            .topology(vk::PrimitiveTopology::TRIANGLE_LIST);
+        let viewport = vk::PipelineViewportStateCreateInfo::default().viewport_count(1).scissor_count(1);
+        let raster = vk::PipelineRasterizationStateCreateInfo::default()
+            .polygon_mode(vk::PolygonMode::FILL)
+            .cull_mode(vk::CullModeFlags::NONE)
+            .line_width(1.0);
+        let multisample = vk::PipelineMultisampleStateCreateInfo::default()
+            .rasterization_samples(vk::SampleCountFlags::TYPE_1);
+        let depth = vk::PipelineDepthStencilStateCreateInfo::default()
+            .depth_test_enable(desc.depth_format.is_some())
+            .depth_write_enable(desc.depth_format.is_some())
+            .depth_compare_op(vk::CompareOp::LESS);
+        let attachment = if desc.blend {
+            vk::PipelineColorBlendAttachmentState::default()
+                .blend_enable(true)
+                .src_color_blend_factor(vk::BlendFactor::ONE)
+                .dst_color_blend_factor(vk::BlendFactor::ONE_MINUS_SRC_ALPHA)
+                .color_blend_op(vk::BlendOp::ADD)
+                .src_alpha_blend_factor(vk::BlendFactor::ONE)
+                .dst_alpha_blend_factor(vk::BlendFactor::ONE_MINUS_SRC_ALPHA)
+                .alpha_blend_op(vk::BlendOp::ADD)
+                .color_write_mask(vk::ColorComponentFlags::RGBA)
+        } else {
+            vk::PipelineColorBlendAttachmentState::default().color_write_mask(vk::ColorComponentFlags::RGBA)
+        };
+        let attachments = [attachment];
+        let blend = vk::PipelineColorBlendStateCreateInfo::default().attachments(&attachments);
+        let dynamic_states = [vk::DynamicState::VIEWPORT, vk::DynamicState::SCISSOR];
+        let dynamic = vk::PipelineDynamicStateCreateInfo::default().dynamic_states(&dynamic_states);
+        let color_formats = [desc.color_format];
+        let mut rendering = vk::PipelineRenderingCreateInfo::default()
+            .color_attachment_formats(&color_formats)
+            .depth_attachment_format(desc.depth_format.unwrap_or(vk::Format::UNDEFINED));
+        let mut info = vk::GraphicsPipelineCreateInfo::default()
+            .stages(&stages)
+            .viewport_state(&viewport)
+            .rasterization_state(&raster)
+            .multisample_state(&multisample)
+            .depth_stencil_state(&depth)
+            .color_blend_state(&blend)
+            .dynamic_state(&dynamic)
+            .layout(layout)
+            .push_next(&mut rendering);
+        if !is_mesh {
+            info = info.vertex_input_state(&vertex_input).input_assembly_state(&input_assembly);
+        }
+        // SAFETY: valid device; every struct the create info points to outlives the call.
+        let raw = unsafe { ctx.device().create_graphics_pipelines(vk::PipelineCache::null(), &[info], None) }
+            .map_err(|(_, e)| e)
+            .call("vkCreateGraphicsPipelines")?;
+        pipeline.raw = raw[0];
+        ctx.set_name(pipeline.raw, desc.name);
+        Ok(pipeline)
+    }
+
+    pub fn name(&self) -> &str {
+        &self.name
+    }
+}

@@ -1,0 +1,297 @@
+use std::sync::Arc;
+
+use ash::vk;
+use gpu_allocator::MemoryLocation;
+use gpu_allocator::vulkan::{Allocation, AllocationCreateDesc, AllocationScheme};
+
+use crate::context::DeviceShared;
+use crate::error::VkResultExt;
+use crate::{Context, GpuError, Result};
+
+/// How to create a [`Buffer`].
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub struct BufferDesc {
+    pub size: u64,
+    pub usage: vk::BufferUsageFlags,
+    pub location: MemoryLocation,
+}
+
+impl BufferDesc {
+    /// A device-local storage buffer that can also be copied to and from.
+    pub fn storage(size: u64) -> Self {
+        Self {
+            size,
+            usage: vk::BufferUsageFlags::STORAGE_BUFFER
+                | vk::BufferUsageFlags::TRANSFER_SRC
+                | vk::BufferUsageFlags::TRANSFER_DST,
+            location: MemoryLocation::GpuOnly,
+        }
+    }
+
+    pub fn usage(mut self, usage: vk::BufferUsageFlags) -> Self {
+        self.usage |= usage;
+        self
+    }
+
+    pub fn location(mut self, location: MemoryLocation) -> Self {
+        self.location = location;
+        self
+    }
+}
+
+/// A buffer and its memory; both are freed on drop.
+pub struct Buffer {
+    shared: Arc<DeviceShared>,
+    pub raw: vk::Buffer,
+    allocation: Option<Allocation>,
+    pub desc: BufferDesc,
+    name: String,
+}
+
+impl std::fmt::Debug for Buffer {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("Buffer").field("name", &self.name).field("size", &self.desc.size).finish()
+    }
+}
+
+impl Buffer {
+    pub fn new(ctx: &Context, name: &str, desc: BufferDesc) -> Result<Self> {
+        let max_alloc = 1u64 << 31;
+        if desc.size == 0 || desc.size > max_alloc {
+            return Err(GpuError::OverBudget {
+                name: name.into(),
+                requested: desc.size,
+                budget: max_alloc,
+                why: "buffers must be 1 byte to 2 GiB",
+            });
+        }
+        let device = ctx.device();
+        let info = vk::BufferCreateInfo::default()
+            .size(desc.size)
+            .usage(desc.usage)
+            .sharing_mode(vk::SharingMode::EXCLUSIVE);
+        // SAFETY: valid device and create info.
+        let raw = unsafe { device.create_buffer(&info, None) }.call("vkCreateBuffer")?;
+        // SAFETY: `raw` was just created from this device.
+        let requirements = unsafe { device.get_buffer_memory_requirements(raw) };
+        let allocation = ctx.allocator().allocate(&AllocationCreateDesc {
+            name,
+            requirements,
+            location: desc.location,
+            linear: true,
+            allocation_scheme: AllocationScheme::GpuAllocatorManaged,
+        });
+        let allocation = match allocation {
+            Ok(a) => a,
+            Err(source) => {
+                // SAFETY: the buffer has no memory bound and is not in use.
+                unsafe { device.destroy_buffer(raw, None) };
+                return Err(GpuError::Allocation { name: name.into(), source });
+            }
+        };
+        let buffer =
+            Buffer { shared: ctx.shared.clone(), raw, allocation: Some(allocation), desc, name: name.into() };
+        let alloc = buffer
+            .allocation
+            .as_ref()
+            .ok_or(GpuError::Vulkan { call: "allocate", result: vk::Result::ERROR_UNKNOWN })?;
+        // SAFETY: memory and offset come from an allocation made for this buffer's requirements.
+        unsafe { device.bind_buffer_memory(raw, alloc.memory(), alloc.offset()) }
+            .call("vkBindBufferMemory")?;
+        ctx.set_name(raw, name);
+        Ok(buffer)
+    }
+
+    pub fn name(&self) -> &str {
+        &self.name
+    }
+
+    pub fn size(&self) -> u64 {
+        self.desc.size
+    }
+
+    /// The mapped bytes of a host-visible buffer.
+    pub fn mapped(&self) -> Option<&[u8]> {
+        self.allocation.as_ref()?.mapped_slice()
+    }
+
+    /// The mapped bytes of a host-visible buffer, for writing.
+    pub fn mapped_mut(&mut self) -> Option<&mut [u8]> {
+        self.allocation.as_mut()?.mapped_slice_mut()
+    }
+}
+
+impl Drop for Buffer {
+    fn drop(&mut self) {
+        // SAFETY: callers wait for submissions using the buffer before dropping it (submits in
+        // this crate are synchronous); the allocation is freed after the buffer is destroyed.
+        unsafe { self.shared.device.destroy_buffer(self.raw, None) };
+        if let Some(a) = self.allocation.take() {
+            if let Err(e) = self.shared.allocator().free(a) {
+                log::error!("freeing buffer `{}` failed: {e}", self.name);
+            }
+        }
+    }
+}
+
+/// How to create an [`Image`].
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub struct ImageDesc {
+    pub extent: vk::Extent3D,
+    pub format: vk::Format,
+    pub usage: vk::ImageUsageFlags,
+    pub image_type: vk::ImageType,
+}
+
+impl ImageDesc {
+    pub fn d2(width: u32, height: u32, format: vk::Format, usage: vk::ImageUsageFlags) -> Self {
+        Self {
+            extent: vk::Extent3D { width, height, depth: 1 },
+            format,
+            usage,
+            image_type: vk::ImageType::TYPE_2D,
+        }
+    }
+
+    pub fn d3(extent: vk::Extent3D, format: vk::Format, usage: vk::ImageUsageFlags) -> Self {
+        Self { extent, format, usage, image_type: vk::ImageType::TYPE_3D }
+    }
+
+    fn aspect(&self) -> vk::ImageAspectFlags {
+        match self.format {
+            vk::Format::D32_SFLOAT | vk::Format::D16_UNORM => vk::ImageAspectFlags::DEPTH,
+            _ => vk::ImageAspectFlags::COLOR,
+        }
+    }
+}
+
+/// An image, its memory and a view of the whole image; all freed on drop.
+pub struct Image {
+    shared: Arc<DeviceShared>,
+    pub raw: vk::Image,
+    pub view: vk::ImageView,
+    allocation: Option<Allocation>,
+    pub desc: ImageDesc,
+    name: String,
+}
+
+impl std::fmt::Debug for Image {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("Image")
+            .field("name", &self.name)
+            .field("extent", &self.desc.extent)
+            .field("format", &self.desc.format)
+            .finish()
+    }
+}
+
+impl Image {
+    pub fn new(ctx: &Context, name: &str, desc: ImageDesc) -> Result<Self> {
+        let e = desc.extent;
+        if e.width == 0 || e.height == 0 || e.depth == 0 {
+            return Err(GpuError::OverBudget {
+                name: name.into(),
+                requested: 0,
+                budget: 0,
+                why: "images must have a non-zero extent",
+            });
+        }
+        let device = ctx.device();
+        let info = vk::ImageCreateInfo::default()
+            .image_type(desc.image_type)
+            .format(desc.format)
+            .extent(desc.extent)
+            .mip_levels(1)
+            .array_layers(1)
+            .samples(vk::SampleCountFlags::TYPE_1)
+            .tiling(vk::ImageTiling::OPTIMAL)
+            .usage(desc.usage)
+            .sharing_mode(vk::SharingMode::EXCLUSIVE)
+            .initial_layout(vk::ImageLayout::UNDEFINED);
+        // SAFETY: valid device and create info.
+        let raw = unsafe { device.create_image(&info, None) }.call("vkCreateImage")?;
+        // SAFETY: `raw` was just created from this device.
+        let requirements = unsafe { device.get_image_memory_requirements(raw) };
+        let allocation = match ctx.allocator().allocate(&AllocationCreateDesc {
+            name,
+            requirements,
+            location: MemoryLocation::GpuOnly,
+            linear: false,
+            allocation_scheme: AllocationScheme::GpuAllocatorManaged,
+        }) {
+            Ok(a) => a,
+            Err(source) => {
+                // SAFETY: not bound, not in use.
+                unsafe { device.destroy_image(raw, None) };
+                return Err(GpuError::Allocation { name: name.into(), source });
+            }
+        };
+        // SAFETY: memory from an allocation made for this image's requirements.
+        let bound = unsafe { device.bind_image_memory(raw, allocation.memory(), allocation.offset()) };
+        let mut image = Image {
+            shared: ctx.shared.clone(),
+            raw,
+            view: vk::ImageView::null(),
+            allocation: Some(allocation),
+            desc,
+            name: name.into(),
+        };
+        bound.call("vkBindImageMemory")?;
+        let view_type = if desc.image_type == vk::ImageType::TYPE_3D {
+            vk::ImageViewType::TYPE_3D
+        } else {
+            vk::ImageViewType::TYPE_2D
+        };
+        let view_info = vk::ImageViewCreateInfo::default()
+            .image(raw)
+            .view_type(view_type)
+            .format(desc.format)
+            .subresource_range(image.full_range());
+        // SAFETY: the image is bound to memory; the view covers its single mip and layer.
+        image.view = unsafe { device.create_image_view(&view_info, None) }.call("vkCreateImageView")?;
+        ctx.set_name(raw, name);
+        ctx.set_name(image.view, &format!("{name} view"));
+        Ok(image)
+    }
+
+    pub fn name(&self) -> &str {
+        &self.name
+    }
+
+    pub fn full_range(&self) -> vk::ImageSubresourceRange {
+        vk::ImageSubresourceRange {
+            aspect_mask: self.desc.aspect(),
+            base_mip_level: 0,
+            level_count: 1,
+            base_array_layer: 0,
+            layer_count: 1,
+        }
+    }
+
+    pub fn layers(&self) -> vk::ImageSubresourceLayers {
+        vk::ImageSubresourceLayers {
+            aspect_mask: self.desc.aspect(),
+            mip_level: 0,
+            base_array_layer: 0,
+            layer_count: 1,
+        }
+    }
+}
+
+impl Drop for Image {
+    fn drop(&mut self) {
+        // SAFETY: submissions are synchronous, so the image is idle; view before image, memory
+        // after both.
+        unsafe {
+            if self.view != vk::ImageView::null() {
+                self.shared.device.destroy_image_view(self.view, None);
+            }
+            self.shared.device.destroy_image(self.raw, None);
+        }
+        if let Some(a) = self.allocation.take() {
+            if let Err(e) = self.shared.allocator().free(a) {
+                log::error!("freeing image `{}` failed: {e}", self.name);
+            }
+        }
+    }
+}

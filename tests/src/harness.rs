@@ -1,0 +1,130 @@
+use std::panic::AssertUnwindSafe;
+use std::process::ExitCode;
+use std::sync::Arc;
+
+use gen_gpu::{Context, ContextDesc, GenerationPath, PathChoice, Validation};
+use libtest_mimic::{Arguments, Completion, Failed, Trial};
+
+/// What a GPU test needs from the device.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct Requirements {
+    pub mesh_shader: bool,
+}
+
+impl Requirements {
+    pub const NONE: Self = Self { mesh_shader: false };
+    pub const MESH_SHADER: Self = Self { mesh_shader: true };
+}
+
+type Body = Box<dyn FnOnce(&Context) -> anyhow::Result<()> + Send>;
+
+/// One GPU test: a name, what it needs, and its body.
+pub struct GpuTest {
+    name: String,
+    requires: Requirements,
+    body: Body,
+}
+
+impl std::fmt::Debug for GpuTest {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("GpuTest").field("name", &self.name).field("requires", &self.requires).finish()
+    }
+}
+
+impl GpuTest {
+    pub fn new(
+        name: &str,
+        requires: Requirements,
+        body: impl FnOnce(&Context) -> anyhow::Result<()> + Send + 'static,
+    ) -> Self {
+        Self { name: name.into(), requires, body: Box::new(body) }
+    }
+}
+
+fn env_flag(name: &str) -> bool {
+    std::env::var(name).is_ok_and(|v| v == "1")
+}
+
+/// Runs `body` and turns validation-layer errors reported meanwhile into a failure.
+pub fn run_checked(ctx: &Context, body: impl FnOnce(&Context) -> anyhow::Result<()>) -> Result<(), Failed> {
+    // Messages from earlier work are not this test's fault.
+    ctx.take_validation_errors();
+    let outcome = std::panic::catch_unwind(AssertUnwindSafe(|| body(ctx)));
+    let errors = ctx.take_validation_errors();
+    let mut failure = match outcome {
+        Ok(Ok(())) => String::new(),
+        Ok(Err(e)) => format!("{e:#}\n"),
+        Err(panic) => {
+            let msg = panic
+                .downcast_ref::<String>()
+                .cloned()
+                .or_else(|| panic.downcast_ref::<&str>().map(|s| (*s).to_owned()))
+                .unwrap_or_else(|| "panic".into());
+            format!("panicked: {msg}\n")
+        }
+    };
+    for e in &errors {
+        failure.push_str(&format!("validation error [{}]: {}\n", e.id_name, e.text));
+    }
+    if failure.is_empty() { Ok(()) } else { Err(failure.into()) }
+}
+
+/// The entry point of a GPU test binary: creates the context once, reports the device, and
+/// runs `tests` one at a time (they share the device and its validation log).
+pub fn run_gpu_tests(tests: Vec<GpuTest>) -> ExitCode {
+    let mut args = Arguments::from_args();
+    args.test_threads = Some(1);
+    let require_gpu = env_flag("HAIRKIT_REQUIRE_GPU");
+    let require_mesh = env_flag("HAIRKIT_REQUIRE_MESH_SHADER");
+
+    let ctx = if args.list {
+        Err("listing only".to_owned())
+    } else {
+        Context::new(&ContextDesc { validation: Validation::On, device: None, path: PathChoice::Compute })
+            .map_err(|e| e.to_string())
+    };
+    match &ctx {
+        Ok(ctx) => {
+            let caps = ctx.capabilities();
+            eprintln!(
+                "GPU tests on: {} ({}, {}), Vulkan {}.{}, VK_EXT_mesh_shader: {}, validation: on, default path: {}",
+                caps.device_name,
+                caps.driver_name,
+                caps.driver_info,
+                caps.api_version.0,
+                caps.api_version.1,
+                if caps.mesh_shader.is_some() { "yes" } else { "no" },
+                GenerationPath::default_for(caps),
+            );
+        }
+        Err(e) if !args.list => eprintln!("GPU tests: no usable Vulkan device: {e}"),
+        Err(_) => {}
+    }
+    let ctx = ctx.map(Arc::new);
+    let trials = tests
+        .into_iter()
+        .map(|t| {
+            let ctx = ctx.clone();
+            let GpuTest { name, requires, body } = t;
+            Trial::ignorable_test(name, move || {
+                let ctx = match &ctx {
+                    Ok(c) => c,
+                    Err(e) if require_gpu => {
+                        return Err(format!("no GPU although HAIRKIT_REQUIRE_GPU=1: {e}").into());
+                    }
+                    Err(e) => return Ok(Completion::ignored_with(format!("no Vulkan device: {e}"))),
+                };
+                if requires.mesh_shader && ctx.capabilities().mesh_shader.is_none() {
+                    let reason = format!("{} lacks VK_EXT_mesh_shader", ctx.capabilities().device_name);
+                    return if require_mesh {
+                        Err(format!("{reason}, although HAIRKIT_REQUIRE_MESH_SHADER=1").into())
+                    } else {
+                        Ok(Completion::ignored_with(reason))
+                    };
+                }
+                run_checked(ctx, body).map(|()| Completion::Completed)
+            })
+        })
+        .collect();
+    libtest_mimic::run(&args, trials).exit_code()
+}

@@ -1,0 +1,122 @@
+//! GPU tests on the real device (lavapipe here), validation layer on. See `hairkit_tests::harness`.
+
+use std::process::ExitCode;
+
+use anyhow::{Context as _, ensure};
+use gen_gpu::diagnostics::{draw_test_strips, wang_hash, write_pattern};
+use gen_gpu::{GenerationPath, shaders};
+use hairkit_tests::harness::{GpuTest, Requirements, run_checked, run_gpu_tests};
+use hairkit_tests::image_compare::{Tolerance, compare};
+
+fn main() -> ExitCode {
+    run_gpu_tests(vec![
+        GpuTest::new("compute_pattern_reads_back_exactly", Requirements::NONE, |ctx| {
+            // 1000 is not a multiple of the workgroup size: the tail guard is exercised too.
+            for (count, seed) in [(1000u32, 0u32), (64, 0xdead_beef), (1, 7)] {
+                let values = write_pattern(ctx, count, seed)?;
+                ensure!(values.len() == count as usize);
+                for (i, v) in values.iter().enumerate() {
+                    ensure!(*v == wang_hash(i as u32 ^ seed), "value {i} of {count} (seed {seed}) is {v:#x}");
+                }
+            }
+            Ok(())
+        }),
+        GpuTest::new("every_shader_module_is_valid", Requirements::NONE, |ctx| {
+            let dir = std::env::temp_dir().join(format!("hairkit-spirv-{}", std::process::id()));
+            std::fs::create_dir_all(&dir)?;
+            for shader in shaders::ALL {
+                let path = dir.join(format!("{}.spv", shader.name));
+                std::fs::write(&path, shader.spirv)?;
+                let out = std::process::Command::new("spirv-val")
+                    .args(["--target-env", "vulkan1.3"])
+                    .arg(&path)
+                    .output()
+                    .context("running spirv-val (package spirv-tools)")?;
+                ensure!(out.status.success(), "{}: {}", shader.name, String::from_utf8_lossy(&out.stderr));
+                // Mesh-stage modules need the mesh extension enabled to be created.
+                let mesh_stage =
+                    matches!(shader.stage, shaders::ShaderStage::Task | shaders::ShaderStage::Mesh);
+                if !mesh_stage || ctx.capabilities().mesh_shader.is_some() {
+                    let words = shader.words();
+                    let info = gen_gpu::vk::ShaderModuleCreateInfo::default().code(&words);
+                    // SAFETY: valid SPIR-V (just validated); the module is destroyed at once.
+                    unsafe {
+                        let m = ctx.device().create_shader_module(&info, None)?;
+                        ctx.device().destroy_shader_module(m, None);
+                    }
+                }
+            }
+            let _ = std::fs::remove_dir_all(&dir);
+            ensure!(!shaders::ALL.is_empty());
+            Ok(())
+        }),
+        GpuTest::new("strips_compute_path_draws", Requirements::NONE, |ctx| {
+            let (image, timings) = draw_test_strips(ctx, GenerationPath::Compute, 48, 128, 96)?;
+            let background = [5u8, 5, 8, 255];
+            let covered = image.pixels.chunks_exact(4).filter(|p| *p != background).count();
+            let total = (image.width * image.height) as usize;
+            // 48 strands 2.5 px wide and ~80 px tall cover roughly 10–40% of the image.
+            ensure!(covered > total / 20 && covered < total / 2, "{covered} of {total} pixels covered");
+            ensure!(timings.pass_ms("generate (compute)").is_some(), "timings: {timings:?}");
+            Ok(())
+        }),
+        GpuTest::new("strips_mesh_path_matches_compute_path", Requirements::MESH_SHADER, |ctx| {
+            // Both paths evaluate the same included GLSL for every vertex and emit the same
+            // triangles in the same order, and strands have distinct depths, so the images
+            // should be identical. The tolerance only allows for a compiler contracting a
+            // multiply-add differently in the mesh and compute stages, which moves an edge
+            // by at most a pixel on a few pixels: mean FLIP ≤ 0.005, 99th percentile ≤ 0.05.
+            let (mesh, mesh_t) = draw_test_strips(ctx, GenerationPath::Mesh, 100, 160, 120)?;
+            let (compute, compute_t) = draw_test_strips(ctx, GenerationPath::Compute, 100, 160, 120)?;
+            let stats = compare(
+                "strips_mesh_vs_compute",
+                &mesh,
+                &compute,
+                Tolerance { mean: 0.005, percentile: (0.99, 0.05) },
+            )
+            .map_err(anyhow::Error::msg)?;
+            let differing = mesh
+                .pixels
+                .chunks_exact(4)
+                .zip(compute.pixels.chunks_exact(4))
+                .filter(|(a, b)| a != b)
+                .count();
+            eprintln!(
+                "  mesh vs compute: {differing} differing pixels, FLIP mean {:.5}; mesh {:.2} ms, compute {:.2} ms (GPU)",
+                stats.mean,
+                mesh_t.passes[0].gpu_ms.unwrap_or(f64::NAN),
+                compute_t.passes[0].gpu_ms.unwrap_or(f64::NAN)
+            );
+            Ok(())
+        }),
+        GpuTest::new("harness_fails_a_test_on_validation_errors", Requirements::NONE, |ctx| {
+            let caught = run_checked(ctx, |ctx| {
+                ctx.misuse_for_validation_selftest()?;
+                Ok(())
+            });
+            let message = match caught {
+                Ok(()) => anyhow::bail!("a deliberate misuse passed the harness"),
+                Err(failed) => failed.message().unwrap_or_default().to_owned(),
+            };
+            ensure!(message.contains("validation error"), "unexpected failure text: {message}");
+            ensure!(message.contains("VUID-VkSamplerCreateInfo-anisotropyEnable"), "{message}");
+            // And the harness is clean again afterwards.
+            run_checked(ctx, |_| Ok(())).map_err(|f| anyhow::anyhow!("{:?}", f.message()))?;
+            Ok(())
+        }),
+        GpuTest::new("forcing_the_mesh_path_is_checked", Requirements::NONE, |ctx| {
+            let caps = ctx.capabilities();
+            let forced = gen_gpu::PathChoice::Mesh.resolve(caps);
+            ensure!(forced.is_ok() == caps.mesh_shader.is_some(), "{forced:?}");
+            ensure!(gen_gpu::PathChoice::Compute.resolve(caps)? == GenerationPath::Compute);
+            if caps.is_cpu() {
+                ensure!(
+                    gen_gpu::PathChoice::Auto.resolve(caps)? == GenerationPath::Compute,
+                    "CPU devices default to compute"
+                );
+            }
+            ensure!("bogus".parse::<gen_gpu::PathChoice>().is_err());
+            Ok(())
+        }),
+    ])
+}
