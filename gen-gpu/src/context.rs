@@ -108,6 +108,15 @@ impl DeviceShared {
         // A panic while holding the lock leaves the allocator itself consistent.
         self.allocator.lock().unwrap_or_else(|e| e.into_inner())
     }
+
+    /// Returns a resource's memory to the allocator (after the resource is destroyed).
+    pub(crate) fn free(&self, allocation: Option<gpu_allocator::vulkan::Allocation>, name: &str) {
+        if let Some(a) = allocation
+            && let Err(e) = self.allocator().free(a)
+        {
+            log::error!("freeing the memory of `{name}` failed: {e}");
+        }
+    }
 }
 
 unsafe extern "system" fn debug_callback(

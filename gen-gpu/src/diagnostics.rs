@@ -89,7 +89,8 @@ pub fn draw_test_strips(
     let params = TestStripParams {
         strand_count: strands,
         aspect: width as f32 / height.max(1) as f32,
-        width: 0.02,
+        // About 60% coverage across the pattern, whatever the strand count.
+        width: (1.2 / strands.max(1) as f32).min(0.02),
         pad: 0,
     };
     let color = Image::new(

@@ -126,11 +126,7 @@ impl Drop for Buffer {
         // SAFETY: callers wait for submissions using the buffer before dropping it (submits in
         // this crate are synchronous); the allocation is freed after the buffer is destroyed.
         unsafe { self.shared.device.destroy_buffer(self.raw, None) };
-        if let Some(a) = self.allocation.take() {
-            if let Err(e) = self.shared.allocator().free(a) {
-                log::error!("freeing buffer `{}` failed: {e}", self.name);
-            }
-        }
+        self.shared.free(self.allocation.take(), &self.name);
     }
 }
 
@@ -288,10 +284,6 @@ impl Drop for Image {
             }
             self.shared.device.destroy_image(self.raw, None);
         }
-        if let Some(a) = self.allocation.take() {
-            if let Err(e) = self.shared.allocator().free(a) {
-                log::error!("freeing image `{}` failed: {e}", self.name);
-            }
-        }
+        self.shared.free(self.allocation.take(), &self.name);
     }
 }

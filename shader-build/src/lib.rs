@@ -153,7 +153,7 @@ fn reflect(bytes: &[u8]) -> Result<Reflection, String> {
     const OP_SPEC_CONSTANT: u32 = 50;
     const MODE_LOCAL_SIZE: u32 = 17;
     const MODE_LOCAL_SIZE_ID: u32 = 38;
-    if bytes.len() % 4 != 0 || bytes.len() < 20 {
+    if !bytes.len().is_multiple_of(4) || bytes.len() < 20 {
         return Err("SPIR-V size is not a whole number of words".into());
     }
     let words: Vec<u32> =

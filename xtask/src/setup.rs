@@ -23,8 +23,6 @@ const ICD_DIR: &str = "/usr/share/vulkan/icd.d";
 pub struct Machine {
     /// The lavapipe ICD manifest, pinned so results do not depend on other drivers present.
     pub lavapipe_icd: PathBuf,
-    /// Mesa's version string as dpkg reports it.
-    pub mesa_version: String,
     /// Whether this Mesa's lavapipe exposes VK_EXT_mesh_shader.
     pub mesa_has_mesh_shader: bool,
 }
@@ -70,11 +68,8 @@ pub fn ensure_system_packages() -> Result<Machine> {
         .map(|(_, v)| v.clone())
         .context("mesa-vulkan-drivers is still not installed after set-up")?;
     let lavapipe_icd = find_lavapipe_icd()?;
-    Ok(Machine {
-        mesa_has_mesh_shader: mesa_major(&mesa_version) >= MIN_MESA_MAJOR,
-        lavapipe_icd,
-        mesa_version,
-    })
+    eprintln!("xtask: system packages present; lavapipe from Mesa {mesa_version}");
+    Ok(Machine { mesa_has_mesh_shader: mesa_major(&mesa_version) >= MIN_MESA_MAJOR, lavapipe_icd })
 }
 
 /// `(package, version)` for every one of our packages that dpkg reports as installed.
