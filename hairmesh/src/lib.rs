@@ -1,1 +1,8 @@
+//! Hair meshes: the data model, scalp import, curves between layers, blue-noise root sets and
+//! (in progress) the textures and the CPU f64 reference strand generator. No Vulkan here.
+//!
+//! Formulas follow `DESIGN.md` (the corrected versions of the hair-mesh paper's equations).
 
+pub mod curve;
+pub mod rng;
+pub mod roots;

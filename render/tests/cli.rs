@@ -20,7 +20,8 @@ fn main() -> ExitCode {
             let (ok, stdout, stderr) = hairkit(&["info", "--all"])?;
             ensure!(ok, "hairkit info failed: {stderr}");
             ensure!(stdout.contains(&ctx.capabilities().device_name), "{stdout}");
-            for field in ["VK_EXT_mesh_shader:", "subgroup size:", "max storage buffer:", "generation path:"] {
+            for field in ["VK_EXT_mesh_shader:", "subgroup size:", "max storage buffer:", "generation path:"]
+            {
                 ensure!(stdout.contains(field), "`{field}` missing from:\n{stdout}");
             }
             Ok(())
