@@ -4,5 +4,11 @@
 //! Formulas follow `DESIGN.md` (the corrected versions of the hair-mesh paper's equations).
 
 pub mod curve;
+mod error;
+pub mod import;
 pub mod rng;
 pub mod roots;
+pub mod scalp;
+
+pub use error::{HairMeshError, Result};
+pub use scalp::{ScalpMesh, ScalpSelector};

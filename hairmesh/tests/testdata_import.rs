@@ -1,0 +1,135 @@
+//! Every glTF and head in `../shared/testdata` either imports or fails with the documented error.
+
+use std::path::{Path, PathBuf};
+
+use hairmesh::import::load_scalp;
+use hairmesh::{HairMeshError, ScalpSelector};
+
+fn testdata() -> PathBuf {
+    let dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../shared/testdata");
+    assert!(
+        dir.is_dir(),
+        "test data folder {} is missing: clone the project beside `shared/`",
+        dir.display()
+    );
+    dir
+}
+
+fn files(dir: &Path, out: &mut Vec<PathBuf>) {
+    let mut entries: Vec<PathBuf> =
+        std::fs::read_dir(dir).expect("readable test data").map(|e| e.expect("entry").path()).collect();
+    entries.sort();
+    for p in entries {
+        if p.is_dir() {
+            files(&p, out);
+        } else if matches!(p.extension().and_then(|e| e.to_str()), Some("gltf" | "glb" | "obj")) {
+            out.push(p);
+        }
+    }
+}
+
+/// What a file is expected to do: import with at least this many faces, or fail like this.
+fn expectation(name: &str) -> Result<usize, &'static str> {
+    match name {
+        // Draco required: refused by name.
+        "BoxMetaDraco.gltf"
+        | "DracoSparseMesh.gltf"
+        | "2CylinderEngine.gltf"
+        | "Box_Draco.glb"
+        | "DenseSphere.glb" => Err("KHR_draco_mesh_compression"),
+        // Draco only *used*, with empty fallback accessors: must not load as zeros.
+        "BoxDraco.gltf" => Err(
+            "uses KHR_draco_mesh_compression, which hairmesh cannot decode, and has no uncompressed fallback",
+        ),
+        // Points and lines only.
+        n if ["00", "01", "02", "03", "07", "08", "09", "10"]
+            .iter()
+            .any(|m| n == format!("Mesh_PrimitiveMode_{m}.gltf")) =>
+        {
+            Err("no triangles or polygons")
+        }
+        "Triangle.gltf" | "TriangleWithoutIndices.gltf" => Ok(1),
+        _ => Ok(2),
+    }
+}
+
+#[test]
+fn every_test_file_imports_or_fails_as_documented() {
+    let mut all = Vec::new();
+    files(&testdata().join("gltf"), &mut all);
+    files(&testdata().join("heads"), &mut all);
+    assert!(all.len() >= 30, "found only {} files", all.len());
+    let mut report = String::new();
+    for path in &all {
+        let name = path.file_name().and_then(|n| n.to_str()).unwrap_or_default();
+        let result = load_scalp(path, &ScalpSelector::All);
+        match (&result, expectation(name)) {
+            (Ok(mesh), Ok(min_faces)) => {
+                assert!(mesh.faces.len() >= min_faces, "{name}: {} faces", mesh.faces.len());
+                assert!(mesh.positions.iter().all(|p| p.is_finite()));
+                assert!(mesh.area() > 0.0, "{name}: zero area (loaded as zeros?)");
+                report += &format!(
+                    "{name}: {} vertices, {} faces, uvs: {}\n",
+                    mesh.positions.len(),
+                    mesh.faces.len(),
+                    mesh.uvs.is_some()
+                );
+            }
+            (Err(e), Err(expected)) => {
+                let text = e.to_string();
+                assert!(
+                    text.contains(expected),
+                    "{name}: expected an error containing `{expected}`, got: {text}"
+                );
+                assert!(text.contains(name), "{name}: the error must name the file: {text}");
+                report += &format!("{name}: refused: {text}\n");
+            }
+            (Ok(mesh), Err(expected)) => {
+                panic!("{name}: loaded {} faces but should fail with `{expected}`", mesh.faces.len())
+            }
+            (Err(e), Ok(_)) => panic!("{name}: should load but failed: {e}"),
+        }
+    }
+    eprintln!("{report}");
+}
+
+#[test]
+fn malformed_files_give_clear_errors() {
+    let dir = tempfile::tempdir().expect("temp dir");
+    let cases: &[(&str, &[u8], &str)] = &[
+        ("garbage.gltf", b"{ not json", "not valid glTF"),
+        ("empty.glb", b"", "not valid glTF"),
+        ("missing_buffer.gltf", br#"{"asset":{"version":"2.0"},"buffers":[{"uri":"nope.bin","byteLength":12}]}"#, "nope.bin"),
+        ("short_buffer.gltf", br#"{"asset":{"version":"2.0"},"buffers":[{"uri":"data:application/octet-stream;base64,AAAA","byteLength":12}]}"#, "declares 12"),
+        ("bad.obj", b"v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 99\n", "bad.obj"),
+        ("nan.obj", b"v nan 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n", "nan.obj"),
+        ("lines.obj", b"v 0 0 0\nv 1 0 0\nl 1 2\n", "no triangles"),
+        ("scalp.txt", b"", "unknown file type"),
+    ];
+    for (name, bytes, expected) in cases {
+        let path = dir.path().join(name);
+        std::fs::write(&path, bytes).expect("write");
+        let e = load_scalp(&path, &ScalpSelector::All).expect_err(name);
+        let text = e.to_string();
+        assert!(text.contains(expected), "{name}: `{text}` should mention `{expected}`");
+        assert!(text.contains(name), "{name}: `{text}` should name the file");
+        assert!(!matches!(e, HairMeshError::InvalidParameter { .. }));
+    }
+}
+
+#[test]
+fn scalp_selections_of_the_real_heads() {
+    // LeePerrySmith (metres, +Y up, face toward +Z): the crown and back of the head.
+    let lee = testdata().join("heads/LeePerrySmith/LeePerrySmith.glb");
+    let whole = load_scalp(&lee, &ScalpSelector::All).expect("LeePerrySmith loads");
+    let (lo, hi) = whole.bounds().expect("bounds");
+    eprintln!(
+        "LeePerrySmith: {} vertices, {} faces, bounds {lo} .. {hi}",
+        whole.positions.len(),
+        whole.faces.len()
+    );
+    let sintel = testdata().join("heads/sintel/sintel_bust.obj");
+    let whole = load_scalp(&sintel, &ScalpSelector::All).expect("sintel loads");
+    let (lo, hi) = whole.bounds().expect("bounds");
+    eprintln!("sintel: {} vertices, {} faces, bounds {lo} .. {hi}", whole.positions.len(), whole.faces.len());
+}
