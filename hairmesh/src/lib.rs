@@ -5,10 +5,12 @@
 
 pub mod curve;
 mod error;
+pub mod hair_mesh;
 pub mod import;
 pub mod rng;
 pub mod roots;
 pub mod scalp;
 
 pub use error::{HairMeshError, Result};
+pub use hair_mesh::{BundleFace, ExtrudeParams, HairMesh};
 pub use scalp::{ScalpMesh, ScalpSelector};

@@ -134,8 +134,17 @@ fn eliminate(
     let r_max = r_max(domain.area(), target);
     let r_min = r_max * params.beta * (1.0 - (target as f64 / count as f64).powf(params.gamma));
     let radius = 2.0 * r_max;
+    // Neighbours close in space, close in memory: sorting by grid cell more than halves the
+    // time of large sets, which are otherwise dominated by cache misses.
+    let sorted_grid = Grid::new(points, radius);
+    let points: Vec<DVec2> = sorted_grid.entries.iter().map(|&i| points[i as usize]).collect();
+    let points = points.as_slice();
     let grid = Grid::new(points, radius);
-    let weight_of = |d: f64| (1.0 - d.max(r_min) / radius).powf(params.alpha);
+    let integer_alpha = params.alpha.fract() == 0.0 && params.alpha.abs() < 64.0;
+    let weight_of = |d: f64| {
+        let x = 1.0 - d.max(r_min) / radius;
+        if integer_alpha { x.powi(params.alpha as i32) } else { x.powf(params.alpha) }
+    };
 
     let mut weights = vec![0.0; count];
     for (i, w) in weights.iter_mut().enumerate() {

@@ -122,13 +122,12 @@ impl ScalpMesh {
             'search: for dz in -1..=1 {
                 for dy in -1..=1 {
                     for dx in -1..=1 {
-                        if let Some(list) = grid.get(&(c + glam::I64Vec3::new(dx, dy, dz))) {
-                            if let Some(&r) =
+                        if let Some(list) = grid.get(&(c + glam::I64Vec3::new(dx, dy, dz)))
+                            && let Some(&r) =
                                 list.iter().find(|&&r| self.positions[kept[r as usize]].distance(*p) <= tol)
-                            {
-                                found = Some(r);
-                                break 'search;
-                            }
+                        {
+                            found = Some(r);
+                            break 'search;
                         }
                     }
                 }

@@ -133,3 +133,33 @@ fn scalp_selections_of_the_real_heads() {
     let (lo, hi) = whole.bounds().expect("bounds");
     eprintln!("sintel: {} vertices, {} faces, bounds {lo} .. {hi}", whole.positions.len(), whole.faces.len());
 }
+
+/// The documented scalp selections of the README, turned into hair meshes.
+#[test]
+fn real_heads_become_hair_meshes() {
+    use hairmesh::{BundleFace, ExtrudeParams, HairMesh};
+    for (file, selector, length) in [
+        ("heads/LeePerrySmith/LeePerrySmith.glb", "above:0,1,0,1.5", 3.0),
+        ("heads/sintel/sintel_bust.obj", "above:0,1,0,38", 15.0),
+    ] {
+        let selector = ScalpSelector::parse(selector).expect("valid selector");
+        let scalp = load_scalp(&testdata().join(file), &selector).expect("scalp loads");
+        let hm = HairMesh::extrude(
+            &scalp,
+            &ExtrudeParams { layers: 4, length, droop: 0.3, gravity: glam::DVec3::NEG_Y },
+        )
+        .expect("extrudes");
+        let quads = hm.faces.iter().filter(|f| matches!(f, BundleFace::Quad(_))).count();
+        eprintln!(
+            "{file}: scalp {} vertices / {} faces (area {:.2}) -> {} bundles ({quads} quads)",
+            scalp.positions.len(),
+            scalp.faces.len(),
+            scalp.area(),
+            hm.faces.len()
+        );
+        assert!(hm.faces.len() > 50, "{file}: selection too small");
+        assert!(hm.layers.iter().flatten().all(|p| p.is_finite()));
+        // Both heads were modelled in quads: most triangles pair back up.
+        assert!(quads * 2 > hm.faces.len(), "{file}: only {quads} of {} bundles are quads", hm.faces.len());
+    }
+}

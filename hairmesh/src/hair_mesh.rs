@@ -1,0 +1,334 @@
+//! The hair mesh: the scalp's faces (bundles) extruded through layers with one topology.
+//!
+//! Root layer = scalp faces. Triangles are paired back into quads where two neighbours form a
+//! near-planar convex quad (a triangulated export of a quad-modelled scalp gets its quads
+//! back); quads that are not convex and planar are split along their shorter diagonal; n-gons
+//! are fanned into triangles first. Layers come either from extrusion along smoothed vertex
+//! normals with optional gravity droop, or from the file's morph targets (one per layer).
+
+use glam::{DVec2, DVec3};
+use serde::{Deserialize, Serialize};
+
+use crate::{HairMeshError, Result, ScalpMesh};
+
+/// One bundle's root face: indices into every layer's vertex list.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum BundleFace {
+    Triangle([u32; 3]),
+    Quad([u32; 4]),
+}
+
+impl BundleFace {
+    pub fn vertices(&self) -> &[u32] {
+        match self {
+            BundleFace::Triangle(v) => v,
+            BundleFace::Quad(v) => v,
+        }
+    }
+}
+
+/// How layers are made.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+pub struct ExtrudeParams {
+    /// Number of layers above the root layer (L ≥ 1).
+    pub layers: u32,
+    /// Hair length along the normal, in the file's units.
+    pub length: f64,
+    /// Downward pull at the tip as a fraction of `length` (0 = straight out), growing with the
+    /// square of the distance from the root.
+    pub droop: f64,
+    /// The direction gravity pulls (the file's "down").
+    pub gravity: DVec3,
+}
+
+impl Default for ExtrudeParams {
+    fn default() -> Self {
+        Self { layers: 4, length: 1.0, droop: 0.0, gravity: DVec3::NEG_Y }
+    }
+}
+
+/// Most layers a hair mesh may have (the texture holds 1 + 4L slices).
+pub const MAX_LAYERS: u32 = 64;
+
+/// Layers × vertices with one face list.
+#[derive(Clone, Debug, PartialEq)]
+pub struct HairMesh {
+    /// `layers[0]` is the scalp; `layers.len() = L + 1`, each with one entry per vertex.
+    pub layers: Vec<Vec<DVec3>>,
+    pub faces: Vec<BundleFace>,
+    /// Root uv per vertex, when the scalp had texture coordinates.
+    pub uvs: Option<Vec<DVec2>>,
+}
+
+impl HairMesh {
+    pub fn layer_count(&self) -> usize {
+        self.layers.len().saturating_sub(1)
+    }
+
+    pub fn vertex_count(&self) -> usize {
+        self.layers.first().map_or(0, Vec::len)
+    }
+
+    /// The vertex column of vertex `v` through all layers.
+    pub fn column(&self, v: u32) -> Vec<DVec3> {
+        self.layers.iter().map(|l| l[v as usize]).collect()
+    }
+
+    /// w per layer per vertex: path length along the vertex column (0 at the root).
+    pub fn w(&self) -> Vec<Vec<f64>> {
+        let mut w = vec![vec![0.0; self.vertex_count()]];
+        for pair in self.layers.windows(2) {
+            let below = &w[w.len() - 1];
+            let next = below
+                .iter()
+                .zip(pair[0].iter().zip(&pair[1]))
+                .map(|(w, (a, b))| w + a.distance(*b))
+                .collect();
+            w.push(next);
+        }
+        w
+    }
+
+    /// Builds the hair mesh by extruding `scalp` along smoothed normals.
+    pub fn extrude(scalp: &ScalpMesh, params: &ExtrudeParams) -> Result<Self> {
+        let bad = |message: String| HairMeshError::InvalidParameter { what: "extrusion", message };
+        if params.layers == 0 || params.layers > MAX_LAYERS {
+            return Err(bad(format!("{} layers (expected 1..={MAX_LAYERS})", params.layers)));
+        }
+        if !(params.length.is_finite() && params.length > 0.0) {
+            return Err(bad(format!("length {} (expected a positive number)", params.length)));
+        }
+        if !params.droop.is_finite() || !params.gravity.is_finite() {
+            return Err(bad("droop and gravity must be finite".into()));
+        }
+        let gravity = params.gravity.try_normalize().unwrap_or(DVec3::ZERO);
+        let faces = bundle_faces(scalp);
+        let normals = vertex_normals(scalp);
+        let l = f64::from(params.layers);
+        let layers = (0..=params.layers)
+            .map(|k| {
+                let t = f64::from(k) / l;
+                scalp
+                    .positions
+                    .iter()
+                    .zip(&normals)
+                    .map(|(p, n)| {
+                        *p + *n * (params.length * t) + gravity * (params.droop * params.length * t * t)
+                    })
+                    .collect()
+            })
+            .collect();
+        Ok(Self { layers, faces, uvs: scalp.uvs.clone() })
+    }
+
+    /// Builds the hair mesh from the scalp's morph targets: layer k is target k.
+    pub fn from_morph_targets(scalp: &ScalpMesh) -> Result<Self> {
+        if scalp.morph_layers.is_empty() {
+            return Err(HairMeshError::InvalidParameter {
+                what: "morph-target layers",
+                message: "the scalp has no morph targets (one glTF morph target per layer)".into(),
+            });
+        }
+        let mut layers = vec![scalp.positions.clone()];
+        layers.extend(scalp.morph_layers.iter().cloned());
+        Ok(Self { layers, faces: bundle_faces(scalp), uvs: scalp.uvs.clone() })
+    }
+}
+
+fn polygon_normal(points: &[DVec3]) -> DVec3 {
+    // Newell's method: robust for non-planar polygons.
+    let mut n = DVec3::ZERO;
+    for i in 0..points.len() {
+        let (a, b) = (points[i], points[(i + 1) % points.len()]);
+        n += DVec3::new((a.y - b.y) * (a.z + b.z), (a.z - b.z) * (a.x + b.x), (a.x - b.x) * (a.y + b.y));
+    }
+    n
+}
+
+/// Area-weighted vertex normals (the un-normalized Newell normal is twice the area times the
+/// unit normal). A vertex whose faces cancel or have no area falls back to the direction from
+/// the mesh centroid, then to +Y, so the result is always a unit vector.
+pub fn vertex_normals(scalp: &ScalpMesh) -> Vec<DVec3> {
+    let mut sums = vec![DVec3::ZERO; scalp.positions.len()];
+    for face in &scalp.faces {
+        let pts: Vec<DVec3> = face.iter().map(|&v| scalp.positions[v as usize]).collect();
+        let n = polygon_normal(&pts);
+        for &v in face {
+            sums[v as usize] += n;
+        }
+    }
+    let centroid = scalp.positions.iter().sum::<DVec3>() / scalp.positions.len().max(1) as f64;
+    sums.iter()
+        .zip(&scalp.positions)
+        .map(|(s, p)| s.try_normalize().or_else(|| (*p - centroid).try_normalize()).unwrap_or(DVec3::Y))
+        .collect()
+}
+
+/// Quads kept or recovered, triangles otherwise.
+pub fn bundle_faces(scalp: &ScalpMesh) -> Vec<BundleFace> {
+    let p = |v: u32| scalp.positions[v as usize];
+    let mut quads = Vec::new();
+    let mut triangles = Vec::new();
+    for face in &scalp.faces {
+        match face.len() {
+            3 => triangles.push([face[0], face[1], face[2]]),
+            4 => {
+                let q = [face[0], face[1], face[2], face[3]];
+                if quad_quality(q.map(p)).is_some() {
+                    quads.push(q);
+                } else if p(q[0]).distance(p(q[2])) <= p(q[1]).distance(p(q[3])) {
+                    triangles.extend([[q[0], q[1], q[2]], [q[0], q[2], q[3]]]);
+                } else {
+                    triangles.extend([[q[0], q[1], q[3]], [q[1], q[2], q[3]]]);
+                }
+            }
+            _ => triangles.extend((1..face.len() - 1).map(|k| [face[0], face[k], face[k + 1]])),
+        }
+    }
+    // Candidate pairs across shared edges with consistent orientation, best quads first.
+    let mut edge_owner = std::collections::HashMap::new();
+    for (t, tri) in triangles.iter().enumerate() {
+        for e in 0..3 {
+            edge_owner.insert((tri[e], tri[(e + 1) % 3]), (t, e));
+        }
+    }
+    let mut candidates = Vec::new();
+    for (t, tri) in triangles.iter().enumerate() {
+        for e in 0..3 {
+            let (x, y) = (tri[e], tri[(e + 1) % 3]);
+            let Some(&(u, ue)) = edge_owner.get(&(y, x)) else { continue };
+            if u <= t {
+                continue;
+            }
+            let z_t = tri[(e + 2) % 3];
+            let z_u = triangles[u][(ue + 2) % 3];
+            let quad = [x, z_u, y, z_t];
+            if let Some(quality) = quad_quality(quad.map(p)) {
+                candidates.push((quality, t, u, quad));
+            }
+        }
+    }
+    candidates.sort_by(|a, b| b.0.total_cmp(&a.0));
+    let mut used = vec![false; triangles.len()];
+    for (_, t, u, quad) in candidates {
+        if !used[t] && !used[u] {
+            used[t] = true;
+            used[u] = true;
+            quads.push(quad);
+        }
+    }
+    let mut faces: Vec<BundleFace> = quads.into_iter().map(BundleFace::Quad).collect();
+    faces.extend(triangles.iter().zip(&used).filter(|(_, u)| !**u).map(|(t, _)| BundleFace::Triangle(*t)));
+    faces
+}
+
+/// `Some(quality)` for a near-planar (corner normals within ~20°) strictly convex quad, with
+/// quality the smallest corner sine (1 for a rectangle); `None` otherwise.
+fn quad_quality(q: [DVec3; 4]) -> Option<f64> {
+    let n = polygon_normal(&q).try_normalize()?;
+    let mut min_sine = f64::INFINITY;
+    for i in 0..4 {
+        let a = (q[(i + 3) % 4] - q[i]).try_normalize()?;
+        let b = (q[(i + 1) % 4] - q[i]).try_normalize()?;
+        let corner = b.cross(a);
+        let sine = corner.dot(n);
+        if sine <= 0.05 || corner.try_normalize()?.dot(n) < 0.94 {
+            return None;
+        }
+        min_sine = min_sine.min(sine);
+    }
+    Some(min_sine)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// An n×n grid in the XZ plane facing +Y, each cell as two triangles.
+    fn triangulated_grid(n: u32, origin: DVec3, scale: f64) -> ScalpMesh {
+        let mut positions = Vec::new();
+        for j in 0..=n {
+            for i in 0..=n {
+                positions.push(origin + DVec3::new(f64::from(i), 0.0, -f64::from(j)) * scale);
+            }
+        }
+        let mut faces = Vec::new();
+        let id = |i: u32, j: u32| j * (n + 1) + i;
+        for j in 0..n {
+            for i in 0..n {
+                faces.push(vec![id(i, j), id(i + 1, j), id(i + 1, j + 1)]);
+                faces.push(vec![id(i, j), id(i + 1, j + 1), id(i, j + 1)]);
+            }
+        }
+        ScalpMesh { positions, faces, ..Default::default() }
+    }
+
+    #[test]
+    fn triangle_pairs_become_quads_again() {
+        let grid = triangulated_grid(4, DVec3::ZERO, 1.0);
+        let faces = bundle_faces(&grid);
+        assert_eq!(faces.len(), 16);
+        assert!(faces.iter().all(|f| matches!(f, BundleFace::Quad(_))));
+    }
+
+    #[test]
+    fn extrusion_follows_normals_and_w_grows() {
+        let grid = triangulated_grid(3, DVec3::ZERO, 1.0);
+        for layers in [1, 4, 32] {
+            let hm = HairMesh::extrude(
+                &grid,
+                &ExtrudeParams { layers, length: 2.0, droop: 0.0, gravity: DVec3::NEG_Y },
+            )
+            .expect("valid");
+            assert_eq!(hm.layer_count(), layers as usize);
+            let tip = hm.layers[layers as usize][0];
+            assert!((tip - DVec3::new(0.0, 2.0, 0.0)).length() < 1e-12, "{tip}");
+            let w = hm.w();
+            assert!((w[layers as usize][5] - 2.0).abs() < 1e-12);
+            assert!(w.windows(2).all(|p| p[0].iter().zip(&p[1]).all(|(a, b)| b > a)));
+        }
+    }
+
+    #[test]
+    fn far_and_tiny_meshes_stay_finite() {
+        for (origin, scale) in [(DVec3::splat(1e4), 1.0), (DVec3::ZERO, 1e-4), (DVec3::splat(-1e4), 1e-4)] {
+            let grid = triangulated_grid(2, origin, scale);
+            let normals = vertex_normals(&grid);
+            assert!(normals.iter().all(|n| (n.length() - 1.0).abs() < 1e-12 && n.y > 0.999), "{normals:?}");
+            let hm = HairMesh::extrude(
+                &grid,
+                &ExtrudeParams { layers: 3, length: scale, droop: 0.5, gravity: DVec3::NEG_Y },
+            )
+            .expect("valid");
+            assert!(hm.layers.iter().flatten().all(|p| p.is_finite()));
+        }
+    }
+
+    #[test]
+    fn degenerate_faces_get_fallback_normals() {
+        // A zero-area triangle and a needle: unit normals anyway.
+        let scalp = ScalpMesh {
+            positions: vec![DVec3::ZERO, DVec3::X, DVec3::X * 2.0, DVec3::new(1.0, 1e-12, 0.0)],
+            faces: vec![vec![0, 1, 2], vec![0, 1, 3]],
+            ..Default::default()
+        };
+        assert!(vertex_normals(&scalp).iter().all(|n| (n.length() - 1.0).abs() < 1e-12));
+        assert_eq!(bundle_faces(&scalp).len(), 2, "no quad made from degenerate triangles");
+    }
+
+    #[test]
+    fn bad_parameters_are_refused() {
+        let grid = triangulated_grid(1, DVec3::ZERO, 1.0);
+        for params in [
+            ExtrudeParams { layers: 0, ..Default::default() },
+            ExtrudeParams { layers: MAX_LAYERS + 1, ..Default::default() },
+            ExtrudeParams { length: f64::NAN, ..Default::default() },
+            ExtrudeParams { length: -1.0, ..Default::default() },
+            ExtrudeParams { droop: f64::INFINITY, ..Default::default() },
+        ] {
+            assert!(HairMesh::extrude(&grid, &params).is_err(), "{params:?}");
+        }
+        assert!(HairMesh::from_morph_targets(&grid).is_err());
+    }
+}
