@@ -40,6 +40,12 @@ pub fn load_scalp(path: &Path, selector: &ScalpSelector) -> Result<ScalpMesh> {
             });
         }
     };
+    if mesh.positions.iter().any(|p| !p.is_finite()) {
+        return Err(HairMeshError::Format {
+            path: path.into(),
+            message: "vertex positions contain NaN or infinity".into(),
+        });
+    }
     mesh.select(selector);
     mesh.weld(WELD_TOLERANCE);
     if mesh.faces.is_empty() {
@@ -49,12 +55,6 @@ pub fn load_scalp(path: &Path, selector: &ScalpSelector) -> Result<ScalpMesh> {
             format!(" (after selecting {selector:?})")
         };
         return Err(HairMeshError::NoFaces { path: path.into(), detail });
-    }
-    if mesh.positions.iter().any(|p| !p.is_finite()) {
-        return Err(HairMeshError::Format {
-            path: path.into(),
-            message: "vertex positions contain NaN or infinity".into(),
-        });
     }
     Ok(mesh)
 }
