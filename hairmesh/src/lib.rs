@@ -10,6 +10,7 @@ pub mod import;
 pub mod rng;
 pub mod roots;
 pub mod scalp;
+pub mod texture;
 
 pub use error::{HairMeshError, Result};
 pub use hair_mesh::{BundleFace, ExtrudeParams, HairMesh};

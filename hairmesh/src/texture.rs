@@ -1,0 +1,485 @@
+//! The five textures of a hair asset and how they are addressed (paper Table 1).
+//!
+//! **Layout.** Every bundle (root face) owns a 2×2 texel block in every 2D slice: block `f` sits
+//! at texel `(2·(f mod B), 2·(f div B))` with `B = ⌈√F⌉` blocks per row. Inside a block,
+//! texel `(0,0)` holds face vertex 0, `(1,0)` vertex 1, `(1,1)` vertex 2 and `(0,1)` vertex 3;
+//! a triangle repeats its vertex 2 in `(0,1)`. A fetch at texel coordinate
+//! `(2i + ½ + s, 2j + ½ + t)` with `s, t ∈ [0, 1]` is then exactly the bilinear patch of a quad,
+//! and for a triangle with `s = ξ1 / (1 − ξ2)`, `t = ξ2` it is barycentric interpolation.
+//!
+//! **Hair-mesh texture** (3D, xyz): `1 + 4L` slices, position of each vertex column. Slice 0 is
+//! the root layer; segment `i` (layer `i` to `i+1`) adds slices `4i+1 = q_a`, `4i+2 = m`,
+//! `4i+3 = q_b`, `4i+4 = layer i+1` (see [`crate::curve`]). Positions are stored normalized,
+//! `(p − origin) / scale` with the asset's bounds `origin` (min corner) and `scale` (largest
+//! extent), so f16 storage keeps ~1/2048 of the hair's size as precision everywhere.
+//!
+//! **uv** (2D, xy): root styling coordinate per vertex. **w** (3D, x): `L+1` slices, path length
+//! along the vertex column from the root, in object units. **u, v** (3D, xyz): `L+1` slices,
+//! unit styling directions per layer ([`styling_frames`]).
+
+use glam::{DVec2, DVec3};
+use serde::{Deserialize, Serialize};
+
+use crate::curve::column_segments;
+use crate::hair_mesh::{BundleFace, HairMesh};
+
+/// Where each bundle's block is; shared by all five textures.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+pub struct TextureLayout {
+    pub bundles: u32,
+    pub blocks_per_row: u32,
+    /// Texels.
+    pub width: u32,
+    pub height: u32,
+    /// Hair-mesh layers above the root (`L`).
+    pub layers: u32,
+}
+
+impl TextureLayout {
+    pub fn new(bundles: u32, layers: u32) -> Self {
+        let blocks_per_row = (f64::from(bundles.max(1)).sqrt().ceil() as u32).max(1);
+        let rows = bundles.max(1).div_ceil(blocks_per_row);
+        Self { bundles, blocks_per_row, width: 2 * blocks_per_row, height: 2 * rows, layers }
+    }
+
+    /// Slices of the hair-mesh texture: `1 + 4L`.
+    pub fn curve_slices(&self) -> u32 {
+        1 + 4 * self.layers
+    }
+
+    /// Slices of the w, u and v textures: `L + 1`.
+    pub fn layer_slices(&self) -> u32 {
+        self.layers + 1
+    }
+
+    /// Texel of the block's corner `(0,0)`.
+    pub fn block_origin(&self, bundle: u32) -> (u32, u32) {
+        (2 * (bundle % self.blocks_per_row), 2 * (bundle / self.blocks_per_row))
+    }
+
+    /// Texel holding face corner `k` (0..4) of `bundle`.
+    pub fn corner_texel(&self, bundle: u32, k: usize) -> (u32, u32) {
+        let (x, y) = self.block_origin(bundle);
+        let (dx, dy) = [(0, 0), (1, 0), (1, 1), (0, 1)][k];
+        (x + dx, y + dy)
+    }
+
+    /// Continuous texel coordinate (texel centres at +½) of block parameter `(s, t)`.
+    pub fn block_coord(&self, bundle: u32, s: f64, t: f64) -> DVec2 {
+        let (x, y) = self.block_origin(bundle);
+        DVec2::new(f64::from(x) + 0.5 + s, f64::from(y) + 0.5 + t)
+    }
+}
+
+/// A 3D array of texels with `channels` f64 values each (2D textures have depth 1). The f64
+/// master copy: files and GPU uploads convert it to f32 or f16.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct Texture3 {
+    pub width: u32,
+    pub height: u32,
+    pub depth: u32,
+    pub channels: u32,
+    pub data: Vec<f64>,
+}
+
+impl Texture3 {
+    pub fn new(width: u32, height: u32, depth: u32, channels: u32) -> Self {
+        let len = width as usize * height as usize * depth as usize * channels as usize;
+        Self { width, height, depth, channels, data: vec![0.0; len] }
+    }
+
+    fn index(&self, x: u32, y: u32, z: u32) -> usize {
+        ((z as usize * self.height as usize + y as usize) * self.width as usize + x as usize)
+            * self.channels as usize
+    }
+
+    pub fn texel(&self, x: u32, y: u32, z: u32) -> &[f64] {
+        let i = self.index(x, y, z);
+        &self.data[i..i + self.channels as usize]
+    }
+
+    pub fn set(&mut self, x: u32, y: u32, z: u32, value: &[f64]) {
+        let i = self.index(x, y, z);
+        let n = self.channels as usize;
+        self.data[i..i + n].copy_from_slice(&value[..n]);
+    }
+
+    /// Trilinear filtering with clamp-to-edge at continuous texel coordinates (texel centres
+    /// at +½), as a GPU sampler with `LINEAR` filters and unnormalized coordinates computes it
+    /// (in f64 here, without the hardware's few sub-texel weight bits).
+    pub fn sample(&self, coord: DVec3, out: &mut [f64]) {
+        let axis = |c: f64, size: u32| -> (u32, u32, f64) {
+            let f = (c - 0.5).clamp(0.0, f64::from(size - 1));
+            let i0 = f.floor() as u32;
+            let i1 = (i0 + 1).min(size - 1);
+            (i0, i1, f - f64::from(i0))
+        };
+        let (x0, x1, fx) = axis(coord.x, self.width);
+        let (y0, y1, fy) = axis(coord.y, self.height);
+        let (z0, z1, fz) = axis(coord.z, self.depth);
+        let n = self.channels as usize;
+        out[..n].fill(0.0);
+        for (z, wz) in [(z0, 1.0 - fz), (z1, fz)] {
+            for (y, wy) in [(y0, 1.0 - fy), (y1, fy)] {
+                for (x, wx) in [(x0, 1.0 - fx), (x1, fx)] {
+                    let w = wx * wy * wz;
+                    if w != 0.0 {
+                        for (o, v) in out[..n].iter_mut().zip(self.texel(x, y, z)) {
+                            *o += w * v;
+                        }
+                    }
+                }
+            }
+        }
+    }
+
+    pub fn bytes_f32(&self) -> usize {
+        self.data.len() * 4
+    }
+}
+
+/// The asset's position normalization: stored = `(p − origin) / scale`.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+pub struct Normalization {
+    pub origin: DVec3,
+    pub scale: f64,
+}
+
+impl Normalization {
+    pub fn from_bounds(min: DVec3, max: DVec3) -> Self {
+        let extent = (max - min).max_element();
+        Self { origin: min, scale: if extent > 0.0 && extent.is_finite() { extent } else { 1.0 } }
+    }
+
+    pub fn to_stored(&self, p: DVec3) -> DVec3 {
+        (p - self.origin) / self.scale
+    }
+
+    pub fn to_object(&self, q: DVec3) -> DVec3 {
+        self.origin + q * self.scale
+    }
+}
+
+/// The five textures with their layout and normalization.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct HairTextures {
+    pub layout: TextureLayout,
+    pub normalization: Normalization,
+    pub hair_mesh: Texture3,
+    pub uv: Texture3,
+    pub w: Texture3,
+    pub u: Texture3,
+    pub v: Texture3,
+}
+
+/// The four vertex indices a bundle's block holds (triangles repeat vertex 2).
+pub fn block_vertices(face: &BundleFace) -> [u32; 4] {
+    match *face {
+        BundleFace::Quad(q) => q,
+        BundleFace::Triangle([a, b, c]) => [a, b, c, c],
+    }
+}
+
+/// Per-vertex root uv: the file's TEXCOORD_0, or the automatic layout: a planar projection of
+/// the root layer along its area-weighted mean normal, scaled uniformly into `[0, 1]²`
+/// (u along the projected direction of the largest spread, v perpendicular to it).
+pub fn root_uvs(hm: &HairMesh) -> Vec<DVec2> {
+    if let Some(uvs) = &hm.uvs
+        && uvs.len() == hm.vertex_count()
+        && uvs.iter().all(|u| u.is_finite())
+    {
+        return uvs.clone();
+    }
+    let root = &hm.layers[0];
+    let mut normal = DVec3::ZERO;
+    for face in &hm.faces {
+        let v = block_vertices(face).map(|i| root[i as usize]);
+        normal += (v[1] - v[0]).cross(v[2] - v[0]) + (v[2] - v[0]).cross(v[3] - v[0]);
+    }
+    let n = normal.try_normalize().unwrap_or(DVec3::Y);
+    let (a, b) = n.any_orthonormal_pair();
+    let projected: Vec<DVec2> = root.iter().map(|p| DVec2::new(p.dot(a), p.dot(b))).collect();
+    let lo = projected.iter().fold(DVec2::splat(f64::INFINITY), |m, p| m.min(*p));
+    let hi = projected.iter().fold(DVec2::splat(f64::NEG_INFINITY), |m, p| m.max(*p));
+    let extent = (hi - lo).max_element();
+    let scale = if extent > 0.0 && extent.is_finite() { 1.0 / extent } else { 1.0 };
+    projected.iter().map(|p| (*p - lo) * scale).collect()
+}
+
+/// Unit styling directions `(û, v̂, ŵ)` for every layer and vertex (DESIGN.md, Eq. 1–3).
+///
+/// For each face corner at the vertex (the vertex `p0` and its two neighbours `p1`, `p2` in
+/// that face): `T = [[u1−u0, u2−u0], [v1−v0, v2−v0]]`, `[u_i v_i] = [p1−p0, p2−p0]·T⁻¹`,
+/// weighted by the texture-space area `A_i = |det T| / 2`; `û = Σ A_i u_i / |Σ A_i u_i|`, same
+/// for `v̂`, `ŵ = û×v̂ / |û×v̂|`. Corners with `|det T|` below 1e-12 of the uv extent² (zero
+/// uv area) are skipped; negative areas (mirrored uvs) count with their magnitude, their
+/// `T⁻¹` already flips the directions. Fallback when nothing usable remains (all corners
+/// degenerate, or `û ∥ v̂`): `ŵ` = the layer's vertex normal (or the column direction, or +Y),
+/// `û` = the first face edge projected perpendicular to `ŵ` (or any perpendicular), `v̂ = ŵ×û`.
+pub fn styling_frames(hm: &HairMesh, uvs: &[DVec2]) -> Vec<Vec<[DVec3; 3]>> {
+    let vcount = hm.vertex_count();
+    let lo = uvs.iter().fold(DVec2::splat(f64::INFINITY), |m, p| m.min(*p));
+    let hi = uvs.iter().fold(DVec2::splat(f64::NEG_INFINITY), |m, p| m.max(*p));
+    let uv_extent = (hi - lo).max_element().max(1e-300);
+    let min_det = 1e-12 * uv_extent * uv_extent;
+    hm.layers
+        .iter()
+        .enumerate()
+        .map(|(k, layer)| {
+            let mut su = vec![DVec3::ZERO; vcount];
+            let mut sv = vec![DVec3::ZERO; vcount];
+            let mut normal = vec![DVec3::ZERO; vcount];
+            let mut first_edge = vec![DVec3::ZERO; vcount];
+            for face in &hm.faces {
+                let verts = face.vertices();
+                let n = verts.len();
+                for c in 0..n {
+                    let (i0, i1, i2) = (verts[c], verts[(c + 1) % n], verts[(c + n - 1) % n]);
+                    let (p0, p1, p2) = (layer[i0 as usize], layer[i1 as usize], layer[i2 as usize]);
+                    let (e1, e2) = (p1 - p0, p2 - p0);
+                    normal[i0 as usize] += e1.cross(e2);
+                    if first_edge[i0 as usize] == DVec3::ZERO {
+                        first_edge[i0 as usize] = e1;
+                    }
+                    let (t0, t1, t2) = (uvs[i0 as usize], uvs[i1 as usize], uvs[i2 as usize]);
+                    let (a, b, c2, d) = (t1.x - t0.x, t2.x - t0.x, t1.y - t0.y, t2.y - t0.y);
+                    let det = a * d - b * c2;
+                    if det.abs() <= min_det || !det.is_finite() {
+                        continue;
+                    }
+                    // [e1 e2] · T⁻¹ with T⁻¹ = [[d, −b], [−c, a]] / det.
+                    let du = (e1 * d - e2 * c2) / det;
+                    let dv = (e2 * a - e1 * b) / det;
+                    let area = 0.5 * det.abs();
+                    su[i0 as usize] += area * du;
+                    sv[i0 as usize] += area * dv;
+                }
+            }
+            (0..vcount)
+                .map(|v| {
+                    let column_dir = if k + 1 < hm.layers.len() {
+                        hm.layers[k + 1][v] - layer[v]
+                    } else if k > 0 {
+                        layer[v] - hm.layers[k - 1][v]
+                    } else {
+                        DVec3::ZERO
+                    };
+                    frame_or_fallback(su[v], sv[v], normal[v], column_dir, first_edge[v])
+                })
+                .collect()
+        })
+        .collect()
+}
+
+fn frame_or_fallback(su: DVec3, sv: DVec3, normal: DVec3, column_dir: DVec3, edge: DVec3) -> [DVec3; 3] {
+    if let (Some(u), Some(v)) = (su.try_normalize(), sv.try_normalize())
+        && let Some(w) = u.cross(v).try_normalize()
+    {
+        return [u, v, w];
+    }
+    let w = normal.try_normalize().or_else(|| column_dir.try_normalize()).unwrap_or(DVec3::Y);
+    let u = (edge - w * edge.dot(w)).try_normalize().unwrap_or_else(|| w.any_orthonormal_vector());
+    [u, w.cross(u), w]
+}
+
+impl HairTextures {
+    /// Builds the five textures of a hair mesh.
+    pub fn build(hm: &HairMesh) -> Self {
+        let layers = hm.layer_count() as u32;
+        let layout = TextureLayout::new(hm.faces.len() as u32, layers);
+        let (min, max) = hm
+            .layers
+            .iter()
+            .flatten()
+            .fold((DVec3::splat(f64::INFINITY), DVec3::splat(f64::NEG_INFINITY)), |(lo, hi), p| {
+                (lo.min(*p), hi.max(*p))
+            });
+        let normalization = Normalization::from_bounds(min, max);
+        let (w_tex, h_tex) = (layout.width, layout.height);
+
+        // Per-vertex curve slices, computed once per column.
+        let curve_slices: Vec<Vec<DVec3>> = (0..hm.vertex_count() as u32)
+            .map(|v| {
+                let column = hm.column(v);
+                let mut slices = vec![column[0]];
+                for seg in column_segments(&column) {
+                    let q = seg.to_quadratics();
+                    slices.extend([q.q_a, q.m, q.q_b, q.end]);
+                }
+                slices
+            })
+            .collect();
+        let uvs = root_uvs(hm);
+        let w_values = hm.w();
+        let frames = styling_frames(hm, &uvs);
+
+        let mut hair_mesh = Texture3::new(w_tex, h_tex, layout.curve_slices(), 3);
+        let mut uv = Texture3::new(w_tex, h_tex, 1, 2);
+        let mut w = Texture3::new(w_tex, h_tex, layout.layer_slices(), 1);
+        let mut u = Texture3::new(w_tex, h_tex, layout.layer_slices(), 3);
+        let mut v = Texture3::new(w_tex, h_tex, layout.layer_slices(), 3);
+        for (b, face) in hm.faces.iter().enumerate() {
+            for (k, &vertex) in block_vertices(face).iter().enumerate() {
+                let (x, y) = layout.corner_texel(b as u32, k);
+                let vi = vertex as usize;
+                for (z, p) in curve_slices[vi].iter().enumerate() {
+                    hair_mesh.set(x, y, z as u32, &normalization.to_stored(*p).to_array());
+                }
+                uv.set(x, y, 0, &uvs[vi].to_array());
+                for l in 0..layout.layer_slices() as usize {
+                    w.set(x, y, l as u32, &[w_values[l][vi]]);
+                    u.set(x, y, l as u32, &frames[l][vi][0].to_array());
+                    v.set(x, y, l as u32, &frames[l][vi][1].to_array());
+                }
+            }
+        }
+        Self { layout, normalization, hair_mesh, uv, w, u, v }
+    }
+
+    /// Object-space position on the curve surface of `bundle` at block parameter `(s, t)` and
+    /// strand parameter `tau ∈ [0, 1]` (root to tip): two trilinear fetches and one lerp per
+    /// quadratic, as the GPU does.
+    pub fn curve_position(&self, bundle: u32, s: f64, t: f64, tau: f64) -> DVec3 {
+        let xy = self.layout.block_coord(bundle, s, t);
+        let layers = f64::from(self.layout.layers.max(1));
+        let x = (tau.clamp(0.0, 1.0) * layers).min(layers);
+        let segment = x.floor().min(layers - 1.0);
+        let local = x - segment;
+        let (z0, q) =
+            if local < 0.5 { (4.0 * segment, 2.0 * local) } else { (4.0 * segment + 2.0, 2.0 * local - 1.0) };
+        let mut a = [0.0; 3];
+        let mut b = [0.0; 3];
+        self.hair_mesh.sample(DVec3::new(xy.x, xy.y, z0 + 0.5 + q), &mut a);
+        self.hair_mesh.sample(DVec3::new(xy.x, xy.y, z0 + 1.5 + q), &mut b);
+        let stored = DVec3::from_array(a).lerp(DVec3::from_array(b), q);
+        self.normalization.to_object(stored)
+    }
+
+    /// Texture memory in bytes at 4 bytes per channel (the hair-mesh texture padded to 4
+    /// channels as RGBA32F).
+    pub fn bytes_f32(&self) -> usize {
+        self.hair_mesh.data.len() / 3 * 16
+            + self.uv.bytes_f32()
+            + self.w.bytes_f32()
+            + self.u.data.len() / 3 * 16
+            + self.v.data.len() / 3 * 16
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::hair_mesh::ExtrudeParams;
+    use crate::scalp::ScalpMesh;
+
+    fn quad_and_triangle() -> HairMesh {
+        let scalp = ScalpMesh {
+            positions: vec![
+                DVec3::new(0.0, 0.0, 0.0),
+                DVec3::new(1.0, 0.0, 0.0),
+                DVec3::new(1.0, 0.0, -1.0),
+                DVec3::new(0.0, 0.0, -1.0),
+                DVec3::new(2.0, 0.0, -0.5),
+            ],
+            faces: vec![vec![0, 1, 2, 3], vec![1, 4, 2]],
+            uvs: Some(vec![
+                DVec2::new(0.0, 0.0),
+                DVec2::new(0.5, 0.0),
+                DVec2::new(0.5, 1.0),
+                DVec2::new(0.0, 1.0),
+                DVec2::new(1.0, 0.5),
+            ]),
+            ..Default::default()
+        };
+        HairMesh::extrude(
+            &scalp,
+            &ExtrudeParams { layers: 3, length: 1.5, droop: 0.4, gravity: DVec3::NEG_Y },
+        )
+        .expect("valid")
+    }
+
+    #[test]
+    fn strands_start_on_the_root_face_and_end_at_the_tip_layer() {
+        let hm = quad_and_triangle();
+        let tex = HairTextures::build(&hm);
+        let quad = tex.curve_position(0, 0.25, 0.5, 0.0);
+        let expected = DVec3::new(0.25, 0.0, -0.5);
+        assert!(quad.distance(expected) < 1e-12, "{quad}");
+        // Triangle (1, 4, 2) at barycentric (ξ1, ξ2) = (0.2, 0.3): s = ξ1/(1−ξ2), t = ξ2.
+        let (x1, x2) = (0.2, 0.3);
+        let p = tex.curve_position(1, x1 / (1.0 - x2), x2, 0.0);
+        let bary = hm.layers[0][1] * (1.0 - x1 - x2) + hm.layers[0][4] * x1 + hm.layers[0][2] * x2;
+        assert!(p.distance(bary) < 1e-12, "{p} vs {bary}");
+        // The tip is on the last layer.
+        let tip = tex.curve_position(0, 0.0, 0.0, 1.0);
+        assert!(tip.distance(hm.layers[3][0]) < 1e-12);
+        // Layer k is hit exactly at tau = k/L.
+        let mid = tex.curve_position(0, 1.0, 0.0, 2.0 / 3.0);
+        assert!(mid.distance(hm.layers[2][1]) < 1e-12);
+    }
+
+    #[test]
+    fn texture_curve_matches_the_quadratics() {
+        let hm = quad_and_triangle();
+        let tex = HairTextures::build(&hm);
+        let column = hm.column(0);
+        let segs = column_segments(&column);
+        for i in 0..=60 {
+            let tau = f64::from(i) / 60.0;
+            let seg = ((tau * 3.0).floor() as usize).min(2);
+            let local = tau * 3.0 - seg as f64;
+            let expected = segs[seg].to_quadratics().eval(local);
+            let got = tex.curve_position(0, 0.0, 0.0, tau);
+            assert!(got.distance(expected) < 1e-12, "tau {tau}: {got} vs {expected}");
+        }
+    }
+
+    #[test]
+    fn frames_are_orthonormal_for_good_and_bad_uvs() {
+        let mut hm = quad_and_triangle();
+        let frames = styling_frames(&hm, &root_uvs(&hm));
+        let [u, v, w] = frames[0][0];
+        assert!(u.distance(DVec3::X) < 1e-9, "û follows +u: {u}");
+        assert!(v.distance(DVec3::NEG_Z) < 1e-9, "v̂ follows +v: {v}");
+        assert!(w.distance(DVec3::Y) < 1e-9, "ŵ = û×v̂ = X×(−Z) = +Y: {w}");
+        // Zero-area and mirrored uvs: still unit frames everywhere.
+        for uvs in [vec![DVec2::ZERO; 5], {
+            let mut m = root_uvs(&hm);
+            m[4] = DVec2::new(-1.0, 2.0);
+            m
+        }] {
+            hm.uvs = Some(uvs.clone());
+            for layer in styling_frames(&hm, &uvs) {
+                for [u, v, w] in layer {
+                    for d in [u, v, w] {
+                        assert!((d.length() - 1.0).abs() < 1e-9, "{d}");
+                    }
+                    assert!(u.dot(w).abs() < 1e-9 && v.dot(w).abs() < 1e-9);
+                }
+            }
+        }
+    }
+
+    #[test]
+    fn automatic_uvs_fill_the_unit_square() {
+        let mut hm = quad_and_triangle();
+        hm.uvs = None;
+        let uvs = root_uvs(&hm);
+        assert!(
+            uvs.iter()
+                .all(|u| (-1e-12..=1.0 + 1e-12).contains(&u.x) && (-1e-12..=1.0 + 1e-12).contains(&u.y))
+        );
+        let max = uvs.iter().fold(0.0f64, |m, u| m.max(u.x).max(u.y));
+        assert!((max - 1.0).abs() < 1e-12);
+    }
+
+    #[test]
+    fn layout_holds_every_bundle() {
+        for bundles in [1, 2, 3, 5, 17, 1000, 3450] {
+            let l = TextureLayout::new(bundles, 4);
+            let (x, y) = l.corner_texel(bundles - 1, 2);
+            assert!(x < l.width && y < l.height, "{bundles}");
+            assert_eq!(l.curve_slices(), 17);
+        }
+    }
+}
