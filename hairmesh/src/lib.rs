@@ -3,13 +3,16 @@
 //!
 //! Formulas follow `DESIGN.md` (the corrected versions of the hair-mesh paper's equations).
 
+pub mod asset;
 pub mod curve;
 mod error;
 pub mod hair_mesh;
 pub mod import;
+pub mod reference;
 pub mod rng;
 pub mod roots;
 pub mod scalp;
+pub mod style;
 pub mod texture;
 
 pub use error::{HairMeshError, Result};

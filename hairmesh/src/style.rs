@@ -1,0 +1,338 @@
+//! Procedural styling, applied per strand vertex on top of the hair-mesh curves.
+//!
+//! Everything here is the specification the GPU implements line for line
+//! (`gen-gpu/shaders/style.glsl` once it exists): same hash, same formulas, same order.
+//!
+//! **Inputs at a vertex.** Bundle `b`, strand `j` (its root sample index), the style `seed`,
+//! strand parameter `τ ∈ [0, 1]` (root to tip), the curve point `p`, the styling frame
+//! `(û, v̂, ŵ)` and styling coordinate `w` (object-space length from the root) fetched at the
+//! same place, and the bundle's centre curve point `c` (block parameter `(½, ½)` for quads,
+//! the centroid `(½, ⅓)` for triangles).
+//!
+//! **Random numbers.** `rand(b, j, k) = pcg(pcg(pcg(b ⊕ seed) + j) + k) / 2³²` with the 32-bit
+//! PCG hash [`pcg_hash`]; `k` names the use (0 length, 1 curl phase, 2 wave phase, 3 stray,
+//! 16+ frizz lattice).
+//!
+//! **Root fade.** `f(τ) = smoothstep(0, root_fade, τ)`; every operation is scaled by `f`, so the
+//! root vertex (`τ = 0`) is never moved.
+//!
+//! **Order.** (1) length: the curve is evaluated at `τ′ = λτ`, `λ = 1 − length_variation·rand(b,j,0)`;
+//! (2) offsets `d = (d_u, d_v, d_w)` in the frame: curl + wave + frizz, `p₁ = p + d_u û + d_v v̂ + d_w ŵ`;
+//! (3) twist about `ŵ` through `c`; (4) clump toward `c`. Stray strands skip the clump and get
+//! extra frizz.
+
+use glam::DVec3;
+use serde::{Deserialize, Serialize};
+
+/// A helix around the strand's path.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct Curl {
+    /// Helix radius (object units).
+    pub radius: f64,
+    /// Turns per object unit of `w`.
+    pub frequency: f64,
+    /// Phase in turns, added to a random per-strand phase.
+    pub phase: f64,
+}
+
+impl Default for Curl {
+    fn default() -> Self {
+        Self { radius: 0.0, frequency: 1.0, phase: 0.0 }
+    }
+}
+
+/// A planar wave along û.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct Wave {
+    pub amplitude: f64,
+    /// Waves per object unit of `w`.
+    pub frequency: f64,
+}
+
+impl Default for Wave {
+    fn default() -> Self {
+        Self { amplitude: 0.0, frequency: 1.0 }
+    }
+}
+
+/// Smooth per-strand noise growing toward the tip.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct Frizz {
+    pub amplitude: f64,
+    /// Noise lattice cells per object unit of `w`.
+    pub frequency: f64,
+    /// Growth toward the tip: amplitude × τ^exponent.
+    pub exponent: f64,
+}
+
+impl Default for Frizz {
+    fn default() -> Self {
+        Self { amplitude: 0.0, frequency: 4.0, exponent: 2.0 }
+    }
+}
+
+/// Pull toward the bundle's centre curve.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct Clump {
+    /// 0 = none, 1 = all strands meet the centre curve at the tip.
+    pub strength: f64,
+    /// Growth toward the tip: strength × τ^exponent.
+    pub exponent: f64,
+}
+
+impl Default for Clump {
+    fn default() -> Self {
+        Self { strength: 0.0, exponent: 1.0 }
+    }
+}
+
+/// Stray strands: a random fraction that ignores clumping and frizzes more.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct Stray {
+    /// Fraction of strands in [0, 1].
+    pub fraction: f64,
+    /// Extra frizz amplitude (object units).
+    pub amplitude: f64,
+}
+
+/// The procedural style of a hair asset. Amplitudes are object-space lengths.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct Style {
+    pub seed: u32,
+    /// Strand width at the root (object units).
+    pub width: f64,
+    /// Width at the tip as a fraction of the root width.
+    pub tip_width: f64,
+    /// Fraction of τ over which styling fades in from the root.
+    pub root_fade: f64,
+    /// Strands are shortened by up to this fraction (random per strand).
+    pub length_variation: f64,
+    pub curl: Curl,
+    pub wave: Wave,
+    pub frizz: Frizz,
+    pub clump: Clump,
+    /// Turns of the bundle around its centre curve from root to tip.
+    pub twist: f64,
+    pub stray: Stray,
+}
+
+impl Default for Style {
+    fn default() -> Self {
+        Self {
+            seed: 1,
+            width: 0.002,
+            tip_width: 0.2,
+            root_fade: 0.1,
+            length_variation: 0.0,
+            curl: Curl::default(),
+            wave: Wave::default(),
+            frizz: Frizz::default(),
+            clump: Clump::default(),
+            twist: 0.0,
+            stray: Stray::default(),
+        }
+    }
+}
+
+/// PCG hash (Jarzynski & Olano 2020, "Hash Functions for GPU Rendering"): one u32 in, one out.
+pub fn pcg_hash(input: u32) -> u32 {
+    let state = input.wrapping_mul(747_796_405).wrapping_add(2_891_336_453);
+    let word = ((state >> ((state >> 28) + 4)) ^ state).wrapping_mul(277_803_737);
+    (word >> 22) ^ word
+}
+
+/// `rand(b, j, k) ∈ [0, 1)` as described in the module docs.
+pub fn strand_random(seed: u32, bundle: u32, strand: u32, k: u32) -> f64 {
+    let h = pcg_hash(pcg_hash(pcg_hash(bundle ^ seed).wrapping_add(strand)).wrapping_add(k));
+    f64::from(h) / 4_294_967_296.0
+}
+
+pub fn smoothstep(edge0: f64, edge1: f64, x: f64) -> f64 {
+    if edge1 <= edge0 {
+        return if x >= edge1 { 1.0 } else { 0.0 };
+    }
+    let t = ((x - edge0) / (edge1 - edge0)).clamp(0.0, 1.0);
+    t * t * (3.0 - 2.0 * t)
+}
+
+/// The frame and surroundings of one vertex, as fetched from the textures.
+#[derive(Clone, Copy, Debug)]
+pub struct StyleInput {
+    pub bundle: u32,
+    pub strand: u32,
+    /// Strand parameter τ ∈ [0, 1] (before the length scale).
+    pub tau: f64,
+    /// Curve point at τ′ = λτ.
+    pub position: DVec3,
+    /// Bundle centre curve point at τ′.
+    pub centre: DVec3,
+    /// Orthonormal styling frame at τ′.
+    pub frame: [DVec3; 3],
+    /// Styling coordinate at τ′ (object length from the root).
+    pub w: f64,
+}
+
+impl Style {
+    /// `λ` for a strand: the fraction of the curve it covers.
+    pub fn length_scale(&self, bundle: u32, strand: u32) -> f64 {
+        1.0 - self.length_variation.clamp(0.0, 1.0) * strand_random(self.seed, bundle, strand, 0)
+    }
+
+    fn is_stray(&self, bundle: u32, strand: u32) -> bool {
+        strand_random(self.seed, bundle, strand, 3) < self.stray.fraction
+    }
+
+    /// Smooth 1D value noise in [-1, 1]³ for a strand: lattice values `2·rand(b, j, 16+3i+c) − 1`
+    /// at integer `i`, blended with smoothstep weights.
+    pub fn frizz_noise(&self, bundle: u32, strand: u32, x: f64) -> DVec3 {
+        let i = x.floor();
+        let f = x - i;
+        let blend = f * f * (3.0 - 2.0 * f);
+        // The lattice repeats every 2^20 cells: far beyond any strand, and keeps the index in u32.
+        let cell = (i.rem_euclid(1_048_576.0)) as u32;
+        let lattice = |cell: u32| {
+            DVec3::new(
+                strand_random(self.seed, bundle, strand, 16 + 3 * cell) * 2.0 - 1.0,
+                strand_random(self.seed, bundle, strand, 17 + 3 * cell) * 2.0 - 1.0,
+                strand_random(self.seed, bundle, strand, 18 + 3 * cell) * 2.0 - 1.0,
+            )
+        };
+        lattice(cell).lerp(lattice(cell.wrapping_add(1) % 1_048_576), blend)
+    }
+
+    /// The styled position of one vertex.
+    pub fn apply(&self, input: &StyleInput) -> DVec3 {
+        let StyleInput { bundle, strand, tau, position, centre, frame, w } = *input;
+        let fade = smoothstep(0.0, self.root_fade, tau);
+        if fade == 0.0 {
+            return position;
+        }
+        let stray = self.is_stray(bundle, strand);
+        let turn = std::f64::consts::TAU;
+        let curl_phase =
+            turn * (self.curl.frequency * w + self.curl.phase + strand_random(self.seed, bundle, strand, 1));
+        let wave_phase = turn * (self.wave.frequency * w + strand_random(self.seed, bundle, strand, 2));
+        let frizz_amplitude = self.frizz.amplitude + if stray { self.stray.amplitude } else { 0.0 };
+        let frizz = self.frizz_noise(bundle, strand, w * self.frizz.frequency)
+            * (frizz_amplitude * tau.powf(self.frizz.exponent.max(0.0)));
+        let d = DVec3::new(
+            self.curl.radius * curl_phase.cos() + self.wave.amplitude * wave_phase.sin(),
+            self.curl.radius * curl_phase.sin(),
+            0.0,
+        ) + frizz;
+        let [u, v, wdir] = frame;
+        let offset = (u * d.x + v * d.y + wdir * d.z) * fade;
+        let mut p = position + offset;
+        if self.twist != 0.0 {
+            let angle = turn * self.twist * tau * fade;
+            p = centre + rotate_about(p - centre, wdir, angle);
+        }
+        if !stray && self.clump.strength != 0.0 {
+            let amount =
+                (self.clump.strength * tau.powf(self.clump.exponent.max(0.0)) * fade).clamp(0.0, 1.0);
+            p = p.lerp(centre, amount);
+        }
+        p
+    }
+
+    /// Strand width at τ (before LOD compensation).
+    pub fn width_at(&self, tau: f64) -> f64 {
+        self.width * (1.0 + (self.tip_width - 1.0) * tau.clamp(0.0, 1.0))
+    }
+
+    /// Largest distance styling can move a vertex away from its curve point, for culling
+    /// bounds (twist and clump stay within the bundle, so they add nothing beyond it).
+    pub fn max_displacement(&self) -> f64 {
+        self.curl.radius.abs()
+            + self.wave.amplitude.abs()
+            + 3f64.sqrt() * (self.frizz.amplitude.abs() + self.stray.amplitude.abs())
+    }
+}
+
+/// Rodrigues' rotation of `v` about unit `axis` by `angle` radians.
+pub fn rotate_about(v: DVec3, axis: DVec3, angle: f64) -> DVec3 {
+    let (s, c) = angle.sin_cos();
+    v * c + axis.cross(v) * s + axis * axis.dot(v) * (1.0 - c)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn input(tau: f64) -> StyleInput {
+        StyleInput {
+            bundle: 3,
+            strand: 5,
+            tau,
+            position: DVec3::new(1.0, 2.0, 3.0),
+            centre: DVec3::new(1.1, 2.0, 3.0),
+            frame: [DVec3::X, DVec3::Z, DVec3::Y],
+            w: tau * 2.0,
+        }
+    }
+
+    fn busy_style() -> Style {
+        Style {
+            curl: Curl { radius: 0.1, frequency: 3.0, phase: 0.2 },
+            wave: Wave { amplitude: 0.05, frequency: 2.0 },
+            frizz: Frizz { amplitude: 0.02, frequency: 5.0, exponent: 1.5 },
+            clump: Clump { strength: 0.5, exponent: 1.0 },
+            twist: 0.5,
+            stray: Stray { fraction: 0.1, amplitude: 0.05 },
+            length_variation: 0.3,
+            ..Style::default()
+        }
+    }
+
+    #[test]
+    fn the_root_never_moves() {
+        let style = busy_style();
+        assert_eq!(style.apply(&input(0.0)), input(0.0).position);
+        let moved = style.apply(&input(0.7));
+        assert!(moved.distance(input(0.7).position) > 1e-3);
+    }
+
+    #[test]
+    fn deterministic_per_bundle_strand_and_seed() {
+        let style = busy_style();
+        assert_eq!(style.apply(&input(0.5)), style.apply(&input(0.5)));
+        let other_seed = Style { seed: 2, ..style };
+        assert_ne!(style.apply(&input(0.5)), other_seed.apply(&input(0.5)));
+        let mut other_strand = input(0.5);
+        other_strand.strand = 6;
+        assert_ne!(style.apply(&input(0.5)), style.apply(&other_strand));
+    }
+
+    #[test]
+    fn displacement_stays_within_the_documented_bound() {
+        let style = Style { clump: Clump::default(), twist: 0.0, ..busy_style() };
+        for i in 0..=100 {
+            let inp = input(f64::from(i) / 100.0);
+            let d = style.apply(&inp).distance(inp.position);
+            assert!(d <= style.max_displacement() + 1e-12, "{d}");
+        }
+    }
+
+    #[test]
+    fn pcg_matches_reference_values() {
+        // Values of the GLSL/C reference implementation of pcg_hash.
+        assert_eq!(pcg_hash(0), 129_708_002);
+        assert_eq!(pcg_hash(1), 2_831_084_092);
+        let r = strand_random(1, 2, 3, 4);
+        assert!((0.0..1.0).contains(&r));
+    }
+
+    #[test]
+    fn style_json_rejects_unknown_fields() {
+        let style: Style = serde_json::from_str(r#"{"curl": {"radius": 0.1}}"#).expect("partial style");
+        assert_eq!(style.curl.radius, 0.1);
+        assert_eq!(style.curl.frequency, 1.0);
+        assert!(serde_json::from_str::<Style>(r#"{"curly": 1}"#).is_err());
+    }
+}
