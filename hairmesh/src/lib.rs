@@ -4,6 +4,8 @@
 //! Formulas follow `DESIGN.md` (the corrected versions of the hair-mesh paper's equations).
 
 pub mod asset;
+pub mod asset_io;
+pub mod atomic;
 pub mod curve;
 mod error;
 pub mod hair_mesh;

@@ -1,7 +1,7 @@
 //! The CPU reference generator: roots on the scalp, unit tangents, continuous LOD, and hard
 //! cases that must stay finite.
 
-use glam::{DVec2, DVec3};
+use glam::DVec3;
 use hairmesh::asset::{AssetParams, HairAsset, StrandCount};
 use hairmesh::hair_mesh::{ExtrudeParams, HairMesh};
 use hairmesh::reference::{LodParams, Projection, ViewParams, bundle_lod};
@@ -9,32 +9,8 @@ use hairmesh::rng::SplitMix64;
 use hairmesh::style::{Clump, Curl, Frizz, Style, Wave};
 use hairmesh::{BundleFace, ScalpMesh};
 
-/// A bumpy n×n grid patch (quads) plus a fan of triangles on one side.
-fn patch(n: u32, origin: DVec3, scale: f64, rng: &mut SplitMix64) -> ScalpMesh {
-    let mut positions = Vec::new();
-    let mut uvs = Vec::new();
-    for j in 0..=n {
-        for i in 0..=n {
-            let bump = 0.15 * (rng.next_f64() - 0.5);
-            positions.push(origin + DVec3::new(f64::from(i), bump, -f64::from(j)) * scale);
-            uvs.push(DVec2::new(f64::from(i), f64::from(j)) / f64::from(n));
-        }
-    }
-    let id = |i: u32, j: u32| j * (n + 1) + i;
-    let mut faces = Vec::new();
-    for j in 0..n {
-        for i in 0..n {
-            faces.push(vec![id(i, j), id(i + 1, j), id(i + 1, j + 1), id(i, j + 1)]);
-        }
-    }
-    let apex = positions.len() as u32;
-    positions.push(origin + DVec3::new(-1.0, 0.0, -0.5 * f64::from(n)) * scale);
-    uvs.push(DVec2::new(-0.2, 0.5));
-    for j in 0..n {
-        faces.push(vec![apex, id(0, j), id(0, j + 1)]);
-    }
-    ScalpMesh { positions, uvs: Some(uvs), faces, ..Default::default() }
-}
+mod common;
+use common::patch;
 
 fn styled() -> Style {
     Style {

@@ -14,33 +14,14 @@ pub enum OutputError {
     BadImage { path: PathBuf, width: u32, height: u32, bytes: usize, expected: usize },
 }
 
-/// Writes `bytes` to `path` atomically: a temporary file in the same folder, flushed to disk,
-/// then renamed over `path`.
+/// Writes a file atomically (see [`hairmesh::atomic::write_file_atomic`]), naming the file in
+/// the error.
 pub fn write_atomic(
     path: &Path,
     write: impl FnOnce(&mut dyn Write) -> std::io::Result<()>,
 ) -> Result<(), OutputError> {
-    let io_err = |e: std::io::Error| OutputError::Io { path: path.to_owned(), message: e.to_string() };
-    let dir = match path.parent() {
-        Some(d) if !d.as_os_str().is_empty() => d.to_owned(),
-        _ => PathBuf::from("."),
-    };
-    std::fs::create_dir_all(&dir).map_err(io_err)?;
-    let file_name = path
-        .file_name()
-        .ok_or_else(|| OutputError::Io { path: path.to_owned(), message: "not a file path".into() })?;
-    let tmp = dir.join(format!(".{}.tmp-{}", file_name.to_string_lossy(), std::process::id()));
-    let result = (|| {
-        let mut file = std::io::BufWriter::new(std::fs::File::create(&tmp)?);
-        write(&mut file)?;
-        let file = file.into_inner().map_err(|e| e.into_error())?;
-        file.sync_all()?;
-        std::fs::rename(&tmp, path)
-    })();
-    if result.is_err() {
-        let _ = std::fs::remove_file(&tmp);
-    }
-    result.map_err(io_err)
+    hairmesh::atomic::write_file_atomic(path, write)
+        .map_err(|e| OutputError::Io { path: path.to_owned(), message: e.to_string() })
 }
 
 /// Writes an 8-bit RGBA image as PNG, atomically.

@@ -1,0 +1,392 @@
+//! Hair asset folders: `hair.json` (the manifest) plus the five textures as OpenEXR files and a
+//! PNG preview of the root slice.
+//!
+//! ```text
+//! ASSET/
+//!   hair.json        format, version, units, normalization, layout, bundle table, sample sets, style
+//!   hair_mesh.exr    channels R,G,B = normalized position; (1 + 4L) slices
+//!   uv.exr           channels R,G = root uv; 1 slice
+//!   w.exr            channel R = w; L + 1 slices
+//!   u.exr, v.exr     channels R,G,B = unit styling direction; L + 1 slices
+//!   preview.png      the root slice's normalized positions as colours
+//! ```
+//!
+//! A 3D texture of `W × H × D` texels is stored as one 2D image `W × (H·D)`: slice `z` occupies
+//! rows `z·H … z·H + H − 1`. Samples are f32, or f16 when the asset was converted with `--f16`.
+//! Loading checks every field and every image size against the manifest; errors name the file
+//! and the field. The folder is written atomically (built beside the target, then swapped in).
+
+use std::path::{Path, PathBuf};
+
+use serde::{Deserialize, Serialize};
+
+use crate::asset::{BundleInfo, HairAsset, SampleSet};
+use crate::roots::SampleDomain;
+use crate::style::Style;
+use crate::texture::{HairTextures, Normalization, Texture3, TextureLayout};
+use crate::{HairMeshError, Result};
+
+pub const FORMAT: &str = "hairkit.hair-asset";
+pub const FORMAT_VERSION: u32 = 1;
+pub const MANIFEST: &str = "hair.json";
+/// Largest texture accepted when loading (texels of one 3D texture).
+pub const MAX_TEXELS: u64 = 1 << 28;
+/// Largest manifest read.
+pub const MAX_MANIFEST_BYTES: u64 = 512 << 20;
+
+/// Sample precision of the texture files.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum Precision {
+    #[default]
+    F32,
+    F16,
+}
+
+#[derive(Clone, Debug, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct TextureFile {
+    pub file: String,
+    pub channels: u32,
+    pub slices: u32,
+}
+
+#[derive(Clone, Debug, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct TextureFiles {
+    pub hair_mesh: TextureFile,
+    pub uv: TextureFile,
+    pub w: TextureFile,
+    pub u: TextureFile,
+    pub v: TextureFile,
+}
+
+/// `hair.json`.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Manifest {
+    pub format: String,
+    pub format_version: u32,
+    /// The source file's length unit (glTF: metres; OBJ: whatever the artist used).
+    pub units: String,
+    pub source: Option<String>,
+    pub precision: Precision,
+    pub normalization: Normalization,
+    pub layout: TextureLayout,
+    pub textures: TextureFiles,
+    pub bundles: Vec<BundleInfo>,
+    pub square_sets: Vec<SampleSet>,
+    pub triangle_sets: Vec<SampleSet>,
+    pub style: Style,
+}
+
+const CHANNELS_3: [&str; 3] = ["R", "G", "B"];
+
+fn texture_files(layout: &TextureLayout) -> TextureFiles {
+    let file = |name: &str, channels, slices| TextureFile { file: format!("{name}.exr"), channels, slices };
+    TextureFiles {
+        hair_mesh: file("hair_mesh", 3, layout.curve_slices()),
+        uv: file("uv", 2, 1),
+        w: file("w", 1, layout.layer_slices()),
+        u: file("u", 3, layout.layer_slices()),
+        v: file("v", 3, layout.layer_slices()),
+    }
+}
+
+/// Writes `asset` to the folder `dir` (replacing it atomically).
+pub fn write_asset(
+    dir: &Path,
+    asset: &HairAsset,
+    precision: Precision,
+    units: &str,
+    source: Option<&str>,
+) -> Result<()> {
+    let t = &asset.textures;
+    let files = texture_files(&t.layout);
+    let manifest = Manifest {
+        format: FORMAT.into(),
+        format_version: FORMAT_VERSION,
+        units: units.into(),
+        source: source.map(str::to_owned),
+        precision,
+        normalization: t.normalization,
+        layout: t.layout,
+        textures: files.clone(),
+        bundles: asset.bundles.clone(),
+        square_sets: asset.square_sets.clone(),
+        triangle_sets: asset.triangle_sets.clone(),
+        style: asset.style,
+    };
+    let json = serde_json::to_vec_pretty(&manifest)
+        .map_err(|e| HairMeshError::Io { path: dir.join(MANIFEST), message: e.to_string() })?;
+    crate::atomic::replace_dir_atomic(dir, |tmp| {
+        for (file, tex) in [
+            (&files.hair_mesh, &t.hair_mesh),
+            (&files.uv, &t.uv),
+            (&files.w, &t.w),
+            (&files.u, &t.u),
+            (&files.v, &t.v),
+        ] {
+            let bytes = encode_exr(tex, precision).map_err(std::io::Error::other)?;
+            std::fs::write(tmp.join(&file.file), bytes)?;
+        }
+        write_preview(&tmp.join("preview.png"), &t.hair_mesh)?;
+        std::fs::write(tmp.join(MANIFEST), &json)
+    })
+    .map_err(|e| HairMeshError::Io {
+        path: dir.to_owned(),
+        message: format!("writing the asset failed: {e}"),
+    })
+}
+
+fn encode_exr(tex: &Texture3, precision: Precision) -> std::result::Result<Vec<u8>, String> {
+    use exr::prelude::*;
+    let (w, h) = (tex.width as usize, tex.height as usize * tex.depth as usize);
+    let n = tex.channels as usize;
+    let channels: Vec<AnyChannel<FlatSamples>> = (0..n)
+        .map(|c| {
+            let values = tex.data.iter().skip(c).step_by(n);
+            let samples = match precision {
+                Precision::F32 => FlatSamples::F32(values.map(|v| *v as f32).collect()),
+                Precision::F16 => FlatSamples::F16(values.map(|v| f16::from_f64(*v)).collect()),
+            };
+            AnyChannel::new(CHANNELS_3[c], samples)
+        })
+        .collect();
+    let layer = Layer::new(
+        (w, h),
+        LayerAttributes::default(),
+        Encoding::SMALL_LOSSLESS,
+        AnyChannels::sort(channels.into()),
+    );
+    let mut out = std::io::Cursor::new(Vec::new());
+    Image::from_layer(layer).write().to_buffered(&mut out).map_err(|e| e.to_string())?;
+    Ok(out.into_inner())
+}
+
+fn write_preview(path: &Path, hair_mesh: &Texture3) -> std::io::Result<()> {
+    let (w, h) = (hair_mesh.width, hair_mesh.height);
+    let mut pixels = Vec::with_capacity(w as usize * h as usize * 3);
+    for y in 0..h {
+        for x in 0..w {
+            for v in hair_mesh.texel(x, y, 0) {
+                pixels.push((v.clamp(0.0, 1.0) * 255.0).round() as u8);
+            }
+        }
+    }
+    let file = std::fs::File::create(path)?;
+    let mut encoder = png::Encoder::new(std::io::BufWriter::new(file), w, h);
+    encoder.set_color(png::ColorType::Rgb);
+    encoder.set_depth(png::BitDepth::Eight);
+    let mut writer = encoder.write_header().map_err(std::io::Error::other)?;
+    writer.write_image_data(&pixels).map_err(std::io::Error::other)?;
+    writer.finish().map_err(std::io::Error::other)
+}
+
+fn field_error(path: &Path, field: &str, message: impl std::fmt::Display) -> HairMeshError {
+    HairMeshError::Format { path: path.to_owned(), message: format!("{field}: {message}") }
+}
+
+fn read_limited(path: &Path, limit: u64) -> Result<Vec<u8>> {
+    let io = |e: std::io::Error| HairMeshError::Io { path: path.to_owned(), message: e.to_string() };
+    let len = std::fs::metadata(path).map_err(io)?.len();
+    if len > limit {
+        return Err(field_error(path, "file", format!("{len} bytes is over the {limit}-byte limit")));
+    }
+    std::fs::read(path).map_err(io)
+}
+
+/// Reads an asset folder (or its `hair.json`), validating everything against the manifest.
+pub fn read_asset(path: &Path) -> Result<(HairAsset, Manifest)> {
+    let (dir, manifest_path) = if path.is_dir() {
+        (path.to_owned(), path.join(MANIFEST))
+    } else {
+        (path.parent().unwrap_or(Path::new(".")).to_owned(), path.to_owned())
+    };
+    let bytes = read_limited(&manifest_path, MAX_MANIFEST_BYTES)?;
+    let manifest: Manifest = serde_json::from_slice(&bytes).map_err(|e| HairMeshError::Format {
+        path: manifest_path.clone(),
+        message: format!("line {}, column {}: {e}", e.line(), e.column()),
+    })?;
+    validate_manifest(&manifest_path, &manifest)?;
+    let m = &manifest;
+    let load = |file: &TextureFile, field: &str| read_texture(&dir.join(&file.file), field, m, file);
+    let textures = HairTextures {
+        layout: m.layout,
+        normalization: m.normalization,
+        hair_mesh: load(&m.textures.hair_mesh, "textures.hair_mesh")?,
+        uv: load(&m.textures.uv, "textures.uv")?,
+        w: load(&m.textures.w, "textures.w")?,
+        u: load(&m.textures.u, "textures.u")?,
+        v: load(&m.textures.v, "textures.v")?,
+    };
+    let asset = HairAsset {
+        textures,
+        bundles: m.bundles.clone(),
+        square_sets: m.square_sets.clone(),
+        triangle_sets: m.triangle_sets.clone(),
+        style: m.style,
+    };
+    Ok((asset, manifest))
+}
+
+fn validate_manifest(path: &Path, m: &Manifest) -> Result<()> {
+    let err = |field: &str, message: String| field_error(path, field, message);
+    if m.format != FORMAT {
+        return Err(err("format", format!("`{}` is not `{FORMAT}`", m.format)));
+    }
+    if m.format_version != FORMAT_VERSION {
+        return Err(err(
+            "format_version",
+            format!("{} is not supported (this build reads {FORMAT_VERSION})", m.format_version),
+        ));
+    }
+    let n = &m.normalization;
+    if !(n.origin.is_finite() && n.scale.is_finite() && n.scale > 0.0) {
+        return Err(err("normalization", "origin must be finite and scale positive".into()));
+    }
+    let l = &m.layout;
+    let expected = TextureLayout::new(l.bundles, l.layers);
+    if *l != expected || l.layers == 0 || l.layers > crate::hair_mesh::MAX_LAYERS {
+        return Err(err(
+            "layout",
+            format!(
+                "{l:?} is inconsistent (expected {expected:?}, 1..={} layers)",
+                crate::hair_mesh::MAX_LAYERS
+            ),
+        ));
+    }
+    if u64::from(l.width) * u64::from(l.height) * u64::from(l.curve_slices()) > MAX_TEXELS {
+        return Err(err(
+            "layout",
+            format!("{}×{}×{} texels is over the limit", l.width, l.height, l.curve_slices()),
+        ));
+    }
+    if m.bundles.len() != l.bundles as usize {
+        return Err(err(
+            "bundles",
+            format!("{} entries but layout.bundles = {}", m.bundles.len(), l.bundles),
+        ));
+    }
+    if m.textures != texture_files(l) {
+        return Err(err(
+            "textures",
+            format!("{:?} does not match the layout (expected {:?})", m.textures, texture_files(l)),
+        ));
+    }
+    let longest = |sets: &[SampleSet]| sets.iter().map(|s| s.points.len()).min().unwrap_or(0);
+    for (i, b) in m.bundles.iter().enumerate() {
+        let field = format!("bundles[{i}]");
+        if b.strands == 0 || b.strands > crate::asset::MAX_STRANDS_PER_BUNDLE {
+            return Err(err(
+                &field,
+                format!("strands = {} (expected 1..={})", b.strands, crate::asset::MAX_STRANDS_PER_BUNDLE),
+            ));
+        }
+        if !(b.area.is_finite()
+            && b.bounds_min.is_finite()
+            && b.bounds_max.is_finite()
+            && b.length.is_finite())
+        {
+            return Err(err(&field, "non-finite area, bounds or length".into()));
+        }
+        let sets = match b.domain {
+            SampleDomain::Square => &m.square_sets,
+            SampleDomain::Triangle => &m.triangle_sets,
+        };
+        if (longest(sets) as u64) < u64::from(b.strands) {
+            return Err(err(
+                &field,
+                format!(
+                    "{} strands but its {:?} sample sets hold {} samples",
+                    b.strands,
+                    b.domain,
+                    longest(sets)
+                ),
+            ));
+        }
+    }
+    for (name, sets, domain) in [
+        ("square_sets", &m.square_sets, SampleDomain::Square),
+        ("triangle_sets", &m.triangle_sets, SampleDomain::Triangle),
+    ] {
+        for (i, s) in sets.iter().enumerate() {
+            if s.domain != domain || s.points.iter().any(|p| !domain.contains(*p)) {
+                return Err(err(
+                    &format!("{name}[{i}]"),
+                    format!("samples must lie in the {domain:?} domain"),
+                ));
+            }
+        }
+    }
+    Ok(())
+}
+
+fn read_texture(path: &Path, field: &str, m: &Manifest, file: &TextureFile) -> Result<Texture3> {
+    use exr::prelude::*;
+    let err = |message: String| field_error(path, field, message);
+    let (w, h, d) = (m.layout.width, m.layout.height, file.slices);
+    // Compressed EXR of this size can hardly exceed 4× its raw f32 size plus headers.
+    let limit = u64::from(w) * u64::from(h) * u64::from(d) * u64::from(file.channels) * 16 + (1 << 20);
+    let bytes = read_limited(path, limit)?;
+    let image = read()
+        .no_deep_data()
+        .largest_resolution_level()
+        .all_channels()
+        .first_valid_layer()
+        .all_attributes()
+        .from_buffered(std::io::Cursor::new(bytes))
+        .map_err(|e| err(format!("not a readable OpenEXR file: {e}")))?;
+    let size = image.layer_data.size;
+    if (size.0 as u64, size.1 as u64) != (u64::from(w), u64::from(h) * u64::from(d)) {
+        return Err(err(format!(
+            "image is {}×{}, the manifest says {}×{} ({} slices of {})",
+            size.0,
+            size.1,
+            w,
+            h * d,
+            d,
+            h
+        )));
+    }
+    let channels = &image.layer_data.channel_data.list;
+    let mut names: Vec<String> = channels.iter().map(|c| c.name.to_string()).collect();
+    names.sort();
+    let mut expected: Vec<&str> = CHANNELS_3[..file.channels as usize].to_vec();
+    expected.sort_unstable();
+    if names != expected {
+        return Err(err(format!("channels {names:?}, expected {expected:?}")));
+    }
+    let mut tex = Texture3::new(w, h, d, file.channels);
+    let n = file.channels as usize;
+    // EXR keeps channels sorted by name; place each by its name.
+    for channel in channels {
+        let Some(c) = CHANNELS_3.iter().position(|name| channel.name.to_string() == *name) else { continue };
+        let ok_type = matches!(
+            (&channel.sample_data, m.precision),
+            (FlatSamples::F32(_), Precision::F32) | (FlatSamples::F16(_), Precision::F16)
+        );
+        if !ok_type {
+            return Err(err(format!(
+                "channel {} is not {:?} as the manifest says",
+                channel.name, m.precision
+            )));
+        }
+        for (i, v) in channel.sample_data.values_as_f32().enumerate() {
+            if !v.is_finite() {
+                return Err(err(format!("channel {} holds a non-finite value at texel {i}", channel.name)));
+            }
+            tex.data[i * n + c] = f64::from(v);
+        }
+    }
+    Ok(tex)
+}
+
+/// The files of an asset folder, for reporting.
+pub fn asset_files(dir: &Path, m: &Manifest) -> Vec<PathBuf> {
+    let t = &m.textures;
+    [MANIFEST, &t.hair_mesh.file, &t.uv.file, &t.w.file, &t.u.file, &t.v.file, "preview.png"]
+        .iter()
+        .map(|f| dir.join(f))
+        .collect()
+}
