@@ -14,6 +14,7 @@ pub mod reference;
 pub mod rng;
 pub mod roots;
 pub mod scalp;
+pub mod strands;
 pub mod style;
 pub mod texture;
 

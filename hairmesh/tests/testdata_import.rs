@@ -140,7 +140,7 @@ fn real_heads_become_hair_meshes() {
     use hairmesh::{BundleFace, ExtrudeParams, HairMesh};
     for (file, selector, length) in [
         ("heads/LeePerrySmith/LeePerrySmith.glb", "above:0,1,0,1.5", 3.0),
-        ("heads/sintel/sintel_bust.obj", "above:0,1,0,38", 15.0),
+        ("heads/sintel/sintel_bust.obj", "above:0,0.9138,-0.4061,32", 15.0),
     ] {
         let selector = ScalpSelector::parse(selector).expect("valid selector");
         let scalp = load_scalp(&testdata().join(file), &selector).expect("scalp loads");
