@@ -1,0 +1,289 @@
+//! `hairmesh`: scalp → hair asset, and reports on assets and strand files.
+//!
+//! ```text
+//! hairmesh convert INPUT -o DIR [--layers N] [--length X] [--droop X] [--density D | --strands N]
+//!                  [--scalp SELECTOR] [--morph-layers] [--style FILE] [--seed N] [--sample-sets N] [--f16]
+//! hairmesh info PATH          (an asset folder, hair.json, .tfx, .tfxbone or .hair)
+//! hairmesh head-cap -o FILE   (write the project's procedural head cap as glTF)
+//! ```
+
+use std::path::{Path, PathBuf};
+use std::time::Instant;
+
+use anyhow::{Context, Result, bail};
+use clap::{Parser, Subcommand};
+use hairmesh::ScalpSelector;
+use hairmesh::asset::{AssetParams, HairAsset, StrandCount};
+use hairmesh::asset_io::{Precision, read_asset, write_asset};
+use hairmesh::hair_mesh::{BundleFace, ExtrudeParams, HairMesh};
+use hairmesh::import::load_scalp;
+use hairmesh::style::Style;
+
+#[derive(Parser, Debug)]
+#[command(
+    name = "hairmesh",
+    version,
+    about = "Turn scalp meshes into hair assets (hair mesh + textures + root sets)"
+)]
+struct Cli {
+    #[command(subcommand)]
+    command: Command,
+}
+
+#[derive(Subcommand, Debug)]
+enum Command {
+    /// Convert a scalp mesh (.gltf, .glb, .obj) into a hair asset folder.
+    Convert {
+        input: PathBuf,
+        /// Output asset folder (replaced atomically if it exists).
+        #[arg(short, long)]
+        out: PathBuf,
+        /// Layers above the scalp (1..=64).
+        #[arg(long, default_value_t = 4)]
+        layers: u32,
+        /// Hair length along the normal, in the file's units [default: 0.6 × the scalp's size].
+        #[arg(long)]
+        length: Option<f64>,
+        /// Downward pull at the tip as a fraction of the length.
+        #[arg(long, default_value_t = 0.3)]
+        droop: f64,
+        /// Strands per unit² of scalp area.
+        #[arg(long, conflicts_with = "strands")]
+        density: Option<f64>,
+        /// Total strands, shared by area [default: 20000].
+        #[arg(long)]
+        strands: Option<u64>,
+        /// Which faces are scalp: all, name:NAME, above:NX,NY,NZ,OFFSET, sphere:CX,CY,CZ,R.
+        #[arg(long, default_value = "all")]
+        scalp: String,
+        /// Take the layers from the file's morph targets (one per layer) instead of extruding.
+        #[arg(long)]
+        morph_layers: bool,
+        /// Style as JSON (fields of hairmesh::style::Style; unknown fields are errors).
+        #[arg(long)]
+        style: Option<PathBuf>,
+        /// Seed of the root sample sets.
+        #[arg(long, default_value_t = 1)]
+        seed: u64,
+        /// Root sample sets per domain.
+        #[arg(long, default_value_t = 4)]
+        sample_sets: u32,
+        /// Store textures as half floats.
+        #[arg(long)]
+        f16: bool,
+    },
+    /// Describe an asset or a strand file.
+    Info { path: PathBuf },
+    /// Write the project's procedural head cap (the demo's scalp) as glTF.
+    HeadCap {
+        #[arg(short, long)]
+        out: PathBuf,
+    },
+}
+
+fn main() -> std::process::ExitCode {
+    match run(Cli::parse()) {
+        Ok(()) => std::process::ExitCode::SUCCESS,
+        Err(e) => {
+            eprintln!("hairmesh: error: {e:#}");
+            std::process::ExitCode::FAILURE
+        }
+    }
+}
+
+fn run(cli: Cli) -> Result<()> {
+    match cli.command {
+        Command::Convert {
+            input,
+            out,
+            layers,
+            length,
+            droop,
+            density,
+            strands,
+            scalp,
+            morph_layers,
+            style,
+            seed,
+            sample_sets,
+            f16,
+        } => {
+            let strand_count = match (density, strands) {
+                (Some(d), _) => StrandCount::Density(d),
+                (None, Some(n)) => StrandCount::Total(n),
+                (None, None) => StrandCount::Total(20_000),
+            };
+            let style = match style {
+                Some(path) => {
+                    let text = std::fs::read_to_string(&path)
+                        .with_context(|| format!("reading {}", path.display()))?;
+                    serde_json::from_str::<Style>(&text).map_err(|e| {
+                        anyhow::anyhow!("{}: line {}, column {}: {e}", path.display(), e.line(), e.column())
+                    })?
+                }
+                None => Style::default(),
+            };
+            convert(
+                &input,
+                &out,
+                &ConvertOptions {
+                    layers,
+                    length,
+                    droop,
+                    strand_count,
+                    scalp,
+                    morph_layers,
+                    style,
+                    seed,
+                    sample_sets,
+                    f16,
+                },
+            )
+        }
+        Command::Info { path } => info(&path),
+        Command::HeadCap { out } => {
+            hairmesh::procedural::write_gltf(&out, &hairmesh::procedural::head_cap(8, 32), "head cap")
+                .with_context(|| format!("writing {}", out.display()))?;
+            println!("wrote {}", out.display());
+            Ok(())
+        }
+    }
+}
+
+struct ConvertOptions {
+    layers: u32,
+    length: Option<f64>,
+    droop: f64,
+    strand_count: StrandCount,
+    scalp: String,
+    morph_layers: bool,
+    style: Style,
+    seed: u64,
+    sample_sets: u32,
+    f16: bool,
+}
+
+fn step<T>(what: &str, f: impl FnOnce() -> Result<T>) -> Result<T> {
+    eprint!("{what}… ");
+    let start = Instant::now();
+    let value = f()?;
+    eprintln!("{:.2} s", start.elapsed().as_secs_f64());
+    Ok(value)
+}
+
+fn convert(input: &Path, out: &Path, o: &ConvertOptions) -> Result<()> {
+    let selector = ScalpSelector::parse(&o.scalp)?;
+    let scalp = step(&format!("importing {}", input.display()), || Ok(load_scalp(input, &selector)?))?;
+    for w in &scalp.warnings {
+        eprintln!("warning: {w}");
+    }
+    let (lo, hi) = scalp.bounds().context("empty scalp")?;
+    let length = o.length.unwrap_or(0.6 * lo.distance(hi));
+    let hm = step("building the hair mesh", || {
+        Ok(if o.morph_layers {
+            HairMesh::from_morph_targets(&scalp)?
+        } else {
+            HairMesh::extrude(
+                &scalp,
+                &ExtrudeParams { layers: o.layers, length, droop: o.droop, ..ExtrudeParams::default() },
+            )?
+        })
+    })?;
+    let params = AssetParams { strands: o.strand_count, sample_sets: o.sample_sets, seed: o.seed };
+    let asset = step("textures and blue-noise root sets", || Ok(HairAsset::build(&hm, &params, o.style)?))?;
+    let units = if matches!(input.extension().and_then(|e| e.to_str()), Some("gltf" | "glb")) {
+        "metres"
+    } else {
+        "file units"
+    };
+    let precision = if o.f16 { Precision::F16 } else { Precision::F32 };
+    step(&format!("writing {}", out.display()), || {
+        Ok(write_asset(out, &asset, precision, units, input.to_str())?)
+    })?;
+    let quads = hm.faces.iter().filter(|f| matches!(f, BundleFace::Quad(_))).count();
+    let t = &asset.textures;
+    let bytes_per = if o.f16 { 2 } else { 4 };
+    let texture_bytes = (t.hair_mesh.data.len() / 3 * 4
+        + t.uv.data.len()
+        + t.w.data.len()
+        + t.u.data.len() / 3 * 4
+        + t.v.data.len() / 3 * 4)
+        * bytes_per;
+    println!("asset:          {}", out.display());
+    println!(
+        "scalp:          {} vertices, {} faces, area {:.4} {units}²",
+        scalp.positions.len(),
+        scalp.faces.len(),
+        scalp.area()
+    );
+    println!("bundles:        {} ({quads} quads, {} triangles)", hm.faces.len(), hm.faces.len() - quads);
+    println!("layers:         {} (hair length {length:.4})", hm.layer_count());
+    println!("strands:        {}", asset.total_strands());
+    println!(
+        "textures:       {}×{} texels, {} curve slices, {texture_bytes} bytes on the GPU ({})",
+        t.layout.width,
+        t.layout.height,
+        t.layout.curve_slices(),
+        if o.f16 { "RGBA16F" } else { "RGBA32F" }
+    );
+    Ok(())
+}
+
+fn info(path: &Path) -> Result<()> {
+    let ext = path.extension().and_then(|e| e.to_str()).unwrap_or_default().to_ascii_lowercase();
+    match ext.as_str() {
+        "tfx" | "hair" => {
+            let set = hairmesh::strands::load_strands(path)?;
+            let (lo, hi) = set.bounds().context("no points")?;
+            println!("{}: {}", path.display(), set.format);
+            println!("strands:  {}", set.strand_count());
+            println!(
+                "points:   {} ({}–{} per strand)",
+                set.points.len(),
+                set.strand_points.iter().min().unwrap_or(&0),
+                set.strand_points.iter().max().unwrap_or(&0)
+            );
+            println!("bounds:   {lo} .. {hi}");
+            println!("extras:   thickness {}, root uv {}", set.thickness.is_some(), set.root_uv.is_some());
+        }
+        "tfxbone" => {
+            let bones = hairmesh::strands::load_tfxbone(path)?;
+            println!("{}: TressFX bone skinning", path.display());
+            println!(
+                "bones:    {} ({})",
+                bones.bones.len(),
+                bones.bones.iter().map(|(_, n)| n.as_str()).collect::<Vec<_>>().join(", ")
+            );
+            println!("strands:  {}", bones.strands.len());
+        }
+        _ if path.is_dir() || ext == "json" => {
+            let (asset, manifest) = read_asset(path)?;
+            let t = &asset.textures;
+            println!("{}: {} v{}", path.display(), manifest.format, manifest.format_version);
+            println!("source:   {}", manifest.source.as_deref().unwrap_or("-"));
+            println!("units:    {}", manifest.units);
+            println!("bundles:  {} ({} layers)", asset.bundles.len(), t.layout.layers);
+            println!("strands:  {}", asset.total_strands());
+            println!(
+                "textures: {}×{} texels, {} curve slices, {:?}",
+                t.layout.width,
+                t.layout.height,
+                t.layout.curve_slices(),
+                manifest.precision
+            );
+            for (name, sets) in [("square", &asset.square_sets), ("triangle", &asset.triangle_sets)] {
+                for (i, s) in sets.iter().enumerate() {
+                    let worst = s.quality.iter().map(|(_, q)| *q).fold(f64::INFINITY, f64::min);
+                    let listing: Vec<String> = s.quality.iter().map(|(n, q)| format!("{n}:{q:.2}")).collect();
+                    println!(
+                        "{name} set {i}: {} samples, worst prefix min-distance {worst:.3} ({})",
+                        s.points.len(),
+                        listing.join(" ")
+                    );
+                }
+            }
+        }
+        _ => bail!("{}: not an asset folder, hair.json, .tfx, .tfxbone or .hair file", path.display()),
+    }
+    Ok(())
+}
