@@ -79,8 +79,9 @@ impl Default for EliminationParams {
     }
 }
 
-/// Largest sample count accepted, so a typo cannot ask for gigabytes of candidates.
-pub const MAX_SAMPLES: usize = 1 << 22;
+/// Largest sample count accepted: elimination keeps ~20 neighbours per candidate in memory
+/// (~200 MB at this size), so a typo cannot ask for gigabytes.
+pub const MAX_SAMPLES: usize = 1 << 18;
 
 /// `r_max` for `n` samples in area `area`: the radius of `n` hexagonally packed disks.
 pub fn r_max(area: f64, n: usize) -> f64 {
@@ -146,10 +147,19 @@ fn eliminate(
         if integer_alpha { x.powi(params.alpha as i32) } else { x.powf(params.alpha) }
     };
 
-    let mut weights = vec![0.0; count];
-    for (i, w) in weights.iter_mut().enumerate() {
-        grid.for_neighbors(points, i, |_, d| *w += weight_of(d));
+    // Neighbour lists with their weight contributions, computed once (CSR): elimination then
+    // walks contiguous memory instead of re-querying the grid for every removal.
+    let mut start = Vec::with_capacity(count + 1);
+    // f32 contributions halve the list's memory traffic; ~20 terms per sum lose nothing that
+    // matters for choosing which sample goes next.
+    let mut neighbours: Vec<(u32, f32)> = Vec::with_capacity(count * 20);
+    start.push(0u32);
+    for i in 0..count {
+        grid.for_neighbors(points, i, |j, d| neighbours.push((j as u32, weight_of(d) as f32)));
+        start.push(neighbours.len() as u32);
     }
+    let list = |i: usize| &neighbours[start[i] as usize..start[i + 1] as usize];
+    let weights = (0..count).map(|i| list(i).iter().map(|(_, w)| w).sum()).collect();
     let mut heap = IndexedMaxHeap::new(weights);
     let mut removed = Vec::with_capacity(count - target);
     let mut alive = vec![true; count];
@@ -157,11 +167,11 @@ fn eliminate(
         let Some(i) = heap.pop() else { break };
         alive[i] = false;
         removed.push(points[i]);
-        grid.for_neighbors(points, i, |j, d| {
-            if alive[j] {
-                heap.decrease(j, weight_of(d));
+        for &(j, w) in list(i) {
+            if alive[j as usize] {
+                heap.decrease(j as usize, w);
             }
-        });
+        }
     }
     let kept = points.iter().zip(&alive).filter(|(_, a)| **a).map(|(p, _)| *p).collect();
     (kept, removed)
@@ -226,13 +236,13 @@ impl Grid {
 struct IndexedMaxHeap {
     heap: Vec<u32>,
     position: Vec<u32>,
-    weight: Vec<f64>,
+    weight: Vec<f32>,
 }
 
 impl IndexedMaxHeap {
     const REMOVED: u32 = u32::MAX;
 
-    fn new(weight: Vec<f64>) -> Self {
+    fn new(weight: Vec<f32>) -> Self {
         let n = weight.len();
         let mut h = Self { heap: (0..n as u32).collect(), position: (0..n as u32).collect(), weight };
         for i in (0..n / 2).rev() {
@@ -253,7 +263,7 @@ impl IndexedMaxHeap {
         Some(top)
     }
 
-    fn decrease(&mut self, item: usize, by: f64) {
+    fn decrease(&mut self, item: usize, by: f32) {
         let pos = self.position[item];
         if pos != Self::REMOVED {
             self.weight[item] -= by;

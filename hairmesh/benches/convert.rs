@@ -1,0 +1,68 @@
+//! Conversion and blue-noise benchmarks (recorded in `docs/benchmarks.md`).
+//!
+//! `cargo bench -p hairmesh --bench convert`
+
+use std::hint::black_box;
+use std::path::Path;
+
+use criterion::{Criterion, criterion_group, criterion_main};
+use hairmesh::ScalpSelector;
+use hairmesh::asset::{AssetParams, HairAsset, StrandCount};
+use hairmesh::hair_mesh::{ExtrudeParams, HairMesh};
+use hairmesh::import::load_scalp;
+use hairmesh::roots::{EliminationParams, SampleDomain, progressive_samples};
+use hairmesh::style::Style;
+
+fn lee_perry_smith() -> std::path::PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR")).join("../../shared/testdata/heads/LeePerrySmith/LeePerrySmith.glb")
+}
+
+fn convert(c: &mut Criterion) {
+    let path = lee_perry_smith();
+    let selector = ScalpSelector::parse("above:0,1,0,1.5").expect("selector");
+    let mut group = c.benchmark_group("convert LeePerrySmith");
+    group.sample_size(10);
+    group.bench_function("import + weld + select", |b| {
+        b.iter(|| load_scalp(black_box(&path), &selector).expect("load"))
+    });
+    let scalp = load_scalp(&path, &selector).expect("load");
+    let hm = HairMesh::extrude(
+        &scalp,
+        &ExtrudeParams { layers: 4, length: 3.0, droop: 0.3, ..ExtrudeParams::default() },
+    )
+    .expect("extrude");
+    group.bench_function("hair mesh (4 layers)", |b| {
+        b.iter(|| {
+            HairMesh::extrude(
+                black_box(&scalp),
+                &ExtrudeParams { layers: 4, length: 3.0, droop: 0.3, ..ExtrudeParams::default() },
+            )
+        })
+    });
+    group.bench_function("textures + root sets (20k strands)", |b| {
+        b.iter(|| {
+            HairAsset::build(
+                black_box(&hm),
+                &AssetParams { strands: StrandCount::Total(20_000), sample_sets: 4, seed: 1 },
+                Style::default(),
+            )
+        })
+    });
+    group.finish();
+}
+
+fn sample_elimination(c: &mut Criterion) {
+    let mut group = c.benchmark_group("progressive sample elimination");
+    group.sample_size(10);
+    for n in [4096usize, 65536] {
+        group.bench_function(format!("{n} samples, square"), |b| {
+            b.iter(|| {
+                progressive_samples(black_box(n), SampleDomain::Square, 1, &EliminationParams::default())
+            })
+        });
+    }
+    group.finish();
+}
+
+criterion_group!(benches, convert, sample_elimination);
+criterion_main!(benches);
