@@ -23,7 +23,7 @@ fn convert(c: &mut Criterion) {
     let mut group = c.benchmark_group("convert LeePerrySmith");
     group.sample_size(10);
     group.bench_function("import + weld + select", |b| {
-        b.iter(|| load_scalp(black_box(&path), &selector).expect("load"))
+        b.iter(|| load_scalp(black_box(&path), &selector).expect("load"));
     });
     let scalp = load_scalp(&path, &selector).expect("load");
     let hm = HairMesh::extrude(
@@ -37,7 +37,7 @@ fn convert(c: &mut Criterion) {
                 black_box(&scalp),
                 &ExtrudeParams { layers: 4, length: 3.0, droop: 0.3, ..ExtrudeParams::default() },
             )
-        })
+        });
     });
     group.bench_function("textures + root sets (20k strands)", |b| {
         b.iter(|| {
@@ -46,7 +46,7 @@ fn convert(c: &mut Criterion) {
                 &AssetParams { strands: StrandCount::Total(20_000), sample_sets: 4, seed: 1 },
                 Style::default(),
             )
-        })
+        });
     });
     group.finish();
 }
@@ -58,7 +58,7 @@ fn sample_elimination(c: &mut Criterion) {
         group.bench_function(format!("{n} samples, square"), |b| {
             b.iter(|| {
                 progressive_samples(black_box(n), SampleDomain::Square, 1, &EliminationParams::default())
-            })
+            });
         });
     }
     group.finish();
