@@ -28,6 +28,9 @@ pub struct Capabilities {
     pub max_image_dimension_3d: u32,
     pub pipeline_statistics_query: bool,
     pub sampler_anisotropy: bool,
+    /// Bits of sub-texel precision in filtering weights: hardware trilinear filtering is exact
+    /// to about 2^-bits of the difference between neighbouring texels.
+    pub sub_texel_precision_bits: u32,
 }
 
 /// Limits of VK_EXT_mesh_shader that generation must respect (queried, never assumed).
@@ -130,6 +133,7 @@ impl Capabilities {
             max_image_dimension_3d: props.limits.max_image_dimension3_d,
             pipeline_statistics_query: features.pipeline_statistics_query == vk::TRUE,
             sampler_anisotropy: features.sampler_anisotropy == vk::TRUE,
+            sub_texel_precision_bits: props.limits.sub_texel_precision_bits,
         }
     }
 }
@@ -207,6 +211,7 @@ impl fmt::Display for Capabilities {
         )?;
         writeln!(f, "max push constants:     {} bytes", self.max_push_constants_size)?;
         writeln!(f, "max 3D image:           {}", self.max_image_dimension_3d)?;
+        writeln!(f, "sub-texel precision:    {} bits", self.sub_texel_precision_bits)?;
         write!(f, "pipeline statistics:    {}", yes_no(self.pipeline_statistics_query))
     }
 }

@@ -4,7 +4,7 @@ use std::time::Instant;
 use ash::vk;
 
 use crate::error::VkResultExt;
-use crate::{Buffer, BufferDesc, Context, GpuError, Image, MemoryLocation, Pipeline, Result};
+use crate::{Buffer, BufferDesc, Context, GpuError, Image, ImageDesc, MemoryLocation, Pipeline, Result};
 
 /// Most timestamp scopes one submission records.
 const MAX_SCOPES: u32 = 64;
@@ -156,6 +156,61 @@ impl<'a> Recorder<'a> {
                 &writes,
             );
         }
+    }
+
+    /// Binds storage buffers and combined image samplers of set 0 with push descriptors.
+    pub fn push_descriptors(
+        &self,
+        pipeline: &Pipeline,
+        buffers: &[(u32, &Buffer)],
+        images: &[(u32, &Image, &crate::Sampler)],
+    ) {
+        let buffer_infos: Vec<[vk::DescriptorBufferInfo; 1]> = buffers
+            .iter()
+            .map(|(_, b)| [vk::DescriptorBufferInfo { buffer: b.raw, offset: 0, range: vk::WHOLE_SIZE }])
+            .collect();
+        let image_infos: Vec<[vk::DescriptorImageInfo; 1]> = images
+            .iter()
+            .map(|(_, i, s)| {
+                [vk::DescriptorImageInfo {
+                    sampler: s.raw,
+                    image_view: i.view,
+                    image_layout: vk::ImageLayout::SHADER_READ_ONLY_OPTIMAL,
+                }]
+            })
+            .collect();
+        let mut writes: Vec<vk::WriteDescriptorSet<'_>> = buffers
+            .iter()
+            .zip(&buffer_infos)
+            .map(|((binding, _), info)| {
+                vk::WriteDescriptorSet::default()
+                    .dst_binding(*binding)
+                    .descriptor_type(vk::DescriptorType::STORAGE_BUFFER)
+                    .buffer_info(info)
+            })
+            .collect();
+        writes.extend(images.iter().zip(&image_infos).map(|((binding, _, _), info)| {
+            vk::WriteDescriptorSet::default()
+                .dst_binding(*binding)
+                .descriptor_type(vk::DescriptorType::COMBINED_IMAGE_SAMPLER)
+                .image_info(info)
+        }));
+        // SAFETY: recording; the writes point at live resources and match the set layout.
+        unsafe {
+            self.ctx.shared.push_descriptor.cmd_push_descriptor_set(
+                self.cmd,
+                pipeline.bind_point,
+                pipeline.layout,
+                0,
+                &writes,
+            );
+        }
+    }
+
+    /// `vkCmdDispatchIndirect` with the arguments at `offset`.
+    pub fn dispatch_indirect(&self, args: &Buffer, offset: u64) {
+        // SAFETY: recording with a compute pipeline bound; `args` holds a dispatch command.
+        unsafe { self.device().cmd_dispatch_indirect(self.cmd, args.raw, offset) };
     }
 
     pub fn push_constants<T: bytemuck::Pod>(&self, pipeline: &Pipeline, data: &T) {
@@ -423,6 +478,57 @@ impl Context {
             timings.passes.push(PassTiming { name: s.name, depth: s.depth, gpu_ms });
         }
         Ok((value, timings))
+    }
+
+    /// An image filled with tightly packed `data` and left in SHADER_READ_ONLY_OPTIMAL layout.
+    pub fn create_image_with_data(&self, name: &str, desc: ImageDesc, data: &[u8]) -> Result<Image> {
+        let image = Image::new(
+            self,
+            name,
+            desc.with_usage(vk::ImageUsageFlags::TRANSFER_DST | vk::ImageUsageFlags::SAMPLED),
+        )?;
+        let mut staging = Buffer::new(
+            self,
+            &format!("{name} (upload)"),
+            BufferDesc {
+                size: data.len().max(1) as u64,
+                usage: vk::BufferUsageFlags::TRANSFER_SRC,
+                location: MemoryLocation::CpuToGpu,
+            },
+        )?;
+        if let Some(m) = staging.mapped_mut() {
+            m[..data.len()].copy_from_slice(data);
+        }
+        self.submit(&format!("upload {name}"), |rec| {
+            rec.image_barrier(
+                &image,
+                (vk::ImageLayout::UNDEFINED, vk::ImageLayout::TRANSFER_DST_OPTIMAL),
+                (vk::PipelineStageFlags2::TOP_OF_PIPE, vk::AccessFlags2::NONE),
+                (vk::PipelineStageFlags2::COPY, vk::AccessFlags2::TRANSFER_WRITE),
+            );
+            let region = vk::BufferImageCopy::default()
+                .image_subresource(image.layers())
+                .image_extent(image.desc.extent);
+            // SAFETY: recording; the staging buffer holds the whole image, which is in
+            // TRANSFER_DST_OPTIMAL.
+            unsafe {
+                self.device().cmd_copy_buffer_to_image(
+                    rec.cmd,
+                    staging.raw,
+                    image.raw,
+                    vk::ImageLayout::TRANSFER_DST_OPTIMAL,
+                    &[region],
+                );
+            }
+            rec.image_barrier(
+                &image,
+                (vk::ImageLayout::TRANSFER_DST_OPTIMAL, vk::ImageLayout::SHADER_READ_ONLY_OPTIMAL),
+                (vk::PipelineStageFlags2::COPY, vk::AccessFlags2::TRANSFER_WRITE),
+                (vk::PipelineStageFlags2::ALL_COMMANDS, vk::AccessFlags2::SHADER_SAMPLED_READ),
+            );
+            Ok(())
+        })?;
+        Ok(image)
     }
 
     /// A device-local buffer filled with `data` (mapped directly where the memory is

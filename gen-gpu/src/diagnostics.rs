@@ -6,7 +6,8 @@ use ash::vk;
 
 use crate::{
     Binding, Buffer, BufferDesc, ComputePipelineDesc, Context, FrameTimings, GenerationPath, GpuError,
-    GraphicsPipelineDesc, GraphicsStages, Image, ImageDesc, MemoryLocation, Pipeline, Result, shaders,
+    GraphicsPipelineDesc, GraphicsStages, Image, ImageDesc, MemoryLocation, Pipeline, Recorder, Result,
+    shaders,
 };
 
 /// The hash `pattern.comp` writes, for checking its output exactly on the CPU.
@@ -65,8 +66,7 @@ struct TestStripParams {
 /// Points per test strand (`TEST_STRIP_POINTS` in `test_strips.glsl`).
 pub const TEST_STRIP_POINTS: u32 = 17;
 const STRANDS_PER_TASK_GROUP: u32 = 32;
-const COLOR_FORMAT: vk::Format = vk::Format::R8G8B8A8_UNORM;
-const DEPTH_FORMAT: vk::Format = vk::Format::D32_SFLOAT;
+use crate::generator::{COLOR_FORMAT, DEPTH_FORMAT};
 
 /// An 8-bit RGBA image read back from the GPU.
 #[derive(Clone, Debug, PartialEq, Eq)]
@@ -261,4 +261,124 @@ pub fn draw_test_strips(
     })?;
     let pixels = ctx.read_buffer(&readback, readback.size())?;
     Ok((RgbaImage { width, height, pixels }, timings))
+}
+
+/// A colour + depth target of the generator's formats with a readback buffer.
+#[derive(Debug)]
+pub struct RenderTarget {
+    pub color: Image,
+    pub depth: Image,
+    readback: Buffer,
+}
+
+impl RenderTarget {
+    pub fn new(ctx: &Context, width: u32, height: u32) -> Result<Self> {
+        Ok(Self {
+            color: Image::new(
+                ctx,
+                "render target colour",
+                ImageDesc::d2(
+                    width,
+                    height,
+                    COLOR_FORMAT,
+                    vk::ImageUsageFlags::COLOR_ATTACHMENT | vk::ImageUsageFlags::TRANSFER_SRC,
+                ),
+            )?,
+            depth: Image::new(
+                ctx,
+                "render target depth",
+                ImageDesc::d2(width, height, DEPTH_FORMAT, vk::ImageUsageFlags::DEPTH_STENCIL_ATTACHMENT),
+            )?,
+            readback: Buffer::new(
+                ctx,
+                "render target readback",
+                BufferDesc {
+                    size: u64::from(width) * u64::from(height) * 4,
+                    usage: vk::BufferUsageFlags::TRANSFER_DST,
+                    location: MemoryLocation::GpuToCpu,
+                },
+            )?,
+        })
+    }
+
+    /// Transitions both images for rendering and begins rendering with a dark clear colour.
+    pub fn begin(&self, rec: &Recorder<'_>) {
+        let top = (vk::PipelineStageFlags2::TOP_OF_PIPE, vk::AccessFlags2::NONE);
+        rec.image_barrier(
+            &self.color,
+            (vk::ImageLayout::UNDEFINED, vk::ImageLayout::COLOR_ATTACHMENT_OPTIMAL),
+            top,
+            COLOR_ATTACHMENT,
+        );
+        rec.image_barrier(
+            &self.depth,
+            (vk::ImageLayout::UNDEFINED, vk::ImageLayout::DEPTH_ATTACHMENT_OPTIMAL),
+            top,
+            DEPTH_ATTACHMENT,
+        );
+        rec.begin_rendering(&self.color, [0.02, 0.02, 0.03, 1.0], Some(&self.depth));
+    }
+
+    /// After rendering ended: copies the colour image to the readback buffer.
+    pub fn copy_out(&self, rec: &Recorder<'_>) {
+        rec.image_barrier(
+            &self.color,
+            (vk::ImageLayout::COLOR_ATTACHMENT_OPTIMAL, vk::ImageLayout::TRANSFER_SRC_OPTIMAL),
+            COLOR_ATTACHMENT,
+            (vk::PipelineStageFlags2::COPY, vk::AccessFlags2::TRANSFER_READ),
+        );
+        rec.copy_image_to_buffer(&self.color, &self.readback);
+    }
+
+    /// The image copied by [`Self::copy_out`] (after the submission).
+    pub fn read(&self, ctx: &Context) -> Result<RgbaImage> {
+        let e = self.color.desc.extent;
+        Ok(RgbaImage {
+            width: e.width,
+            height: e.height,
+            pixels: ctx.read_buffer(&self.readback, self.readback.size())?,
+        })
+    }
+}
+
+const COLOR_ATTACHMENT: (vk::PipelineStageFlags2, vk::AccessFlags2) =
+    (vk::PipelineStageFlags2::COLOR_ATTACHMENT_OUTPUT, vk::AccessFlags2::COLOR_ATTACHMENT_WRITE);
+const DEPTH_ATTACHMENT: (vk::PipelineStageFlags2, vk::AccessFlags2) = (
+    vk::PipelineStageFlags2::from_raw(
+        vk::PipelineStageFlags2::EARLY_FRAGMENT_TESTS.as_raw()
+            | vk::PipelineStageFlags2::LATE_FRAGMENT_TESTS.as_raw(),
+    ),
+    vk::AccessFlags2::from_raw(
+        vk::AccessFlags2::DEPTH_STENCIL_ATTACHMENT_WRITE.as_raw()
+            | vk::AccessFlags2::DEPTH_STENCIL_ATTACHMENT_READ.as_raw(),
+    ),
+);
+
+/// Generates and draws `hair` through `path` into a `width`×`height` image.
+pub fn draw_hair(
+    ctx: &Context,
+    generator: &crate::Generator,
+    hair: &crate::GpuHair,
+    inputs: &crate::FrameInputs,
+    path: GenerationPath,
+) -> Result<(RgbaImage, FrameTimings)> {
+    let [width, height] = inputs.viewport;
+    let frame = generator.prepare(ctx, hair, inputs)?;
+    let target = RenderTarget::new(ctx, width, height)?;
+    let ((), timings) = ctx.submit(&format!("hair ({path})"), |rec| {
+        if path == GenerationPath::Compute {
+            generator.record_lod(rec, hair, &frame);
+            generator.record_generate(rec, hair, &frame);
+        }
+        target.begin(rec);
+        let name = match path {
+            GenerationPath::Compute => "raster (vertex pulling)",
+            GenerationPath::Mesh => "generate+raster (task+mesh)",
+        };
+        let drawn = rec.pass(name, |rec| generator.record_draw(rec, hair, &frame, path, false));
+        rec.end_rendering();
+        target.copy_out(rec);
+        drawn
+    })?;
+    Ok((target.read(ctx)?, timings))
 }

@@ -13,6 +13,8 @@ mod command;
 mod context;
 pub mod diagnostics;
 mod error;
+mod generator;
+mod hair;
 mod path;
 mod pipeline;
 mod resource;
@@ -22,13 +24,18 @@ pub use caps::{Capabilities, MeshShaderLimits};
 pub use command::{FrameTimings, PassTiming, Recorder};
 pub use context::{Context, ContextDesc, Validation, ValidationMessage};
 pub use error::{GpuError, Result};
+pub use generator::{
+    COLOR_FORMAT, Capture, CapturedStrand, DEPTH_FORMAT, Filtering, FrameBuffers, FrameInputs,
+    GenerationStats, Generator,
+};
 pub use gpu_allocator::MemoryLocation;
+pub use hair::{GpuHair, TextureBytes, TexturePrecision};
 pub use path::{GenerationPath, PathChoice};
 pub use pipeline::{
     Binding, ComputePipeline, ComputePipelineDesc, GraphicsPipeline, GraphicsPipelineDesc, GraphicsStages,
     Pipeline,
 };
-pub use resource::{Buffer, BufferDesc, Image, ImageDesc};
+pub use resource::{Buffer, BufferDesc, Image, ImageDesc, Sampler};
 
 /// The SPIR-V modules of this crate, compiled from `gen-gpu/shaders` at build time.
 pub mod shaders {

@@ -153,6 +153,11 @@ impl ImageDesc {
         Self { extent, format, usage, image_type: vk::ImageType::TYPE_3D }
     }
 
+    pub fn with_usage(mut self, usage: vk::ImageUsageFlags) -> Self {
+        self.usage |= usage;
+        self
+    }
+
     fn aspect(&self) -> vk::ImageAspectFlags {
         match self.format {
             vk::Format::D32_SFLOAT | vk::Format::D16_UNORM => vk::ImageAspectFlags::DEPTH,
@@ -285,5 +290,42 @@ impl Drop for Image {
             self.shared.device.destroy_image(self.raw, None);
         }
         self.shared.free(self.allocation.take(), &self.name);
+    }
+}
+
+/// A sampler; destroyed on drop.
+pub struct Sampler {
+    shared: Arc<DeviceShared>,
+    pub raw: vk::Sampler,
+}
+
+impl std::fmt::Debug for Sampler {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("Sampler").finish()
+    }
+}
+
+impl Sampler {
+    /// Linear filtering, clamp to edge, no mipmaps, normalized coordinates.
+    pub fn linear_clamp(ctx: &Context, name: &str) -> Result<Self> {
+        let info = vk::SamplerCreateInfo::default()
+            .mag_filter(vk::Filter::LINEAR)
+            .min_filter(vk::Filter::LINEAR)
+            .mipmap_mode(vk::SamplerMipmapMode::NEAREST)
+            .address_mode_u(vk::SamplerAddressMode::CLAMP_TO_EDGE)
+            .address_mode_v(vk::SamplerAddressMode::CLAMP_TO_EDGE)
+            .address_mode_w(vk::SamplerAddressMode::CLAMP_TO_EDGE)
+            .max_lod(0.0);
+        // SAFETY: valid device and create info.
+        let raw = unsafe { ctx.device().create_sampler(&info, None) }.call("vkCreateSampler")?;
+        ctx.set_name(raw, name);
+        Ok(Self { shared: ctx.shared.clone(), raw })
+    }
+}
+
+impl Drop for Sampler {
+    fn drop(&mut self) {
+        // SAFETY: submissions are synchronous, so the sampler is idle.
+        unsafe { self.shared.device.destroy_sampler(self.raw, None) };
     }
 }

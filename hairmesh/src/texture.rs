@@ -271,11 +271,17 @@ pub fn styling_frames(hm: &HairMesh, uvs: &[DVec2]) -> Vec<Vec<[DVec3; 3]>> {
         .collect()
 }
 
+/// Smallest `|û×v̂|` (sine of the angle between û and v̂) kept; below it the uv mapping is
+/// nearly singular there and ŵ = û×v̂ would amplify any rounding of û, v̂ (f16 textures, f32
+/// math) into large turns of the styling frame, so the fallback frame is used instead.
+pub const MIN_FRAME_SINE: f64 = 0.2;
+
 fn frame_or_fallback(su: DVec3, sv: DVec3, normal: DVec3, column_dir: DVec3, edge: DVec3) -> [DVec3; 3] {
-    if let (Some(u), Some(v)) = (su.try_normalize(), sv.try_normalize())
-        && let Some(w) = u.cross(v).try_normalize()
-    {
-        return [u, v, w];
+    if let (Some(u), Some(v)) = (su.try_normalize(), sv.try_normalize()) {
+        let cross = u.cross(v);
+        if cross.length() >= MIN_FRAME_SINE {
+            return [u, v, cross.normalize()];
+        }
     }
     let w = normal.try_normalize().or_else(|| column_dir.try_normalize()).unwrap_or(DVec3::Y);
     let u = (edge - w * edge.dot(w)).try_normalize().unwrap_or_else(|| w.any_orthonormal_vector());

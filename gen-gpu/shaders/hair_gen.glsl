@@ -1,0 +1,371 @@
+// Strand generation shared by the mesh path (strand.task/strand.mesh) and the compute path
+// (lod.comp, generate.comp). It is the GPU port of hairmesh's CPU reference generator
+// (hairmesh/src/reference.rs, style.rs, texture.rs): same layout, same hash, same formulas,
+// same order. Keep the two in step; tests compare them.
+
+#extension GL_EXT_control_flow_attributes : enable
+
+// Specialization constants.
+layout(constant_id = 0) const uint MANUAL_FILTERING = 0u; // 1: texelFetch + f32 lerps
+layout(constant_id = 1) const uint CAPTURE = 0u;          // mesh path: also write the capture buffer
+
+const uint MAX_SEGMENTS_LOG2 = 5u;
+const uint MAX_SEGMENTS = 1u << MAX_SEGMENTS_LOG2;
+const uint MAX_VERTICES = MAX_SEGMENTS + 1u;
+const uint STRAND_THREADS = 32u;
+
+struct GenParams {
+    mat4 view_proj;      // object space -> clip space
+    vec4 eye;            // xyz: eye in object space; w: vertical resolution R
+    vec4 projection;     // x: tan(fov_y / 2) (perspective); y: half view height (orthographic); z: 1 = orthographic; w: 1 = cull
+    vec4 lod;            // x: enabled; y: strand alpha; z: vertex alpha; w: morph band lambda
+    uvec4 counts;        // x: bundles; y: max segments log2 E; z: square sets; w: triangle sets
+    vec4 normalization;  // xyz: origin; w: scale
+    uvec4 layout_info;   // x: blocks per row; y: width; z: height; w: layers L
+    vec4 style0;         // width, tip_width, root_fade, length_variation
+    vec4 curl;           // radius, frequency, phase, -
+    vec4 wave_frizz;     // wave amplitude, wave frequency, frizz amplitude, frizz frequency
+    vec4 frizz_clump;    // frizz exponent, clump strength, clump exponent, twist
+    vec4 stray;          // fraction, amplitude, -, -
+    uvec4 seed_info;     // x: style seed; y: triangle set base (index of the first triangle set); z, w: -
+    vec4 viewport;       // x: width, y: height in pixels
+};
+
+struct Bundle {
+    vec4 bounds_min;     // xyz, w: face size (strand LOD h)
+    vec4 bounds_max;     // xyz, w: hair length (vertex LOD h)
+    uvec4 info;          // x: strands N_i; y: domain (0 square, 1 triangle); z: sample set; w: -
+};
+
+struct SampleSetInfo {
+    uint offset;
+    uint count;
+};
+
+struct BundleLod {
+    uint strands;        // N'_i (0 when culled)
+    uint level;          // e
+    float gamma;         // morph weight of odd vertices
+    float width_scale;   // min(1/L, N_i)
+};
+
+layout(std430, set = 0, binding = 0) readonly buffer ParamsBuffer { GenParams params; };
+layout(std430, set = 0, binding = 1) readonly buffer BundleBuffer { Bundle bundles[]; };
+layout(std430, set = 0, binding = 2) readonly buffer SampleBuffer { vec2 samples[]; };
+layout(std430, set = 0, binding = 3) readonly buffer SampleSetBuffer { SampleSetInfo sample_sets[]; };
+layout(set = 0, binding = 4) uniform sampler3D hair_mesh_tex;
+layout(set = 0, binding = 5) uniform sampler3D u_tex;
+layout(set = 0, binding = 6) uniform sampler3D v_tex;
+layout(set = 0, binding = 7) uniform sampler3D w_tex;
+
+// ---------------------------------------------------------------- hashing (style.rs)
+
+uint pcg_hash(uint v) {
+    uint state = v * 747796405u + 2891336453u;
+    uint word = ((state >> ((state >> 28u) + 4u)) ^ state) * 277803737u;
+    return (word >> 22u) ^ word;
+}
+
+float strand_random(uint bundle, uint strand, uint k) {
+    uint h = pcg_hash(pcg_hash(pcg_hash(bundle ^ params.seed_info.x) + strand) + k);
+    return float(h) * (1.0 / 4294967296.0);
+}
+
+float bundle_delta(uint bundle) {
+    return float(pcg_hash(bundle ^ 0x5bd1e995u)) * (1.0 / 4294967296.0);
+}
+
+// ---------------------------------------------------------------- textures (texture.rs)
+
+// Trilinear fetch at continuous texel coordinates (texel centres at +0.5), clamp to edge.
+vec4 fetch(sampler3D tex, vec3 coord) {
+    vec3 size = vec3(textureSize(tex, 0));
+    if (MANUAL_FILTERING == 0u) {
+        return textureLod(tex, coord / size, 0.0);
+    }
+    vec3 f = clamp(coord - 0.5, vec3(0.0), size - 1.0);
+    ivec3 i0 = ivec3(floor(f));
+    ivec3 i1 = min(i0 + 1, ivec3(size) - 1);
+    vec3 w = f - vec3(i0);
+    vec4 c00 = mix(texelFetch(tex, ivec3(i0.x, i0.y, i0.z), 0), texelFetch(tex, ivec3(i1.x, i0.y, i0.z), 0), w.x);
+    vec4 c10 = mix(texelFetch(tex, ivec3(i0.x, i1.y, i0.z), 0), texelFetch(tex, ivec3(i1.x, i1.y, i0.z), 0), w.x);
+    vec4 c01 = mix(texelFetch(tex, ivec3(i0.x, i0.y, i1.z), 0), texelFetch(tex, ivec3(i1.x, i0.y, i1.z), 0), w.x);
+    vec4 c11 = mix(texelFetch(tex, ivec3(i0.x, i1.y, i1.z), 0), texelFetch(tex, ivec3(i1.x, i1.y, i1.z), 0), w.x);
+    return mix(mix(c00, c10, w.y), mix(c01, c11, w.y), w.z);
+}
+
+vec2 block_coord(uint bundle, vec2 st) {
+    uint per_row = params.layout_info.x;
+    return vec2(float(2u * (bundle % per_row)) + 0.5 + st.x, float(2u * (bundle / per_row)) + 0.5 + st.y);
+}
+
+// Object-space point of the curve surface: two trilinear fetches and a lerp per quadratic.
+vec3 curve_position(uint bundle, vec2 st, float tau) {
+    vec2 xy = block_coord(bundle, st);
+    float layers = float(max(params.layout_info.w, 1u));
+    float x = min(clamp(tau, 0.0, 1.0) * layers, layers);
+    float segment = min(floor(x), layers - 1.0);
+    float local = x - segment;
+    float z0;
+    float q;
+    if (local < 0.5) {
+        z0 = 4.0 * segment;
+        q = 2.0 * local;
+    } else {
+        z0 = 4.0 * segment + 2.0;
+        q = 2.0 * local - 1.0;
+    }
+    vec3 a = fetch(hair_mesh_tex, vec3(xy, z0 + 0.5 + q)).xyz;
+    vec3 b = fetch(hair_mesh_tex, vec3(xy, z0 + 1.5 + q)).xyz;
+    return params.normalization.xyz + mix(a, b, q) * params.normalization.w;
+}
+
+// ---------------------------------------------------------------- roots (asset.rs)
+
+vec2 root_parameter(uint bundle, uint strand) {
+    Bundle b = bundles[bundle];
+    SampleSetInfo set = sample_sets[b.info.z];
+    vec2 p = samples[set.offset + strand % max(set.count, 1u)];
+    if (b.info.y == 1u) {
+        float denom = 1.0 - p.y;
+        p.x = denom > 1e-12 ? clamp(p.x / denom, 0.0, 1.0) : 0.0;
+    }
+    return p;
+}
+
+vec2 centre_parameter(uint bundle) {
+    return bundles[bundle].info.y == 1u ? vec2(0.5, 1.0 / 3.0) : vec2(0.5, 0.5);
+}
+
+// ---------------------------------------------------------------- styling (style.rs)
+
+float smoothstep_safe(float edge0, float edge1, float x) {
+    if (edge1 <= edge0) {
+        return x >= edge1 ? 1.0 : 0.0;
+    }
+    float t = clamp((x - edge0) / (edge1 - edge0), 0.0, 1.0);
+    return t * t * (3.0 - 2.0 * t);
+}
+
+float length_scale(uint bundle, uint strand) {
+    return 1.0 - clamp(params.style0.w, 0.0, 1.0) * strand_random(bundle, strand, 0u);
+}
+
+vec3 frizz_noise(uint bundle, uint strand, float x) {
+    float i = floor(x);
+    float f = x - i;
+    float blend = f * f * (3.0 - 2.0 * f);
+    uint cell = uint(i - 1048576.0 * floor(i / 1048576.0));
+    uint next = (cell + 1u) % 1048576u;
+    vec3 a = vec3(strand_random(bundle, strand, 16u + 3u * cell), strand_random(bundle, strand, 17u + 3u * cell),
+                  strand_random(bundle, strand, 18u + 3u * cell)) * 2.0 - 1.0;
+    vec3 b = vec3(strand_random(bundle, strand, 16u + 3u * next), strand_random(bundle, strand, 17u + 3u * next),
+                  strand_random(bundle, strand, 18u + 3u * next)) * 2.0 - 1.0;
+    return mix(a, b, blend);
+}
+
+vec3 rotate_about(vec3 v, vec3 axis, float angle) {
+    float s = sin(angle);
+    float c = cos(angle);
+    return v * c + cross(axis, v) * s + axis * dot(axis, v) * (1.0 - c);
+}
+
+vec3 try_normalize(vec3 v, vec3 fallback) {
+    float l = length(v);
+    return (l > 0.0 && !isinf(1.0 / l)) ? v / l : fallback;
+}
+
+vec3 any_orthonormal(vec3 v) {
+    // glam's any_orthonormal_vector (Frisvad / Duff et al.).
+    float s = v.z >= 0.0 ? 1.0 : -1.0;
+    float a = -1.0 / (s + v.z);
+    float b = v.x * v.y * a;
+    return vec3(b, s + v.y * v.y * a, -v.y);
+}
+
+vec3 style_apply(uint bundle, uint strand, float tau, vec3 position, vec3 centre, vec3 fu, vec3 fv, vec3 fw, float w) {
+    float fade = smoothstep_safe(0.0, params.style0.z, tau);
+    if (fade == 0.0) {
+        return position;
+    }
+    bool stray = strand_random(bundle, strand, 3u) < params.stray.x;
+    const float TURN = 6.28318530717958647692;
+    float curl_phase = TURN * (params.curl.y * w + params.curl.z + strand_random(bundle, strand, 1u));
+    float wave_phase = TURN * (params.wave_frizz.y * w + strand_random(bundle, strand, 2u));
+    float frizz_amplitude = params.wave_frizz.z + (stray ? params.stray.y : 0.0);
+    vec3 frizz = frizz_noise(bundle, strand, w * params.wave_frizz.w) *
+                 (frizz_amplitude * pow(tau, max(params.frizz_clump.x, 0.0)));
+    vec3 d = vec3(params.curl.x * cos(curl_phase) + params.wave_frizz.x * sin(wave_phase),
+                  params.curl.x * sin(curl_phase), 0.0) + frizz;
+    vec3 p = position + (fu * d.x + fv * d.y + fw * d.z) * fade;
+    if (params.frizz_clump.w != 0.0) {
+        p = centre + rotate_about(p - centre, fw, TURN * params.frizz_clump.w * tau * fade);
+    }
+    if (!stray && params.frizz_clump.y != 0.0) {
+        float amount = clamp(params.frizz_clump.y * pow(tau, max(params.frizz_clump.z, 0.0)) * fade, 0.0, 1.0);
+        p = mix(p, centre, amount);
+    }
+    return p;
+}
+
+// One styled strand point (HairAsset::strand_point).
+vec3 strand_point(uint bundle, uint strand, vec2 root, float tau) {
+    float t_curve = tau * length_scale(bundle, strand);
+    vec3 position = curve_position(bundle, root, t_curve);
+    if (tau <= 0.0) {
+        return position;
+    }
+    vec3 centre = curve_position(bundle, centre_parameter(bundle), t_curve);
+    vec2 xy = block_coord(bundle, root);
+    vec3 z = vec3(xy, t_curve * float(params.layout_info.w) + 0.5);
+    vec3 u = try_normalize(fetch(u_tex, z).xyz, vec3(1.0, 0.0, 0.0));
+    vec3 v = fetch(v_tex, z).xyz;
+    float w = fetch(w_tex, z).x;
+    vec3 fw = try_normalize(cross(u, v), any_orthonormal(u));
+    return style_apply(bundle, strand, tau, position, centre, u, cross(fw, u), fw, w);
+}
+
+float width_at(float tau) {
+    return params.style0.x * (1.0 + (params.style0.y - 1.0) * clamp(tau, 0.0, 1.0));
+}
+
+// ---------------------------------------------------------------- LOD (reference.rs)
+
+float detail_level(float h, float d, float alpha) {
+    float half_view = params.projection.z > 0.5 ? params.projection.y : d * params.projection.x;
+    if (!(half_view > 0.0) || !(alpha > 0.0)) {
+        return 1.0;
+    }
+    float l = h * params.eye.w / (alpha * half_view);
+    return isnan(l) ? 1.0 : clamp(l, 0.0, 1.0);
+}
+
+bool bundle_visible(uint bundle) {
+    vec3 lo = bundles[bundle].bounds_min.xyz;
+    vec3 hi = bundles[bundle].bounds_max.xyz;
+    // Outside when all 8 corners are beyond one clip plane.
+    mat4 m = params.view_proj;
+    // Per plane: 1 while every corner so far is outside it.
+    uvec4 out_xy = uvec4(1u);
+    uvec2 out_z = uvec2(1u);
+    for (uint c = 0u; c < 8u; ++c) {
+        vec3 p = vec3((c & 1u) != 0u ? hi.x : lo.x, (c & 2u) != 0u ? hi.y : lo.y, (c & 4u) != 0u ? hi.z : lo.z);
+        vec4 clip = m * vec4(p, 1.0);
+        out_xy = min(out_xy, uvec4(bvec4(clip.x < -clip.w, clip.x > clip.w, clip.y < -clip.w, clip.y > clip.w)));
+        out_z = min(out_z, uvec2(bvec2(clip.z < 0.0, clip.z > clip.w)));
+    }
+    return (out_xy.x | out_xy.y | out_xy.z | out_xy.w | out_z.x | out_z.y) == 0u;
+}
+
+BundleLod bundle_lod(uint bundle) {
+    Bundle b = bundles[bundle];
+    uint e_max = min(params.counts.y, MAX_SEGMENTS_LOG2);
+    BundleLod l;
+    if (params.projection.w > 0.5 && !bundle_visible(bundle)) {
+        l.strands = 0u;
+        l.level = 0u;
+        l.gamma = 0.0;
+        l.width_scale = 1.0;
+        return l;
+    }
+    if (params.lod.x < 0.5) {
+        l.strands = b.info.x;
+        l.level = e_max;
+        l.gamma = 0.0;
+        l.width_scale = 1.0;
+        return l;
+    }
+    float d = distance(params.eye.xyz, 0.5 * (b.bounds_min.xyz + b.bounds_max.xyz));
+    float ls = detail_level(b.bounds_min.w, d, params.lod.y);
+    float n = float(b.info.x);
+    l.strands = uint(clamp(ceil(ls * n - bundle_delta(bundle)), 1.0, n));
+    l.width_scale = ls > 0.0 ? min(1.0 / ls, n) : n;
+    float lv = detail_level(b.bounds_max.w, d, params.lod.z);
+    float x = log2(lv * float(1u << e_max));
+    float lambda = max(params.lod.w, 1e-6);
+    uint level = isnan(x) ? 0u : uint(clamp(ceil(x), 0.0, float(e_max)));
+    uint coarse = isnan(x - lambda) ? 0u : uint(clamp(ceil(x - lambda), 0.0, float(e_max)));
+    l.level = level;
+    l.gamma = level > coarse ? clamp(1.0 - (x - float(coarse)) / lambda, 0.0, 1.0) : 0.0;
+    return l;
+}
+
+// ---------------------------------------------------------------- one strand per workgroup
+
+struct StrandVertex {
+    vec3 position;
+    float width;
+    vec3 tangent;
+    float tau;
+};
+
+// Stages without workgroups (vertex pulling) define HAIR_GEN_NO_WORKGROUP and only use the
+// strip expansion below.
+#ifndef HAIR_GEN_NO_WORKGROUP
+shared vec3 strand_positions[MAX_VERTICES];
+
+vec3 seg_dir(vec3 a, vec3 b, vec3 fallback) {
+    return try_normalize(b - a, fallback);
+}
+
+// Tangent of vertex k of the polyline strand_positions[0, stride, 2*stride, ...] with n points
+// (Eq. 5-6), where k indexes that polyline.
+vec3 polyline_tangent(uint k, uint n, uint stride) {
+    vec3 first_seg = seg_dir(strand_positions[0], strand_positions[stride], vec3(0.0, 1.0, 0.0));
+    if (n == 2u) {
+        return first_seg;
+    }
+    if (k > 0u && k < n - 1u) {
+        return seg_dir(strand_positions[(k - 1u) * stride], strand_positions[(k + 1u) * stride], first_seg);
+    }
+    if (k == 0u) {
+        vec3 t1 = seg_dir(strand_positions[0], strand_positions[2u * stride], first_seg);
+        return try_normalize(2.0 * first_seg * dot(t1, first_seg) - t1, first_seg);
+    }
+    vec3 last_seg = seg_dir(strand_positions[(n - 2u) * stride], strand_positions[(n - 1u) * stride], first_seg);
+    vec3 tp = seg_dir(strand_positions[(n - 3u) * stride], strand_positions[(n - 1u) * stride], first_seg);
+    return try_normalize(2.0 * last_seg * dot(tp, last_seg) - tp, last_seg);
+}
+
+// Phase 1: every thread computes its full-detail vertices into shared memory.
+void strand_compute_positions(uint bundle, uint strand, BundleLod l, uint thread) {
+    uint segments = 1u << l.level;
+    vec2 root = root_parameter(bundle, strand);
+    for (uint k = thread; k <= segments; k += STRAND_THREADS) {
+        strand_positions[k] = strand_point(bundle, strand, root, float(k) / float(segments));
+    }
+}
+
+// Phase 2 (after a barrier): the morphed vertex k with its tangent and width.
+StrandVertex strand_vertex(uint bundle, uint strand, BundleLod l, uint k) {
+    uint segments = 1u << l.level;
+    uint n = segments + 1u;
+    StrandVertex v;
+    vec3 full_tangent = polyline_tangent(k, n, 1u);
+    v.position = strand_positions[k];
+    v.tangent = full_tangent;
+    if (l.gamma > 0.0 && segments >= 2u) {
+        float g = l.gamma;
+        if ((k & 1u) == 1u) {
+            v.position = (1.0 - g) * strand_positions[k] + g * 0.5 * (strand_positions[k - 1u] + strand_positions[k + 1u]);
+            vec3 coarse = try_normalize(strand_positions[k + 1u] - strand_positions[k - 1u], full_tangent);
+            v.tangent = try_normalize((1.0 - g) * full_tangent + g * coarse, full_tangent);
+        } else {
+            vec3 coarse = polyline_tangent(k / 2u, segments / 2u + 1u, 2u);
+            v.tangent = try_normalize((1.0 - g) * full_tangent + g * coarse, full_tangent);
+        }
+    }
+    v.tau = float(k) / float(segments);
+    v.width = width_at(v.tau) * l.width_scale;
+    return v;
+}
+
+#endif
+
+// Camera-facing strip corners of a strand vertex, in clip space.
+void strip_corners(StrandVertex v, out vec4 left, out vec4 right) {
+    vec3 to_eye = params.projection.z > 0.5 ? params.eye.xyz : params.eye.xyz - v.position;
+    vec3 side = try_normalize(cross(v.tangent, to_eye), any_orthonormal(v.tangent)) * (0.5 * v.width);
+    left = params.view_proj * vec4(v.position - side, 1.0);
+    right = params.view_proj * vec4(v.position + side, 1.0);
+}

@@ -1,0 +1,48 @@
+#version 460
+// Compute path, pass 1b: exclusive prefix sum of the strand counts (one workgroup, in order, so
+// strand slots are deterministic), then the indirect dispatch and draw arguments.
+#extension GL_GOOGLE_include_directive : require
+#include "hair_gen.glsl"
+#include "hair_outputs.glsl"
+
+layout(local_size_x = 256) in;
+
+shared uint partial[256];
+
+void main() {
+    uint t = gl_LocalInvocationID.x;
+    uint count = params.counts.x;
+    uint carry = 0u;
+    for (uint base = 0u; base < count; base += 256u) {
+        uint i = base + t;
+        uint value = i < count ? lods[i].strands : 0u;
+        partial[t] = value;
+        barrier();
+        // Hillis-Steele inclusive scan.
+        for (uint step = 1u; step < 256u; step <<= 1u) {
+            uint add = t >= step ? partial[t - step] : 0u;
+            barrier();
+            partial[t] += add;
+            barrier();
+        }
+        if (i < count) {
+            offsets[i] = carry + partial[t] - value;
+        }
+        carry += partial[255];
+        barrier();
+    }
+    if (t == 0u) {
+        // Slots beyond the buffers' capacity are not generated (the host sized them from its
+        // own LOD estimate; total_strands still reports the real count).
+        uint slots = min(carry, params.seed_info.z);
+        total_strands = carry;
+        total_vertices = slots * MAX_VERTICES;
+        dispatch_x = min(slots, DISPATCH_ROW);
+        dispatch_y = (slots + DISPATCH_ROW - 1u) / DISPATCH_ROW;
+        dispatch_z = 1u;
+        draw.vertex_count = MAX_SEGMENTS * 6u;
+        draw.instance_count = slots;
+        draw.first_vertex = 0u;
+        draw.first_instance = 0u;
+    }
+}

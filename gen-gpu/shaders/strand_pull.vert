@@ -1,0 +1,38 @@
+#version 460
+// Compute path, raster: vertex pulling of generated strands as camera-facing strips. Six
+// vertices per segment, triangles (2k, 2k+1, 2k+2) and (2k+2, 2k+1, 2k+3) as in strand.mesh;
+// segments past a strand's vertex count are clipped away.
+#extension GL_GOOGLE_include_directive : require
+#define HAIR_GEN_NO_WORKGROUP
+#include "hair_gen.glsl"
+#include "hair_outputs.glsl"
+
+layout(location = 0) out vec4 v_color;
+
+const uint CORNER[6] = uint[6](0u, 1u, 2u, 2u, 1u, 3u);
+
+#include "strand_color.glsl"
+
+void main() {
+    uint slot = uint(gl_InstanceIndex);
+    uint segment = uint(gl_VertexIndex) / 6u;
+    uint corner = CORNER[uint(gl_VertexIndex) % 6u];
+    uvec4 info = strand_info[slot];
+    if (segment + 1u >= info.z) {
+        gl_Position = vec4(0.0, 0.0, -1.0, 1.0);
+        v_color = vec4(0.0);
+        return;
+    }
+    uint k = segment + corner / 2u;
+    uint base = (slot * MAX_VERTICES + k) * 2u;
+    StrandVertex v;
+    v.position = strand_vertices[base].xyz;
+    v.width = strand_vertices[base].w;
+    v.tangent = strand_vertices[base + 1u].xyz;
+    v.tau = strand_vertices[base + 1u].w;
+    vec4 left;
+    vec4 right;
+    strip_corners(v, left, right);
+    gl_Position = (corner & 1u) == 0u ? left : right;
+    v_color = strand_color(v, info.x, info.y);
+}

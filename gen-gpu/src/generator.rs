@@ -1,0 +1,497 @@
+//! On-the-fly strand generation: the compute path (LOD pass, prefix sum, generation pass,
+//! vertex pulling) and the mesh path (task + mesh shaders), both from `hair_gen.glsl`.
+//!
+//! ```no_run
+//! # fn main() -> Result<(), Box<dyn std::error::Error>> {
+//! use gen_gpu::{Context, ContextDesc, Filtering, FrameInputs, GenerationPath, Generator, GpuHair, TexturePrecision};
+//! let ctx = Context::new(&ContextDesc::default())?;
+//! # let asset: hairmesh::asset::HairAsset = todo!();
+//! let hair = GpuHair::upload(&ctx, &asset, TexturePrecision::Auto)?;
+//! let generator = Generator::new(&ctx, Filtering::Hardware)?;
+//! let inputs = FrameInputs::looking_at(&asset, glam::Vec3::new(0.0, 1.7, 0.6), 256, 256);
+//! let capture = generator.capture(&ctx, &hair, &inputs, GenerationPath::Compute)?;
+//! println!("{} strands generated", capture.strands.len());
+//! # Ok(()) }
+//! ```
+
+use ash::vk;
+use glam::{DVec3, Mat4, Vec3};
+use hairmesh::asset::HairAsset;
+use hairmesh::reference::{LodParams, Projection, ViewParams, bundle_lod};
+
+use crate::{
+    Binding, Buffer, BufferDesc, ComputePipelineDesc, Context, FrameTimings, GenerationPath, GpuError,
+    GpuHair, GraphicsPipelineDesc, GraphicsStages, MemoryLocation, Pipeline, Recorder, Result, shaders,
+};
+
+/// Hardware trilinear filtering, or texelFetch + f32 lerps (specialization constant 0).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash)]
+pub enum Filtering {
+    #[default]
+    Hardware,
+    Manual,
+}
+
+/// What one frame generates for.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct FrameInputs {
+    /// Object space → clip space (Vulkan clip: z ∈ [0, w]).
+    pub view_proj: Mat4,
+    /// Camera for LOD, in object space (f64, as the CPU reference takes it).
+    pub view: ViewParams,
+    pub lod: LodParams,
+    pub viewport: [u32; 2],
+    /// Frustum-cull bundles against `view_proj` (on by default).
+    pub cull: bool,
+}
+
+impl FrameInputs {
+    /// A perspective camera at `eye` looking at the asset's centre (45° vertical field of view).
+    pub fn looking_at(asset: &HairAsset, eye: Vec3, width: u32, height: u32) -> Self {
+        let (lo, hi) = asset
+            .bundles
+            .iter()
+            .fold((DVec3::splat(f64::INFINITY), DVec3::splat(f64::NEG_INFINITY)), |(lo, hi), b| {
+                (lo.min(b.bounds_min), hi.max(b.bounds_max))
+            });
+        let centre = (0.5 * (lo + hi)).as_vec3();
+        let fov_y = 45f32.to_radians();
+        let far = (eye.distance(centre) + (hi - lo).length() as f32) * 2.0;
+        let proj = Mat4::perspective_rh(fov_y, width as f32 / height.max(1) as f32, far * 1e-4, far);
+        // Vulkan's y points down in clip space.
+        let flip = Mat4::from_scale(Vec3::new(1.0, -1.0, 1.0));
+        let view = Mat4::look_at_rh(eye, centre, Vec3::Y);
+        Self {
+            view_proj: flip * proj * view,
+            view: ViewParams {
+                eye: eye.as_dvec3(),
+                vertical_resolution: f64::from(height),
+                projection: Projection::Perspective { fov_y: f64::from(fov_y) },
+            },
+            lod: LodParams::default(),
+            viewport: [width, height],
+            cull: true,
+        }
+    }
+}
+
+/// `GenParams` in `hair_gen.glsl` (std430).
+#[repr(C)]
+#[derive(Clone, Copy, Debug, bytemuck::Pod, bytemuck::Zeroable)]
+struct GenParams {
+    view_proj: [f32; 16],
+    eye: [f32; 4],
+    projection: [f32; 4],
+    lod: [f32; 4],
+    counts: [u32; 4],
+    normalization: [f32; 4],
+    layout_info: [u32; 4],
+    style0: [f32; 4],
+    curl: [f32; 4],
+    wave_frizz: [f32; 4],
+    frizz_clump: [f32; 4],
+    stray: [f32; 4],
+    seed_info: [u32; 4],
+    viewport: [f32; 4],
+}
+
+/// Vertices per strand slot and bytes per vertex in the strand buffer (`hair_outputs.glsl`).
+pub const MAX_VERTICES: u64 = 33;
+const VERTEX_BYTES: u64 = 32;
+const OFFSETS_HEADER: u64 = 48;
+const DISPATCH_ARGS_OFFSET: u64 = 8;
+const DRAW_ARGS_OFFSET: u64 = 32;
+
+/// One generated strand read back from the GPU.
+#[derive(Clone, Debug, PartialEq)]
+pub struct CapturedStrand {
+    pub bundle: u32,
+    pub index: u32,
+    pub positions: Vec<Vec3>,
+    pub tangents: Vec<Vec3>,
+    pub widths: Vec<f32>,
+}
+
+/// What a capture produced.
+#[derive(Clone, Debug)]
+pub struct Capture {
+    pub strands: Vec<CapturedStrand>,
+    pub stats: GenerationStats,
+    pub timings: FrameTimings,
+}
+
+/// Counts of one generation.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct GenerationStats {
+    pub bundles: u32,
+    pub bundles_culled: u32,
+    pub strands: u64,
+    pub vertices: u64,
+}
+
+/// Per-frame buffers, sized from the LOD result.
+#[derive(Debug)]
+pub struct FrameBuffers {
+    params: Buffer,
+    lods: Buffer,
+    offsets: Buffer,
+    strand_vertices: Buffer,
+    strand_info: Buffer,
+    capacity: u64,
+}
+
+/// Pipelines of both paths.
+#[derive(Debug)]
+pub struct Generator {
+    lod: Pipeline,
+    scan: Pipeline,
+    generate: Pipeline,
+    pull: Pipeline,
+    mesh: Option<Pipeline>,
+    mesh_capture: Option<Pipeline>,
+    pub filtering: Filtering,
+}
+
+/// Colour and depth formats the generator's draws render into.
+pub const COLOR_FORMAT: vk::Format = vk::Format::R8G8B8A8_UNORM;
+pub const DEPTH_FORMAT: vk::Format = vk::Format::D32_SFLOAT;
+
+fn bindings() -> Vec<Binding> {
+    let all = vk::ShaderStageFlags::ALL;
+    let mut b: Vec<Binding> = (0..4).map(|i| Binding::storage_buffer(i, all)).collect();
+    b.extend((4..8).map(|i| Binding {
+        binding: i,
+        ty: vk::DescriptorType::COMBINED_IMAGE_SAMPLER,
+        stages: all,
+    }));
+    b.extend((8..12).map(|i| Binding::storage_buffer(i, all)));
+    b
+}
+
+impl Generator {
+    pub fn new(ctx: &Context, filtering: Filtering) -> Result<Self> {
+        let manual = u32::from(filtering == Filtering::Manual);
+        let bindings = bindings();
+        let compute = |name, shader| {
+            Pipeline::compute(
+                ctx,
+                &ComputePipelineDesc {
+                    name,
+                    shader,
+                    bindings: &bindings,
+                    push_constant_size: 0,
+                    specialization: &[(0, manual)],
+                },
+            )
+        };
+        let graphics = |name, stages, capture: u32, push: u32| {
+            Pipeline::graphics(
+                ctx,
+                &GraphicsPipelineDesc {
+                    name,
+                    stages,
+                    fragment: &shaders::STRAND_FRAG,
+                    bindings: &bindings,
+                    push_constant_size: push,
+                    specialization: &[(0, manual), (1, capture)],
+                    color_format: COLOR_FORMAT,
+                    depth_format: Some(DEPTH_FORMAT),
+                    blend: false,
+                },
+            )
+        };
+        let mesh_stages =
+            GraphicsStages::Mesh { task: Some(&shaders::STRAND_TASK), mesh: &shaders::STRAND_MESH };
+        let has_mesh = ctx.capabilities().mesh_shader.is_some();
+        Ok(Self {
+            lod: compute("strand LOD", &shaders::LOD_COMP)?,
+            scan: compute("strand prefix sum", &shaders::SCAN_COMP)?,
+            generate: compute("strand generation", &shaders::GENERATE_COMP)?,
+            pull: graphics(
+                "strands (vertex pulling)",
+                GraphicsStages::Vertex(&shaders::STRAND_PULL_VERT),
+                0,
+                0,
+            )?,
+            mesh: if has_mesh { Some(graphics("strands (task+mesh)", mesh_stages, 0, 4)?) } else { None },
+            mesh_capture: if has_mesh {
+                Some(graphics("strands (task+mesh, capture)", mesh_stages, 1, 4)?)
+            } else {
+                None
+            },
+            filtering,
+        })
+    }
+
+    /// Strand slots needed for `inputs`: the CPU's LOD estimate plus one per bundle for f32
+    /// rounding, never more than the asset holds.
+    pub fn capacity(hair: &GpuHair, inputs: &FrameInputs) -> u64 {
+        let asset = &hair.asset;
+        let estimate: u64 = (0..hair.bundle_count)
+            .map(|b| u64::from(bundle_lod(asset, b, &inputs.view, &inputs.lod).strands))
+            .sum();
+        (estimate + u64::from(hair.bundle_count)).min(hair.total_strands).max(1)
+    }
+
+    /// Allocates the frame buffers for `inputs` and writes the frame parameters.
+    pub fn prepare(&self, ctx: &Context, hair: &GpuHair, inputs: &FrameInputs) -> Result<FrameBuffers> {
+        let capacity = Self::capacity(hair, inputs);
+        let vertex_bytes = capacity * MAX_VERTICES * VERTEX_BYTES;
+        let limit = u64::from(ctx.capabilities().max_storage_buffer_range);
+        if vertex_bytes > limit {
+            return Err(GpuError::OverBudget {
+                name: "generated strand vertices".into(),
+                requested: vertex_bytes,
+                budget: limit,
+                why: "maxStorageBufferRange; raise the LOD α or draw the character in parts",
+            });
+        }
+        let params = params(hair, inputs, capacity);
+        let params = ctx.create_buffer_with_data(
+            "generation parameters",
+            BufferDesc::storage(size_of::<GenParams>() as u64).location(MemoryLocation::CpuToGpu),
+            bytemuck::bytes_of(&params),
+        )?;
+        let bundles = u64::from(hair.bundle_count);
+        let indirect = vk::BufferUsageFlags::INDIRECT_BUFFER;
+        Ok(FrameBuffers {
+            params,
+            lods: Buffer::new(ctx, "bundle LOD", BufferDesc::storage(bundles * 16))?,
+            offsets: Buffer::new(
+                ctx,
+                "strand offsets",
+                BufferDesc::storage(OFFSETS_HEADER + bundles * 4).usage(indirect),
+            )?,
+            strand_vertices: Buffer::new(ctx, "strand vertices", BufferDesc::storage(vertex_bytes))?,
+            strand_info: Buffer::new(ctx, "strand info", BufferDesc::storage(capacity * 16))?,
+            capacity,
+        })
+    }
+
+    fn push_all(&self, rec: &Recorder<'_>, pipeline: &Pipeline, hair: &GpuHair, frame: &FrameBuffers) {
+        rec.push_descriptors(
+            pipeline,
+            &[
+                (0, &frame.params),
+                (1, &hair.bundles),
+                (2, &hair.samples),
+                (3, &hair.sample_sets),
+                (8, &frame.lods),
+                (9, &frame.offsets),
+                (10, &frame.strand_vertices),
+                (11, &frame.strand_info),
+            ],
+            &[
+                (4, &hair.hair_mesh, &hair.sampler),
+                (5, &hair.u, &hair.sampler),
+                (6, &hair.v, &hair.sampler),
+                (7, &hair.w, &hair.sampler),
+            ],
+        );
+    }
+
+    /// Compute path pass 1: LOD per bundle and the prefix sum with indirect arguments.
+    pub fn record_lod(&self, rec: &mut Recorder<'_>, hair: &GpuHair, frame: &FrameBuffers) {
+        let compute = (vk::PipelineStageFlags2::COMPUTE_SHADER, vk::AccessFlags2::SHADER_STORAGE_WRITE);
+        let read = vk::AccessFlags2::SHADER_STORAGE_READ | vk::AccessFlags2::SHADER_STORAGE_WRITE;
+        rec.pass("LOD + cull", |rec| {
+            rec.bind_pipeline(&self.lod);
+            self.push_all(rec, &self.lod, hair, frame);
+            rec.dispatch(hair.bundle_count.div_ceil(shaders::LOD_COMP.workgroup_size[0]), 1, 1);
+        });
+        rec.memory_barrier(compute, (vk::PipelineStageFlags2::COMPUTE_SHADER, read));
+        rec.pass("prefix sum", |rec| {
+            rec.bind_pipeline(&self.scan);
+            self.push_all(rec, &self.scan, hair, frame);
+            rec.dispatch(1, 1, 1);
+        });
+        rec.memory_barrier(
+            compute,
+            (
+                vk::PipelineStageFlags2::DRAW_INDIRECT
+                    | vk::PipelineStageFlags2::COMPUTE_SHADER
+                    | vk::PipelineStageFlags2::VERTEX_SHADER
+                    | vk::PipelineStageFlags2::TASK_SHADER_EXT
+                    | vk::PipelineStageFlags2::MESH_SHADER_EXT,
+                vk::AccessFlags2::INDIRECT_COMMAND_READ | read,
+            ),
+        );
+    }
+
+    /// Compute path pass 2: every strand's vertices into the strand buffer.
+    pub fn record_generate(&self, rec: &mut Recorder<'_>, hair: &GpuHair, frame: &FrameBuffers) {
+        rec.pass("generate (compute)", |rec| {
+            rec.bind_pipeline(&self.generate);
+            self.push_all(rec, &self.generate, hair, frame);
+            rec.dispatch_indirect(&frame.offsets, DISPATCH_ARGS_OFFSET);
+        });
+        rec.memory_barrier(
+            (vk::PipelineStageFlags2::COMPUTE_SHADER, vk::AccessFlags2::SHADER_STORAGE_WRITE),
+            (
+                vk::PipelineStageFlags2::VERTEX_SHADER
+                    | vk::PipelineStageFlags2::COPY
+                    | vk::PipelineStageFlags2::HOST,
+                vk::AccessFlags2::SHADER_STORAGE_READ
+                    | vk::AccessFlags2::TRANSFER_READ
+                    | vk::AccessFlags2::HOST_READ,
+            ),
+        );
+    }
+
+    /// Draws the strands inside a rendering scope begun by the caller (colour
+    /// [`COLOR_FORMAT`], depth [`DEPTH_FORMAT`]). The compute path expects
+    /// [`Self::record_lod`] and [`Self::record_generate`] earlier in the command buffer; the
+    /// mesh path generates here.
+    pub fn record_draw(
+        &self,
+        rec: &mut Recorder<'_>,
+        hair: &GpuHair,
+        frame: &FrameBuffers,
+        path: GenerationPath,
+        capture: bool,
+    ) -> Result<()> {
+        match path {
+            GenerationPath::Compute => {
+                rec.bind_pipeline(&self.pull);
+                self.push_all(rec, &self.pull, hair, frame);
+                rec.draw_indirect(&frame.offsets, DRAW_ARGS_OFFSET);
+                Ok(())
+            }
+            GenerationPath::Mesh => {
+                let pipeline = if capture { self.mesh_capture.as_ref() } else { self.mesh.as_ref() };
+                let pipeline = pipeline.ok_or_else(|| GpuError::MeshShaderUnsupported {
+                    requested: "mesh",
+                    device: rec.ctx().capabilities().device_name.clone(),
+                })?;
+                let limits = rec
+                    .ctx()
+                    .capabilities()
+                    .mesh_shader
+                    .ok_or(GpuError::MeshShaderUnsupported { requested: "mesh", device: String::new() })?;
+                // One task workgroup per bundle, in rows within maxTaskWorkGroupCount
+                // (lavapipe does not check it; real GPUs fail).
+                let per_row = hair.bundle_count.clamp(1, limits.max_task_work_group_count[0]);
+                let rows = hair.bundle_count.div_ceil(per_row);
+                if rows > limits.max_task_work_group_count[1]
+                    || u64::from(per_row) * u64::from(rows)
+                        > u64::from(limits.max_task_work_group_total_count)
+                {
+                    return Err(GpuError::OverBudget {
+                        name: "task workgroups".into(),
+                        requested: u64::from(hair.bundle_count),
+                        budget: u64::from(limits.max_task_work_group_total_count),
+                        why: "maxTaskWorkGroupCount",
+                    });
+                }
+                rec.bind_pipeline(pipeline);
+                self.push_all(rec, pipeline, hair, frame);
+                rec.push_constants(pipeline, &per_row);
+                rec.draw_mesh_tasks(per_row, rows, 1)
+            }
+        }
+    }
+
+    /// Generates through `path`, drawing into a small offscreen target, and reads back every
+    /// generated strand (the mesh path under its capture specialization).
+    pub fn capture(
+        &self,
+        ctx: &Context,
+        hair: &GpuHair,
+        inputs: &FrameInputs,
+        path: GenerationPath,
+    ) -> Result<Capture> {
+        let frame = self.prepare(ctx, hair, inputs)?;
+        let target = crate::diagnostics::RenderTarget::new(ctx, 64, 64)?;
+        let ((), timings) = ctx.submit(&format!("capture ({path})"), |rec| {
+            self.record_lod(rec, hair, &frame);
+            if path == GenerationPath::Compute {
+                self.record_generate(rec, hair, &frame);
+            }
+            target.begin(rec);
+            let drawn =
+                rec.pass(&format!("draw ({path})"), |rec| self.record_draw(rec, hair, &frame, path, true));
+            rec.end_rendering();
+            drawn
+        })?;
+        let strands = read_strands(ctx, &frame)?;
+        let stats = self.stats(ctx, hair, &frame)?;
+        Ok(Capture { strands, stats, timings })
+    }
+
+    /// Counts of the last generation into `frame`.
+    pub fn stats(&self, ctx: &Context, hair: &GpuHair, frame: &FrameBuffers) -> Result<GenerationStats> {
+        let header: Vec<u32> = bytemuck::pod_collect_to_vec(&ctx.read_buffer(&frame.offsets, 8)?);
+        let lods: Vec<[u32; 4]> =
+            bytemuck::pod_collect_to_vec(&ctx.read_buffer(&frame.lods, u64::from(hair.bundle_count) * 16)?);
+        let vertices = lods.iter().map(|l| u64::from(l[0]) * ((1u64 << l[1]) + 1)).sum();
+        Ok(GenerationStats {
+            bundles: hair.bundle_count,
+            bundles_culled: lods.iter().filter(|l| l[0] == 0).count() as u32,
+            strands: u64::from(header[0]),
+            vertices,
+        })
+    }
+}
+
+fn read_strands(ctx: &Context, frame: &FrameBuffers) -> Result<Vec<CapturedStrand>> {
+    let header: Vec<u32> = bytemuck::pod_collect_to_vec(&ctx.read_buffer(&frame.offsets, 8)?);
+    let count = u64::from(header[0]).min(frame.capacity);
+    let info: Vec<[u32; 4]> = bytemuck::pod_collect_to_vec(&ctx.read_buffer(&frame.strand_info, count * 16)?);
+    let vertices: Vec<[f32; 8]> = bytemuck::pod_collect_to_vec(
+        &ctx.read_buffer(&frame.strand_vertices, count * MAX_VERTICES * VERTEX_BYTES)?,
+    );
+    Ok(info
+        .iter()
+        .enumerate()
+        .map(|(slot, &[bundle, index, n, _])| {
+            let v = &vertices[slot * MAX_VERTICES as usize..][..(n as usize).min(MAX_VERTICES as usize)];
+            CapturedStrand {
+                bundle,
+                index,
+                positions: v.iter().map(|x| Vec3::new(x[0], x[1], x[2])).collect(),
+                widths: v.iter().map(|x| x[3]).collect(),
+                tangents: v.iter().map(|x| Vec3::new(x[4], x[5], x[6])).collect(),
+            }
+        })
+        .collect())
+}
+
+fn params(hair: &GpuHair, inputs: &FrameInputs, capacity: u64) -> GenParams {
+    let asset = &hair.asset;
+    let t = &asset.textures;
+    let s = &asset.style;
+    let (tan_half, ortho_half, ortho) = match inputs.view.projection {
+        Projection::Perspective { fov_y } => ((0.5 * fov_y).tan() as f32, 0.0, 0.0),
+        Projection::Orthographic { height } => (0.0, 0.5 * height as f32, 1.0),
+    };
+    let lod = &inputs.lod;
+    let e = inputs.view.eye.as_vec3();
+    let n = t.normalization;
+    let f = |v: f64| v as f32;
+    GenParams {
+        view_proj: inputs.view_proj.to_cols_array(),
+        eye: [e.x, e.y, e.z, f(inputs.view.vertical_resolution)],
+        projection: [tan_half, ortho_half, ortho, if inputs.cull { 1.0 } else { 0.0 }],
+        lod: [
+            if lod.enabled { 1.0 } else { 0.0 },
+            f(lod.strand_alpha),
+            f(lod.vertex_alpha),
+            f(lod.morph_band),
+        ],
+        counts: [
+            hair.bundle_count,
+            lod.max_segments_log2.min(5),
+            asset.square_sets.len() as u32,
+            asset.triangle_sets.len() as u32,
+        ],
+        normalization: [f(n.origin.x), f(n.origin.y), f(n.origin.z), f(n.scale)],
+        layout_info: [t.layout.blocks_per_row, t.layout.width, t.layout.height, t.layout.layers],
+        style0: [f(s.width), f(s.tip_width), f(s.root_fade), f(s.length_variation)],
+        curl: [f(s.curl.radius), f(s.curl.frequency), f(s.curl.phase), 0.0],
+        wave_frizz: [f(s.wave.amplitude), f(s.wave.frequency), f(s.frizz.amplitude), f(s.frizz.frequency)],
+        frizz_clump: [f(s.frizz.exponent), f(s.clump.strength), f(s.clump.exponent), f(s.twist)],
+        stray: [f(s.stray.fraction), f(s.stray.amplitude), 0.0, 0.0],
+        seed_info: [s.seed, asset.square_sets.len() as u32, capacity.min(u64::from(u32::MAX)) as u32, 0],
+        viewport: [inputs.viewport[0] as f32, inputs.viewport[1] as f32, 0.0, 0.0],
+    }
+}

@@ -1,0 +1,386 @@
+//! Strand generation on the GPU against the f64 CPU reference (`hairmesh::reference`), both
+//! paths against each other, culling, LOD extremes and budgets. Validation layer on.
+
+use std::process::ExitCode;
+
+use anyhow::{Context as _, bail, ensure};
+use gen_gpu::diagnostics::draw_hair;
+use gen_gpu::{
+    Capture, Context, Filtering, FrameInputs, GenerationPath, Generator, GpuHair, TexturePrecision,
+};
+use glam::{DVec3, Vec3};
+use hairkit_tests::harness::{GpuTest, Requirements, run_gpu_tests};
+use hairkit_tests::image_compare::{Tolerance, compare};
+use hairmesh::asset::{AssetParams, HairAsset, StrandCount};
+use hairmesh::hair_mesh::{ExtrudeParams, HairMesh};
+use hairmesh::reference::{LodParams, bundle_lod};
+use hairmesh::style::{Clump, Curl, Frizz, Style, Wave};
+
+fn head_cap_asset(strands: u64, style: Style) -> anyhow::Result<HairAsset> {
+    let scalp = hairmesh::procedural::head_cap(6, 24);
+    let hm = HairMesh::extrude(
+        &scalp,
+        &ExtrudeParams { layers: 4, length: 0.18, droop: 0.4, ..ExtrudeParams::default() },
+    )?;
+    Ok(HairAsset::build(
+        &hm,
+        &AssetParams { strands: StrandCount::Total(strands), sample_sets: 2, seed: 5 },
+        style,
+    )?)
+}
+
+fn lee_perry_smith_asset(strands: u64, style: Style) -> anyhow::Result<HairAsset> {
+    let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("../../shared/testdata/heads/LeePerrySmith/LeePerrySmith.glb");
+    let scalp = hairmesh::import::load_scalp(&path, &hairmesh::ScalpSelector::parse("above:0,1,0,1.5")?)
+        .with_context(|| format!("{} (clone the project beside shared/)", path.display()))?;
+    let hm = HairMesh::extrude(
+        &scalp,
+        &ExtrudeParams { layers: 4, length: 3.0, droop: 0.4, ..ExtrudeParams::default() },
+    )?;
+    Ok(HairAsset::build(
+        &hm,
+        &AssetParams { strands: StrandCount::Total(strands), sample_sets: 2, seed: 5 },
+        style,
+    )?)
+}
+
+fn styled(scale: f64) -> Style {
+    Style {
+        width: 0.002 * scale,
+        curl: Curl { radius: 0.02 * scale, frequency: 3.0 / scale, phase: 0.1 },
+        wave: Wave { amplitude: 0.01 * scale, frequency: 2.0 / scale },
+        frizz: Frizz { amplitude: 0.005 * scale, frequency: 8.0 / scale, exponent: 2.0 },
+        clump: Clump { strength: 0.4, exponent: 1.5 },
+        twist: 0.2,
+        length_variation: 0.2,
+        ..Style::default()
+    }
+}
+
+/// Errors of a capture against the CPU reference.
+#[derive(Debug, Default)]
+struct Errors {
+    strands: usize,
+    max_position_widths: f64,
+    mean_position_widths: f64,
+    max_tangent_degrees: f64,
+    max_width_relative: f64,
+}
+
+fn compare_to_reference(
+    asset: &HairAsset,
+    inputs: &FrameInputs,
+    capture: &Capture,
+) -> anyhow::Result<Errors> {
+    // Identical strand counts per bundle.
+    let mut counts = vec![0u32; asset.bundles.len()];
+    for s in &capture.strands {
+        counts[s.bundle as usize] += 1;
+    }
+    for (b, &n) in counts.iter().enumerate() {
+        let expected = bundle_lod(asset, b as u32, &inputs.view, &inputs.lod).strands;
+        ensure!(n == expected, "bundle {b}: GPU generated {n} strands, the reference {expected}");
+    }
+    let mut e = Errors { strands: capture.strands.len(), ..Errors::default() };
+    let mut sum = 0.0;
+    let mut samples = 0usize;
+    for s in &capture.strands {
+        let l = bundle_lod(asset, s.bundle, &inputs.view, &inputs.lod);
+        let r = asset.generate_strand(s.bundle, s.index, &l);
+        ensure!(
+            s.positions.len() == r.positions.len(),
+            "bundle {} strand {}: {} vertices, reference {}",
+            s.bundle,
+            s.index,
+            s.positions.len(),
+            r.positions.len()
+        );
+        let width = asset.style.width;
+        for k in 0..r.positions.len() {
+            let d = s.positions[k].as_dvec3().distance(r.positions[k]) / width;
+            ensure!(d.is_finite(), "non-finite GPU vertex");
+            e.max_position_widths = e.max_position_widths.max(d);
+            sum += d;
+            samples += 1;
+            let cos = s.tangents[k].as_dvec3().normalize_or_zero().dot(r.tangents[k]).clamp(-1.0, 1.0);
+            e.max_tangent_degrees = e.max_tangent_degrees.max(cos.acos().to_degrees());
+            e.max_width_relative =
+                e.max_width_relative.max((f64::from(s.widths[k]) - r.widths[k]).abs() / r.widths[k]);
+        }
+    }
+    e.mean_position_widths = sum / samples.max(1) as f64;
+    Ok(e)
+}
+
+fn inputs_for(asset: &HairAsset, eye: Vec3, lod: LodParams) -> FrameInputs {
+    FrameInputs { lod, ..FrameInputs::looking_at(asset, eye, 256, 256) }
+}
+
+/// Position bounds, in strand widths (the style's root width), derived per configuration from
+/// the asset's size S (its normalization scale) and the largest bundle diagonal D:
+/// * f32 + manual filtering: f32 texels and single-precision math: positions ~S·6e-8, plus the
+///   styling frame: û, v̂ are interpolated and normalized in f32 and ŵ = û×v̂ amplifies their
+///   rounding where they are nearly parallel, turning the styling offset (at most M, the
+///   style's maximum displacement) by a small angle: 1e-5·S + 0.01·M.
+/// * f32 + hardware filtering: the same plus the sampler's sub-texel weight precision: a weight
+///   is exact to 2^-bits, the texels it blends differ by at most D, per filtered axis (3): 3·D·2^-bits.
+/// * f16 + hardware: f16 keeps 11 bits of the normalized position, 2^-12·S per coordinate, √3·
+///   per vector, doubled for the two interpolations of a quadratic: 2·√3·2^-12·S, plus the
+///   hardware term.
+///
+/// Tangents: 0.5° for f32 (finite differences of vertices several widths apart); for f16 the
+/// position quantum 2·√3·2^-12·S over the shortest segment ℓ (shortest bundle length / 32) as
+/// an angle, ×4 for the styling frame's own f16 rounding.
+fn check_oracle(
+    ctx: &Context,
+    name: &str,
+    asset: &HairAsset,
+    eyes: &[Vec3],
+    lods: &[LodParams],
+) -> anyhow::Result<()> {
+    let scale = asset.textures.normalization.scale;
+    let diagonal = asset.bundles.iter().map(|b| b.bounds_min.distance(b.bounds_max)).fold(0.0, f64::max);
+    let bits = ctx.capabilities().sub_texel_precision_bits;
+    let width = asset.style.width;
+    let f32_math = (1e-5 * scale + 0.01 * asset.style.max_displacement()) / width;
+    let hardware = 3.0 * diagonal * 0.5f64.powi(bits as i32) / width;
+    let half = 2.0 * 3f64.sqrt() * 0.5f64.powi(12) * scale / width;
+    let shortest = asset.bundles.iter().map(|b| b.length).fold(f64::INFINITY, f64::min) / 32.0;
+    let half_degrees = 4.0 * (half * width / shortest).atan().to_degrees();
+    eprintln!(
+        "  {name}: bounds f32 manual {f32_math:.3}, f32 hardware {:.3}, f16 {:.3} widths, f16 tangents {half_degrees:.1}° ({bits} sub-texel bits)",
+        f32_math + hardware,
+        f32_math + hardware + half
+    );
+    for (filtering, precision, max_widths, max_degrees) in [
+        (Filtering::Hardware, TexturePrecision::F32, f32_math + hardware, 0.5),
+        (Filtering::Manual, TexturePrecision::F32, f32_math, 0.5),
+        (Filtering::Hardware, TexturePrecision::F16, f32_math + hardware + half, half_degrees),
+    ] {
+        let hair = GpuHair::upload(ctx, asset, precision)?;
+        let generator = Generator::new(ctx, filtering)?;
+        for eye in eyes {
+            for lod in lods {
+                let inputs = inputs_for(asset, *eye, *lod);
+                let capture = generator.capture(ctx, &hair, &inputs, GenerationPath::Compute)?;
+                let e = compare_to_reference(asset, &inputs, &capture)?;
+                eprintln!(
+                    "  {name} {filtering:?}/{precision:?} eye {eye} lod {}: {} strands, position max {:.4} mean {:.5} widths, tangent max {:.3}°, width {:.1e}",
+                    lod.enabled,
+                    e.strands,
+                    e.max_position_widths,
+                    e.mean_position_widths,
+                    e.max_tangent_degrees,
+                    e.max_width_relative
+                );
+                ensure!(e.strands > 0, "nothing generated");
+                ensure!(e.max_position_widths <= max_widths, "{name} {filtering:?}/{precision:?}: {e:?}");
+                ensure!(e.max_tangent_degrees <= max_degrees, "{name} {filtering:?}/{precision:?}: {e:?}");
+                ensure!(e.max_width_relative <= 1e-4, "{name}: {e:?}");
+            }
+        }
+    }
+    Ok(())
+}
+
+fn main() -> ExitCode {
+    let full = LodParams { enabled: false, ..LodParams::default() };
+    let lod = LodParams { strand_alpha: 2.0, vertex_alpha: 2.0, ..LodParams::default() };
+    run_gpu_tests(vec![
+        GpuTest::new("gpu_matches_cpu_reference_on_the_head_cap", Requirements::NONE, move |ctx| {
+            let asset = head_cap_asset(1500, styled(0.1))?;
+            let eyes = [Vec3::new(0.0, 1.7, 0.5), Vec3::new(0.3, 1.8, 3.0)];
+            check_oracle(ctx, "head cap", &asset, &eyes, &[full, lod])
+        }),
+        GpuTest::new("gpu_matches_cpu_reference_on_lee_perry_smith", Requirements::NONE, move |ctx| {
+            let asset = lee_perry_smith_asset(2000, styled(1.0))?;
+            let eyes = [Vec3::new(0.0, 6.0, 14.0), Vec3::new(5.0, 8.0, -60.0)];
+            check_oracle(ctx, "LeePerrySmith", &asset, &eyes, &[full, lod])
+        }),
+        GpuTest::new("mesh_path_matches_compute_path", Requirements::MESH_SHADER, move |ctx| {
+            let asset = head_cap_asset(1500, styled(0.1))?;
+            let hair = GpuHair::upload(ctx, &asset, TexturePrecision::F32)?;
+            let generator = Generator::new(ctx, Filtering::Hardware)?;
+            for lod in [full, lod] {
+                let inputs = inputs_for(&asset, Vec3::new(0.1, 1.75, 0.45), lod);
+                let compute = generator.capture(ctx, &hair, &inputs, GenerationPath::Compute)?;
+                let mesh = generator.capture(ctx, &hair, &inputs, GenerationPath::Mesh)?;
+                ensure!(compute.strands.len() == mesh.strands.len());
+                // Same include, same inputs: the strands agree to f32 rounding (a compiler may
+                // contract differently per stage): 1e-5 of the asset's size.
+                let tolerance = 1e-5 * asset.textures.normalization.scale as f32;
+                for (a, b) in compute.strands.iter().zip(&mesh.strands) {
+                    ensure!(
+                        (a.bundle, a.index) == (b.bundle, b.index) && a.positions.len() == b.positions.len()
+                    );
+                    for (p, q) in a.positions.iter().zip(&b.positions) {
+                        ensure!(p.distance(*q) <= tolerance, "{p} vs {q}");
+                    }
+                }
+                let (mesh_image, mt) = draw_hair(ctx, &generator, &hair, &inputs, GenerationPath::Mesh)?;
+                let (compute_image, ct) =
+                    draw_hair(ctx, &generator, &hair, &inputs, GenerationPath::Compute)?;
+                // Same triangles in the same order per strand; strands overlap at equal depth
+                // only where they touch, so mean FLIP ≤ 0.01 and 99th percentile ≤ 0.1.
+                let stats = compare(
+                    &format!("hair_mesh_vs_compute_lod_{}", lod.enabled),
+                    &mesh_image,
+                    &compute_image,
+                    Tolerance { mean: 0.01, percentile: (0.99, 0.1) },
+                )
+                .map_err(anyhow::Error::msg)?;
+                let covered = compute_image.pixels.chunks_exact(4).filter(|p| p[0] > 10).count();
+                ensure!(covered > 500, "only {covered} hair pixels");
+                eprintln!(
+                    "  lod {}: FLIP mean {:.5}; mesh {:.1} ms, compute {:.1} ms (whole submission)",
+                    lod.enabled,
+                    stats.mean,
+                    mt.passes[0].gpu_ms.unwrap_or(f64::NAN),
+                    ct.passes[0].gpu_ms.unwrap_or(f64::NAN)
+                );
+            }
+            Ok(())
+        }),
+        GpuTest::new("bundles_outside_the_frustum_generate_nothing", Requirements::NONE, move |ctx| {
+            let asset = head_cap_asset(800, Style::default())?;
+            let hair = GpuHair::upload(ctx, &asset, TexturePrecision::F32)?;
+            let generator = Generator::new(ctx, Filtering::Hardware)?;
+            // A narrow view of the cap's right side: bundles far from the view axis are out.
+            let eye = Vec3::new(0.5, 1.65, 0.0);
+            let mut inputs = inputs_for(&asset, eye, full);
+            let proj = glam::Mat4::perspective_rh(0.2, 1.0, 0.01, 10.0);
+            inputs.view_proj = glam::Mat4::from_scale(Vec3::new(1.0, -1.0, 1.0))
+                * proj
+                * glam::Mat4::look_at_rh(eye, Vec3::new(0.1, 1.65, 0.0), Vec3::Y);
+            let capture = generator.capture(ctx, &hair, &inputs, GenerationPath::Compute)?;
+            let stats = capture.stats;
+            eprintln!(
+                "  culled {} of {} bundles, {} strands",
+                stats.bundles_culled, stats.bundles, stats.strands
+            );
+            ensure!(stats.bundles_culled > 0 && stats.bundles_culled < stats.bundles, "{stats:?}");
+            let generated: std::collections::HashSet<u32> =
+                capture.strands.iter().map(|s| s.bundle).collect();
+            // The CPU's view of each bundle's bounds, with a margin against f32 rounding at the
+            // frustum planes: clearly outside → nothing; clearly inside → all its strands.
+            for (b, info) in asset.bundles.iter().enumerate() {
+                let corners: Vec<glam::Vec4> = (0..8)
+                    .map(|c| {
+                        let p = DVec3::new(
+                            if c & 1 != 0 { info.bounds_max.x } else { info.bounds_min.x },
+                            if c & 2 != 0 { info.bounds_max.y } else { info.bounds_min.y },
+                            if c & 4 != 0 { info.bounds_max.z } else { info.bounds_min.z },
+                        );
+                        inputs.view_proj * p.as_vec3().extend(1.0)
+                    })
+                    .collect();
+                let outside = |f: &dyn Fn(&glam::Vec4) -> f32| corners.iter().all(|c| f(c) > 1e-3);
+                let clearly_out = outside(&|c| -c.x - c.w)
+                    || outside(&|c| c.x - c.w)
+                    || outside(&|c| -c.y - c.w)
+                    || outside(&|c| c.y - c.w)
+                    || outside(&|c| -c.z)
+                    || outside(&|c| c.z - c.w);
+                let inside = |c: &glam::Vec4| {
+                    c.x.abs() < c.w - 1e-3 && c.y.abs() < c.w - 1e-3 && c.z > 1e-3 && c.z < c.w - 1e-3
+                };
+                let clearly_in = corners.iter().any(inside);
+                ensure!(
+                    !(clearly_out && generated.contains(&(b as u32))),
+                    "bundle {b} is outside the frustum but generated strands"
+                );
+                ensure!(
+                    !clearly_in || generated.contains(&(b as u32)),
+                    "bundle {b} is in view but generated nothing"
+                );
+            }
+            ensure!(stats.strands == capture.strands.len() as u64);
+            Ok(())
+        }),
+        GpuTest::new("lod_extremes_stay_valid_on_the_gpu", Requirements::NONE, move |ctx| {
+            let asset = head_cap_asset(800, styled(0.1))?;
+            let hair = GpuHair::upload(ctx, &asset, TexturePrecision::F32)?;
+            let generator = Generator::new(ctx, Filtering::Hardware)?;
+            for (eye, what) in
+                [(Vec3::new(0.0, 1.6, 0.0), "eye at the centre"), (Vec3::new(0.0, 1.7, 1e5), "far away")]
+            {
+                // The reference does not cull; here all bundles must come out.
+                let mut inputs = FrameInputs { cull: false, ..inputs_for(&asset, eye, lod) };
+                if what == "far away" {
+                    // Keep it in view: a narrow frustum 100 km away.
+                    inputs.view_proj = glam::Mat4::from_scale(Vec3::new(1.0, -1.0, 1.0))
+                        * glam::Mat4::perspective_rh(1e-5, 1.0, 10.0, 2e5)
+                        * glam::Mat4::look_at_rh(eye, Vec3::new(0.0, 1.65, 0.0), Vec3::Y);
+                }
+                let capture = generator.capture(ctx, &hair, &inputs, GenerationPath::Compute)?;
+                let e = compare_to_reference(&asset, &inputs, &capture).with_context(|| what.to_owned())?;
+                let per_bundle = capture.strands.len() as f64 / asset.bundles.len() as f64;
+                eprintln!(
+                    "  {what}: {} strands ({per_bundle:.2} per bundle), max error {:.4} widths",
+                    e.strands, e.max_position_widths
+                );
+                ensure!(capture.strands.iter().all(|s| s.positions.iter().all(|p| p.is_finite())));
+                if what == "far away" {
+                    ensure!(
+                        capture.strands.len() == asset.bundles.len(),
+                        "≥1 and here exactly 1 strand per bundle"
+                    );
+                    ensure!(
+                        capture.strands.iter().all(|s| s.positions.len() == 2),
+                        "lowest vertex level: 2 vertices"
+                    );
+                } else {
+                    ensure!(
+                        capture.strands.iter().all(|s| s.positions.len() == 33),
+                        "highest vertex level: 33 vertices"
+                    );
+                }
+            }
+            Ok(())
+        }),
+        GpuTest::new("requests_over_the_budget_fail_before_allocating", Requirements::NONE, move |ctx| {
+            // 300k strands of 33 vertices need 317 MB of strand buffer, over 128 MiB.
+            let asset = head_cap_asset(300_000, Style::default())?;
+            let hair = GpuHair::upload(ctx, &asset, TexturePrecision::F32)?;
+            let generator = Generator::new(ctx, Filtering::Hardware)?;
+            let inputs = inputs_for(&asset, Vec3::new(0.0, 1.7, 0.5), full);
+            match generator.capture(ctx, &hair, &inputs, GenerationPath::Compute) {
+                Err(gen_gpu::GpuError::OverBudget { requested, budget, .. }) => {
+                    ensure!(requested > budget, "{requested} vs {budget}");
+                    Ok(())
+                }
+                other => bail!("expected an over-budget error, got {:?}", other.map(|c| c.strands.len())),
+            }
+        }),
+        GpuTest::new("a_bundle_with_one_strand_and_tiny_assets", Requirements::NONE, move |ctx| {
+            let scalp = hairmesh::ScalpMesh {
+                positions: vec![
+                    DVec3::ZERO,
+                    DVec3::X * 0.01,
+                    DVec3::new(0.01, 0.0, -0.01),
+                    DVec3::new(0.0, 0.0, -0.01),
+                ],
+                faces: vec![vec![0, 1, 2, 3]],
+                ..Default::default()
+            };
+            let hm = HairMesh::extrude(
+                &scalp,
+                &ExtrudeParams { layers: 1, length: 0.05, ..ExtrudeParams::default() },
+            )?;
+            let asset = HairAsset::build(
+                &hm,
+                &AssetParams { strands: StrandCount::Total(1), sample_sets: 1, seed: 1 },
+                styled(0.01),
+            )?;
+            let hair = GpuHair::upload(ctx, &asset, TexturePrecision::F32)?;
+            let generator = Generator::new(ctx, Filtering::Hardware)?;
+            let inputs = inputs_for(&asset, Vec3::new(0.0, 0.03, 0.1), full);
+            let capture = generator.capture(ctx, &hair, &inputs, GenerationPath::Compute)?;
+            ensure!(capture.strands.len() == 1);
+            let e = compare_to_reference(&asset, &inputs, &capture)?;
+            ensure!(e.max_position_widths < 0.05, "{e:?}");
+            Ok(())
+        }),
+    ])
+}
