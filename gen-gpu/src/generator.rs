@@ -97,7 +97,7 @@ struct GenParams {
 
 /// Vertices per strand slot and bytes per vertex in the strand buffer (`hair_outputs.glsl`).
 pub const MAX_VERTICES: u64 = 33;
-const VERTEX_BYTES: u64 = 32;
+pub const VERTEX_BYTES: u64 = 32;
 const OFFSETS_HEADER: u64 = 48;
 const DISPATCH_ARGS_OFFSET: u64 = 8;
 const DRAW_ARGS_OFFSET: u64 = 32;

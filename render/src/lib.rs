@@ -1,6 +1,8 @@
-//! hairkit's renderer. Today: writing rendered images to disk and the `hairkit` command
-//! (`info`, `demo`). The strand rasterizer, scenes and the volume path build on this.
+//! hairkit's renderer. Today: crowds of characters with generated hair drawn into one image,
+//! image output and the `hairkit` command (`info`, `demo`). The strand rasterizer's shading,
+//! transparency, shadows, scenes and the volume path build on this.
 
+pub mod crowd;
 pub mod output;
 
 pub use gen_gpu::diagnostics::RgbaImage;

@@ -10,8 +10,8 @@ use std::time::Instant;
 
 use anyhow::{Context as _, Result, bail};
 use clap::{Args, Parser, Subcommand};
-use gen_gpu::diagnostics::draw_test_strips;
 use gen_gpu::{Context, ContextDesc, GenerationPath, PathChoice, Validation};
+use glam::{Mat4, Vec3};
 
 #[derive(Parser, Debug)]
 #[command(name = "hairkit", version, about = "hairkit: hair meshes rendered as strands generated on the GPU")]
@@ -30,15 +30,21 @@ enum Command {
         #[command(flatten)]
         device: DeviceArgs,
     },
-    /// Run the demo: device report, then strands drawn by each available generation path,
-    /// written as PNG, with timings.
+    /// Run the demo: convert a scalp into hair assets, render a small crowd with hair generated
+    /// on the GPU through each available path, write PNGs and print timings.
     Demo {
         /// Output folder.
         #[arg(short, long, default_value = "target/demo")]
         out: PathBuf,
-        /// Number of synthetic strands.
-        #[arg(long, default_value_t = 400)]
-        strands: u32,
+        /// The scalp to convert (glTF or OBJ).
+        #[arg(long, default_value = "assets/head_cap.gltf")]
+        scalp: PathBuf,
+        /// Strands per character.
+        #[arg(long, default_value_t = 3000)]
+        strands: u64,
+        /// Characters in the crowd.
+        #[arg(long, default_value_t = 6)]
+        characters: u32,
         /// Image size, WIDTHxHEIGHT.
         #[arg(long, default_value = "640x360", value_parser = parse_size)]
         size: (u32, u32),
@@ -113,41 +119,156 @@ fn run(cli: Cli) -> Result<()> {
             );
             Ok(())
         }
-        Command::Demo { out, strands, size, device } => demo(&out, strands, size, &device),
+        Command::Demo { out, scalp, strands, characters, size, device } => {
+            demo(&DemoOptions { out, scalp, strands, characters, size }, &device)
+        }
     }
 }
 
-fn demo(out: &std::path::Path, strands: u32, (width, height): (u32, u32), device: &DeviceArgs) -> Result<()> {
+struct DemoOptions {
+    out: PathBuf,
+    scalp: PathBuf,
+    strands: u64,
+    characters: u32,
+    size: (u32, u32),
+}
+
+fn timed<T>(what: &str, f: impl FnOnce() -> Result<T>) -> Result<T> {
+    let start = Instant::now();
+    let value = f()?;
+    println!("{what}: {:.1} ms", start.elapsed().as_secs_f64() * 1e3);
+    Ok(value)
+}
+
+fn demo(o: &DemoOptions, device: &DeviceArgs) -> Result<()> {
+    use hairmesh::asset::{AssetParams, HairAsset, StrandCount};
+    use hairmesh::hair_mesh::{ExtrudeParams, HairMesh};
+    use hairmesh::style::{Clump, Curl, Style, Wave};
+    use render::crowd::{Camera, Character, CrowdView, render_crowd};
+
+    if o.characters == 0 || o.characters > 400 {
+        bail!("--characters {} (expected 1..=400)", o.characters);
+    }
     let start = Instant::now();
     let ctx = device.context()?;
-    println!("== device\n{}\n", ctx.capabilities());
+    let caps = ctx.capabilities();
     println!(
-        "context created in {:.1} ms; default path: {}\n",
-        start.elapsed().as_secs_f64() * 1e3,
+        "== device: {} ({}), VK_EXT_mesh_shader: {}, default path: {}
+",
+        caps.device_name,
+        caps.driver_info,
+        if caps.mesh_shader.is_some() { "yes" } else { "no" },
         ctx.path()
     );
+
+    println!("== convert {}", o.scalp.display());
+    let scalp = timed("import", || {
+        hairmesh::import::load_scalp(&o.scalp, &hairmesh::ScalpSelector::All)
+            .with_context(|| format!("{} (run from the repository root, or pass --scalp)", o.scalp.display()))
+    })?;
+    let variants = [
+        (
+            ExtrudeParams { layers: 4, length: 0.14, droop: 0.8, ..ExtrudeParams::default() },
+            Style {
+                width: 0.0015,
+                curl: Curl { radius: 0.004, frequency: 30.0, phase: 0.0 },
+                clump: Clump { strength: 0.3, exponent: 1.5 },
+                length_variation: 0.25,
+                ..Style::default()
+            },
+        ),
+        (
+            ExtrudeParams { layers: 6, length: 0.3, droop: 1.4, ..ExtrudeParams::default() },
+            Style {
+                width: 0.0015,
+                wave: Wave { amplitude: 0.008, frequency: 8.0 },
+                clump: Clump { strength: 0.5, exponent: 1.0 },
+                length_variation: 0.15,
+                seed: 7,
+                ..Style::default()
+            },
+        ),
+    ];
+    let assets = timed("hair meshes, textures and root sets (2 styles)", || {
+        variants
+            .iter()
+            .map(|(extrude, style)| {
+                let hm = HairMesh::extrude(&scalp, extrude)?;
+                Ok(HairAsset::build(
+                    &hm,
+                    &AssetParams { strands: StrandCount::Total(o.strands), sample_sets: 4, seed: 1 },
+                    *style,
+                )?)
+            })
+            .collect::<Result<Vec<_>>>()
+    })?;
+    let hairs = timed("upload", || {
+        assets
+            .iter()
+            .map(|a| Ok(gen_gpu::GpuHair::upload(&ctx, a, gen_gpu::TexturePrecision::Auto)?))
+            .collect::<Result<Vec<_>>>()
+    })?;
+    for (i, h) in hairs.iter().enumerate() {
+        let stored = h.total_strands() * gen_gpu::MAX_VERTICES * gen_gpu::VERTEX_BYTES;
+        println!(
+            "  style {i}: {} bundles, {} strands; GPU asset {} bytes ({:?}) vs {} bytes as stored vertices ({:.0}x)",
+            h.bundle_count(),
+            h.total_strands(),
+            h.bytes.total(),
+            h.precision,
+            stored,
+            stored as f64 / h.bytes.total() as f64
+        );
+    }
+    let generator = timed("pipelines", || Ok(gen_gpu::Generator::new(&ctx, gen_gpu::Filtering::Hardware)?))?;
+
+    // A loose grid of characters facing the camera, turned a little each.
+    let columns = (f64::from(o.characters).sqrt().ceil() as u32).max(1);
+    let characters: Vec<Character> = (0..o.characters)
+        .map(|i| {
+            let (col, row) = (i % columns, i / columns);
+            let x = (col as f32 - (columns - 1) as f32 / 2.0) * 0.45;
+            let z = -(row as f32) * 0.5;
+            let turn = (i as f32 * 2.4).sin() * 0.6;
+            Character {
+                hair: i as usize % hairs.len(),
+                transform: Mat4::from_translation(Vec3::new(x, 0.0, z)) * Mat4::from_rotation_y(turn),
+            }
+        })
+        .collect();
+    let rows = o.characters.div_ceil(columns);
+    let camera = Camera {
+        eye: Vec3::new(0.0, 2.3, 0.7 + 0.3 * columns as f32),
+        target: Vec3::new(0.0, 1.5, -0.25 * rows as f32),
+        fov_y: 50f32.to_radians(),
+    };
     let mut paths = vec![GenerationPath::Compute];
-    if ctx.capabilities().mesh_shader.is_some() {
+    if caps.mesh_shader.is_some() {
         paths.push(GenerationPath::Mesh);
-    } else {
-        println!("(no VK_EXT_mesh_shader: the task+mesh path is skipped)\n");
     }
     if device.path != PathChoice::Auto {
         paths.retain(|p| *p == ctx.path());
     }
-    if paths.is_empty() {
-        bail!("nothing to draw");
-    }
-    println!("== {strands} synthetic strands, {width}x{height}");
+    let (width, height) = o.size;
+    println!("\n== crowd: {} characters, {width}x{height}", characters.len());
     for path in paths {
-        // The first frame pays for pipeline compilation; time a second one too.
-        let (_, first) = draw_test_strips(&ctx, path, strands, width, height)?;
-        let (image, timings) = draw_test_strips(&ctx, path, strands, width, height)?;
-        let file = out.join(format!("strips-{path}.png"));
-        render::output::write_png(&file, &image)?;
+        let view = CrowdView { camera, width, height, path, lod: hairmesh::reference::LodParams::default() };
+        let first = render_crowd(&ctx, &generator, &hairs, &characters, &view)?;
+        let frame = render_crowd(&ctx, &generator, &hairs, &characters, &view)?;
+        let file = o.out.join(format!("crowd-{path}.png"));
+        render::output::write_png(&file, &frame.image)?;
         println!("{path} path -> {}", file.display());
-        println!("  first frame (includes shader compilation): {:.1} ms wall", first.cpu_wait_ms);
-        println!("{timings}");
+        println!("  first frame (includes shader compilation): {:.1} ms wall", first.timings.cpu_wait_ms);
+        println!(
+            "  strands {} of {} ({} of {} bundles culled), vertices {}",
+            frame.stats.strands,
+            hairs.iter().map(|h| h.total_strands()).sum::<u64>() * characters.len() as u64
+                / hairs.len() as u64,
+            frame.stats.bundles_culled,
+            frame.stats.bundles,
+            frame.stats.vertices
+        );
+        println!("{}", frame.timings);
     }
     println!("\ndemo finished in {:.2} s", start.elapsed().as_secs_f64());
     Ok(())
