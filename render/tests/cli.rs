@@ -60,6 +60,38 @@ fn main() -> ExitCode {
             }
             Ok(())
         }),
+        GpuTest::new("hair_bench_quick_writes_a_sane_report", Requirements::NONE, |ctx| {
+            let dir = tempfile::tempdir()?;
+            let out = Command::new(env!("CARGO_BIN_EXE_hair-bench"))
+                .args(["--quick", "--out"])
+                .arg(dir.path())
+                .output()?;
+            ensure!(out.status.success(), "hair-bench failed: {}", String::from_utf8_lossy(&out.stderr));
+            let report = std::fs::read_to_string(dir.path().join("benchmarks.md"))?;
+            ensure!(report.contains(&ctx.capabilities().device_name), "the report names the device");
+            let csv = std::fs::read_to_string(dir.path().join("bench-generation.csv"))?;
+            let rows: Vec<&str> = csv.lines().skip(1).collect();
+            ensure!(rows.len() >= 2, "{csv}");
+            for row in rows {
+                for value in row.split(',').skip(2) {
+                    let v: f64 = value.parse()?;
+                    ensure!(v.is_finite() && v >= 0.0, "{row}");
+                }
+            }
+            // A second run replaces its own section and keeps the rest of the file.
+            std::fs::write(dir.path().join("benchmarks.md"), format!("# Benchmarks\n\nkeep me\n\n{report}"))?;
+            let out = Command::new(env!("CARGO_BIN_EXE_hair-bench"))
+                .args(["--quick", "--out"])
+                .arg(dir.path())
+                .output()?;
+            ensure!(out.status.success());
+            let again = std::fs::read_to_string(dir.path().join("benchmarks.md"))?;
+            ensure!(
+                again.contains("keep me") && again.matches("hair-bench:generation:begin").count() == 1,
+                "{again}"
+            );
+            Ok(())
+        }),
         GpuTest::new("bad_arguments_are_refused_clearly", Requirements::NONE, |_| {
             let (ok, _, stderr) = hairkit(&["demo", "--size", "0x10"])?;
             ensure!(!ok && stderr.contains("width and height must be"), "{stderr}");
