@@ -67,9 +67,20 @@ pub fn write_gltf(path: &Path, mesh: &ScalpMesh, name: &str) -> std::io::Result<
         buffer.extend(i.to_le_bytes());
     }
     let idx_len = buffer.len() - pos_len - uv_len;
+    // Morph targets (hair layers as shape keys): displacements from the base positions.
+    let mut target_views = Vec::new();
+    for layer in &mesh.morph_layers {
+        let start = buffer.len();
+        for (p, base) in layer.iter().zip(&mesh.positions) {
+            for c in (*p - *base).to_array() {
+                buffer.extend((c as f32).to_le_bytes());
+            }
+        }
+        target_views.push((start, buffer.len() - start));
+    }
     let (lo, hi) = mesh.bounds().unwrap_or((DVec3::ZERO, DVec3::ZERO));
     let f32s = |v: DVec3| v.to_array().map(|c| serde_json::json!(c as f32));
-    let doc = serde_json::json!({
+    let mut doc = serde_json::json!({
         "asset": {"version": "2.0", "generator": "hairkit hairmesh::procedural"},
         "scene": 0,
         "scenes": [{"nodes": [0]}],
@@ -87,6 +98,20 @@ pub fn write_gltf(path: &Path, mesh: &ScalpMesh, name: &str) -> std::io::Result<
             {"bufferView": 2, "componentType": 5125, "count": triangles.len(), "type": "SCALAR"}
         ]
     });
+    if !target_views.is_empty() {
+        let mut targets = Vec::new();
+        for (k, (offset, len)) in target_views.iter().enumerate() {
+            let view = 3 + k;
+            if let Some(views) = doc["bufferViews"].as_array_mut() {
+                views.push(serde_json::json!({"buffer": 0, "byteOffset": offset, "byteLength": len}));
+            }
+            if let Some(accessors) = doc["accessors"].as_array_mut() {
+                accessors.push(serde_json::json!({"bufferView": view, "componentType": 5126, "count": mesh.positions.len(), "type": "VEC3"}));
+            }
+            targets.push(serde_json::json!({"POSITION": view}));
+        }
+        doc["meshes"][0]["primitives"][0]["targets"] = serde_json::Value::Array(targets);
+    }
     let text = serde_json::to_string_pretty(&doc).map_err(std::io::Error::other)?;
     crate::atomic::write_file_atomic(path, |w| w.write_all(text.as_bytes()))
 }
@@ -113,7 +138,41 @@ mod tests {
         // up too (they are near-planar convex quads).
         assert!(quads >= 5 * 24, "{quads}");
         // Normals point outward: the first layer is farther from the centre than the root.
+        // (Checked below through morph targets too.)
         let centre = DVec3::new(0.0, 1.6, 0.0);
         assert!(hm.layers[1].iter().zip(&hm.layers[0]).all(|(a, b)| a.distance(centre) > b.distance(centre)));
+    }
+}
+
+#[cfg(test)]
+mod morph_tests {
+    use super::*;
+    use crate::import::load_scalp;
+    use crate::{ExtrudeParams, HairMesh, ScalpSelector};
+
+    /// A hair mesh modelled as shape keys (one glTF morph target per layer) imports as layers.
+    #[test]
+    fn morph_target_layers_import_as_hair_mesh_layers() {
+        let mut cap = head_cap(3, 12);
+        let extruded = HairMesh::extrude(
+            &cap,
+            &ExtrudeParams { layers: 3, length: 0.1, droop: 0.5, ..ExtrudeParams::default() },
+        )
+        .expect("extrude");
+        cap.morph_layers = extruded.layers[1..].to_vec();
+        let dir = tempfile::tempdir().expect("temp dir");
+        let path = dir.path().join("shape_keys.gltf");
+        write_gltf(&path, &cap, "shape keys").expect("write");
+        let loaded = load_scalp(&path, &ScalpSelector::All).expect("load");
+        assert_eq!(loaded.morph_layers.len(), 3);
+        let hm = HairMesh::from_morph_targets(&loaded).expect("layers from targets");
+        assert_eq!(hm.layer_count(), 3);
+        // Same layers as the extrusion they were written from (f32 in the file).
+        for (k, layer) in hm.layers.iter().enumerate() {
+            for p in layer {
+                let nearest = extruded.layers[k].iter().map(|q| q.distance(*p)).fold(f64::INFINITY, f64::min);
+                assert!(nearest < 1e-6, "layer {k}: {p} is {nearest} from the extruded layer");
+            }
+        }
     }
 }
