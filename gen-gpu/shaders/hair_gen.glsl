@@ -8,6 +8,7 @@
 // Specialization constants.
 layout(constant_id = 0) const uint MANUAL_FILTERING = 0u; // 1: texelFetch + f32 lerps
 layout(constant_id = 1) const uint CAPTURE = 0u;          // mesh path: also write the capture buffer
+layout(constant_id = 2) const uint EXACT_CUBIC = 0u;      // 1: exact cubic instead of two quadratics
 
 const uint MAX_SEGMENTS_LOG2 = 5u;
 const uint MAX_SEGMENTS = 1u << MAX_SEGMENTS_LOG2;
@@ -106,6 +107,19 @@ vec3 curve_position(uint bundle, vec2 st, float tau) {
     float x = min(clamp(tau, 0.0, 1.0) * layers, layers);
     float segment = min(floor(x), layers - 1.0);
     float local = x - segment;
+    if (EXACT_CUBIC == 1u) {
+        // The cubic's control points from the same slices (texture.rs, curve_position_cubic).
+        float z = 4.0 * segment + 0.5;
+        vec3 b0 = fetch(hair_mesh_tex, vec3(xy, z)).xyz;
+        vec3 q_a = fetch(hair_mesh_tex, vec3(xy, z + 1.0)).xyz;
+        vec3 q_b = fetch(hair_mesh_tex, vec3(xy, z + 3.0)).xyz;
+        vec3 b3 = fetch(hair_mesh_tex, vec3(xy, z + 4.0)).xyz;
+        vec3 b1 = b0 + (q_a - b0) * (4.0 / 3.0);
+        vec3 b2 = b3 + (q_b - b3) * (4.0 / 3.0);
+        float s = 1.0 - local;
+        vec3 p = b0 * (s * s * s) + b1 * (3.0 * s * s * local) + b2 * (3.0 * s * local * local) + b3 * (local * local * local);
+        return params.normalization.xyz + p * params.normalization.w;
+    }
     float z0;
     float q;
     if (local < 0.5) {

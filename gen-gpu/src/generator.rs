@@ -32,6 +32,14 @@ pub enum Filtering {
     Manual,
 }
 
+/// Pipeline variants (specialization constants of `hair_gen.glsl`).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash)]
+pub struct GeneratorOptions {
+    pub filtering: Filtering,
+    /// Evaluate the exact cubic between layers instead of two quadratics (accuracy benchmark).
+    pub exact_cubic: bool,
+}
+
 /// What one frame generates for.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct FrameInputs {
@@ -149,8 +157,15 @@ pub struct Generator {
     pull: Pipeline,
     mesh: Option<Pipeline>,
     mesh_capture: Option<Pipeline>,
-    pub filtering: Filtering,
+    pub options: GeneratorOptions,
+    /// Why the mesh path is unavailable, when it is.
+    pub mesh_unavailable: Option<String>,
 }
+
+/// Mesh-shader output of one strand workgroup: 2·33 vertices, 2·32 triangles, 32 threads.
+const MESH_OUTPUT_VERTICES: u32 = 66;
+const MESH_OUTPUT_PRIMITIVES: u32 = 64;
+const MESH_THREADS: u32 = 32;
 
 /// Colour and depth formats the generator's draws render into.
 pub const COLOR_FORMAT: vk::Format = vk::Format::R8G8B8A8_UNORM;
@@ -170,7 +185,12 @@ fn bindings() -> Vec<Binding> {
 
 impl Generator {
     pub fn new(ctx: &Context, filtering: Filtering) -> Result<Self> {
-        let manual = u32::from(filtering == Filtering::Manual);
+        Self::with_options(ctx, GeneratorOptions { filtering, exact_cubic: false })
+    }
+
+    pub fn with_options(ctx: &Context, options: GeneratorOptions) -> Result<Self> {
+        let manual = u32::from(options.filtering == Filtering::Manual);
+        let cubic = u32::from(options.exact_cubic);
         let bindings = bindings();
         let compute = |name, shader| {
             Pipeline::compute(
@@ -180,7 +200,7 @@ impl Generator {
                     shader,
                     bindings: &bindings,
                     push_constant_size: 0,
-                    specialization: &[(0, manual)],
+                    specialization: &[(0, manual), (2, cubic)],
                 },
             )
         };
@@ -193,7 +213,7 @@ impl Generator {
                     fragment: &shaders::STRAND_FRAG,
                     bindings: &bindings,
                     push_constant_size: push,
-                    specialization: &[(0, manual), (1, capture)],
+                    specialization: &[(0, manual), (1, capture), (2, cubic)],
                     color_format: COLOR_FORMAT,
                     depth_format: Some(DEPTH_FORMAT),
                     blend: false,
@@ -202,7 +222,22 @@ impl Generator {
         };
         let mesh_stages =
             GraphicsStages::Mesh { task: Some(&shaders::STRAND_TASK), mesh: &shaders::STRAND_MESH };
-        let has_mesh = ctx.capabilities().mesh_shader.is_some();
+        // The mesh path needs one strand's strip in one workgroup; check the device's limits.
+        let mesh_unavailable = match ctx.capabilities().mesh_shader {
+            None => Some(format!("{} has no VK_EXT_mesh_shader", ctx.capabilities().device_name)),
+            Some(m)
+                if m.max_output_vertices < MESH_OUTPUT_VERTICES
+                    || m.max_output_primitives < MESH_OUTPUT_PRIMITIVES
+                    || m.max_mesh_work_group_invocations < MESH_THREADS =>
+            {
+                Some(format!(
+                    "mesh limits too small: {} vertices, {} primitives, {} invocations (needs {MESH_OUTPUT_VERTICES}, {MESH_OUTPUT_PRIMITIVES}, {MESH_THREADS})",
+                    m.max_output_vertices, m.max_output_primitives, m.max_mesh_work_group_invocations
+                ))
+            }
+            Some(_) => None,
+        };
+        let has_mesh = mesh_unavailable.is_none();
         Ok(Self {
             lod: compute("strand LOD", &shaders::LOD_COMP)?,
             scan: compute("strand prefix sum", &shaders::SCAN_COMP)?,
@@ -219,7 +254,8 @@ impl Generator {
             } else {
                 None
             },
-            filtering,
+            options,
+            mesh_unavailable,
         })
     }
 
@@ -361,7 +397,7 @@ impl Generator {
                 let pipeline = if capture { self.mesh_capture.as_ref() } else { self.mesh.as_ref() };
                 let pipeline = pipeline.ok_or_else(|| GpuError::MeshShaderUnsupported {
                     requested: "mesh",
-                    device: rec.ctx().capabilities().device_name.clone(),
+                    device: self.mesh_unavailable.clone().unwrap_or_default(),
                 })?;
                 let limits = rec
                     .ctx()

@@ -26,7 +26,7 @@ pub use context::{Context, ContextDesc, Validation, ValidationMessage};
 pub use error::{GpuError, Result};
 pub use generator::{
     COLOR_FORMAT, Capture, CapturedStrand, DEPTH_FORMAT, Filtering, FrameBuffers, FrameInputs,
-    GenerationStats, Generator, MAX_VERTICES, VERTEX_BYTES,
+    GenerationStats, Generator, GeneratorOptions, MAX_VERTICES, VERTEX_BYTES,
 };
 pub use gpu_allocator::MemoryLocation;
 pub use hair::{GpuHair, TextureBytes, TexturePrecision};

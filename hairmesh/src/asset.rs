@@ -83,6 +83,9 @@ pub struct SampleSet {
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 pub struct HairAsset {
     pub textures: HairTextures,
+    /// Curve evaluation of the reference generator (quadratics unless measuring accuracy).
+    #[serde(default)]
+    pub curve: crate::texture::CurveEvaluation,
     pub bundles: Vec<BundleInfo>,
     pub square_sets: Vec<SampleSet>,
     pub triangle_sets: Vec<SampleSet>,
@@ -194,6 +197,7 @@ impl HairAsset {
         };
         Ok(Self {
             textures,
+            curve: crate::texture::CurveEvaluation::Quadratic,
             bundles,
             square_sets: if has(SampleDomain::Square) { sets(SampleDomain::Square, 0) } else { Vec::new() },
             triangle_sets: if has(SampleDomain::Triangle) {

@@ -222,6 +222,7 @@ pub fn read_asset(path: &Path) -> Result<(HairAsset, Manifest)> {
     };
     let asset = HairAsset {
         textures,
+        curve: crate::texture::CurveEvaluation::Quadratic,
         bundles: m.bundles.clone(),
         square_sets: m.square_sets.clone(),
         triangle_sets: m.triangle_sets.clone(),

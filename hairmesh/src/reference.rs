@@ -173,12 +173,12 @@ impl HairAsset {
         let lambda = style.length_scale(bundle, strand);
         let t_curve = tau * lambda;
         let tex = &self.textures;
-        let position = tex.curve_position(bundle, root.x, root.y, t_curve);
+        let position = tex.curve_point(self.curve, bundle, root.x, root.y, t_curve);
         if tau <= 0.0 {
             return position;
         }
         let centre_param = self.centre_parameter(bundle);
-        let centre = tex.curve_position(bundle, centre_param.x, centre_param.y, t_curve);
+        let centre = tex.curve_point(self.curve, bundle, centre_param.x, centre_param.y, t_curve);
         let xy = tex.layout.block_coord(bundle, root.x, root.y);
         let z = DVec3::new(xy.x, xy.y, t_curve * f64::from(tex.layout.layers) + 0.5);
         let mut u = [0.0; 3];

@@ -23,6 +23,17 @@ use serde::{Deserialize, Serialize};
 use crate::curve::column_segments;
 use crate::hair_mesh::{BundleFace, HairMesh};
 
+/// How strand points are evaluated between layers.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum CurveEvaluation {
+    /// Two quadratics per segment (two trilinear fetches and a lerp): the real-time path.
+    #[default]
+    Quadratic,
+    /// The exact cubic Bézier, for measuring what the quadratics cost.
+    Cubic,
+}
+
 /// Where each bundle's block is; shared by all five textures.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
 pub struct TextureLayout {
@@ -361,6 +372,36 @@ impl HairTextures {
         self.normalization.to_object(stored)
     }
 
+    /// [`Self::curve_position`] with the exact cubic instead of the two quadratics: the cubic's
+    /// control points are recovered from the same slices, `B1 = B0 + 4/3 (q_a − B0)`,
+    /// `B2 = B3 + 4/3 (q_b − B3)` (four bilinear fetches at whole slices). For the accuracy
+    /// benchmark: what the quadratic approximation costs.
+    pub fn curve_position_cubic(&self, bundle: u32, s: f64, t: f64, tau: f64) -> DVec3 {
+        let xy = self.layout.block_coord(bundle, s, t);
+        let layers = f64::from(self.layout.layers.max(1));
+        let x = (tau.clamp(0.0, 1.0) * layers).min(layers);
+        let segment = x.floor().min(layers - 1.0);
+        let local = x - segment;
+        let fetch = |slice: f64| {
+            let mut out = [0.0; 3];
+            self.hair_mesh.sample(DVec3::new(xy.x, xy.y, slice + 0.5), &mut out);
+            DVec3::from_array(out)
+        };
+        let z = 4.0 * segment;
+        let (b0, q_a, q_b, b3) = (fetch(z), fetch(z + 1.0), fetch(z + 3.0), fetch(z + 4.0));
+        let b1 = b0 + (q_a - b0) * (4.0 / 3.0);
+        let b2 = b3 + (q_b - b3) * (4.0 / 3.0);
+        self.normalization.to_object(crate::curve::CubicBezier([b0, b1, b2, b3]).eval(local))
+    }
+
+    /// The curve point by the chosen evaluation.
+    pub fn curve_point(&self, evaluation: CurveEvaluation, bundle: u32, s: f64, t: f64, tau: f64) -> DVec3 {
+        match evaluation {
+            CurveEvaluation::Quadratic => self.curve_position(bundle, s, t, tau),
+            CurveEvaluation::Cubic => self.curve_position_cubic(bundle, s, t, tau),
+        }
+    }
+
     /// Texture memory in bytes at 4 bytes per channel (the hair-mesh texture padded to 4
     /// channels as RGBA32F).
     pub fn bytes_f32(&self) -> usize {
@@ -437,6 +478,19 @@ mod tests {
             let expected = segs[seg].to_quadratics().eval(local);
             let got = tex.curve_position(0, 0.0, 0.0, tau);
             assert!(got.distance(expected) < 1e-12, "tau {tau}: {got} vs {expected}");
+        }
+    }
+
+    #[test]
+    fn cubic_evaluation_recovers_the_catmull_rom_segments() {
+        let hm = quad_and_triangle();
+        let tex = HairTextures::build(&hm);
+        let segs = column_segments(&hm.column(0));
+        for i in 0..=30 {
+            let tau = f64::from(i) / 30.0;
+            let seg = ((tau * 3.0).floor() as usize).min(2);
+            let expected = segs[seg].eval(tau * 3.0 - seg as f64);
+            assert!(tex.curve_position_cubic(0, 0.0, 0.0, tau).distance(expected) < 1e-12);
         }
     }
 

@@ -6,7 +6,8 @@ use std::process::ExitCode;
 use anyhow::{Context as _, bail, ensure};
 use gen_gpu::diagnostics::draw_hair;
 use gen_gpu::{
-    Capture, Context, Filtering, FrameInputs, GenerationPath, Generator, GpuHair, TexturePrecision,
+    Capture, Context, Filtering, FrameInputs, GenerationPath, Generator, GeneratorOptions, GpuHair,
+    TexturePrecision,
 };
 use glam::{DVec3, Vec3};
 use hairkit_tests::harness::{GpuTest, Requirements, run_gpu_tests};
@@ -15,6 +16,7 @@ use hairmesh::asset::{AssetParams, HairAsset, StrandCount};
 use hairmesh::hair_mesh::{ExtrudeParams, HairMesh};
 use hairmesh::reference::{LodParams, bundle_lod};
 use hairmesh::style::{Clump, Curl, Frizz, Style, Wave};
+use hairmesh::texture::CurveEvaluation;
 
 fn head_cap_asset(strands: u64, style: Style) -> anyhow::Result<HairAsset> {
     let scalp = hairmesh::procedural::head_cap(6, 24);
@@ -336,6 +338,57 @@ fn main() -> ExitCode {
                         "highest vertex level: 33 vertices"
                     );
                 }
+            }
+            Ok(())
+        }),
+        GpuTest::new("exact_cubic_variant_matches_the_cpu_cubic", Requirements::NONE, move |ctx| {
+            let mut asset = head_cap_asset(600, styled(0.1))?;
+            let hair = GpuHair::upload(ctx, &asset, TexturePrecision::F32)?;
+            let generator = Generator::with_options(
+                ctx,
+                GeneratorOptions { filtering: Filtering::Manual, exact_cubic: true },
+            )?;
+            let inputs = inputs_for(&asset, Vec3::new(0.0, 1.7, 0.5), full);
+            let capture = generator.capture(ctx, &hair, &inputs, GenerationPath::Compute)?;
+            let quadratic = compare_to_reference(&asset, &inputs, &capture)?;
+            asset.curve = CurveEvaluation::Cubic;
+            let cubic = compare_to_reference(&asset, &inputs, &capture)?;
+            eprintln!(
+                "  exact cubic on the GPU: {:.4} widths from the CPU cubic; the quadratics differ from it by up to {:.3} widths",
+                cubic.max_position_widths, quadratic.max_position_widths
+            );
+            let bound = (1e-5 * asset.textures.normalization.scale + 0.01 * asset.style.max_displacement())
+                / asset.style.width;
+            ensure!(cubic.max_position_widths <= bound, "{cubic:?}");
+            ensure!(
+                quadratic.max_position_widths > cubic.max_position_widths,
+                "the variant is really different"
+            );
+            Ok(())
+        }),
+        GpuTest::new("a_view_that_sees_nothing_generates_zero_strands", Requirements::NONE, move |ctx| {
+            let asset = head_cap_asset(500, Style::default())?;
+            let hair = GpuHair::upload(ctx, &asset, TexturePrecision::F32)?;
+            let generator = Generator::new(ctx, Filtering::Hardware)?;
+            // Looking away from the hair.
+            let mut inputs = inputs_for(&asset, Vec3::new(0.0, 1.7, 0.5), lod);
+            inputs.view_proj = glam::Mat4::perspective_rh(0.8, 1.0, 0.01, 10.0)
+                * glam::Mat4::look_at_rh(Vec3::new(0.0, 1.7, 0.5), Vec3::new(0.0, 1.7, 2.0), Vec3::Y);
+            for path in [GenerationPath::Compute, GenerationPath::Mesh] {
+                if path == GenerationPath::Mesh && ctx.capabilities().mesh_shader.is_none() {
+                    continue;
+                }
+                let capture = generator.capture(ctx, &hair, &inputs, path)?;
+                ensure!(
+                    capture.strands.is_empty() && capture.stats.bundles_culled == capture.stats.bundles,
+                    "{:?}",
+                    capture.stats
+                );
+                let (image, _) = draw_hair(ctx, &generator, &hair, &inputs, path)?;
+                ensure!(
+                    image.pixels.chunks_exact(4).all(|p| p[0] < 10),
+                    "{path}: an empty view draws nothing"
+                );
             }
             Ok(())
         }),
