@@ -15,11 +15,13 @@ void main() {
     uint strand = slot - offsets[bundle];
     BundleLod l = lods[bundle];
     uint thread = gl_LocalInvocationID.x;
-    strand_compute_positions(bundle, strand, l, thread);
-    barrier();
     uint segments = 1u << l.level;
     for (uint k = thread; k <= segments; k += STRAND_THREADS) {
-        store_vertex(slot, k, strand_vertex(bundle, strand, l, k));
+        strand_compute_vertex(bundle, strand, l, 0u, k);
+    }
+    barrier();
+    for (uint k = thread; k <= segments; k += STRAND_THREADS) {
+        store_vertex(slot, k, strand_vertex(bundle, strand, l, 0u, k));
     }
     if (thread == 0u) {
         strand_info[slot] = uvec4(bundle, strand, segments + 1u, l.level);

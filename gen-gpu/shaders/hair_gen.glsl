@@ -322,50 +322,49 @@ vec3 seg_dir(vec3 a, vec3 b, vec3 fallback) {
     return try_normalize(b - a, fallback);
 }
 
-// Tangent of vertex k of the polyline strand_positions[0, stride, 2*stride, ...] with n points
-// (Eq. 5-6), where k indexes that polyline.
-vec3 polyline_tangent(uint k, uint n, uint stride) {
-    vec3 first_seg = seg_dir(strand_positions[0], strand_positions[stride], vec3(0.0, 1.0, 0.0));
+// Tangent of vertex k of the polyline strand_positions[base + 0, base + stride, ...] with n
+// points (Eq. 5-6), where k indexes that polyline.
+vec3 polyline_tangent(uint base, uint k, uint n, uint stride) {
+    vec3 first_seg = seg_dir(strand_positions[base], strand_positions[base + stride], vec3(0.0, 1.0, 0.0));
     if (n == 2u) {
         return first_seg;
     }
     if (k > 0u && k < n - 1u) {
-        return seg_dir(strand_positions[(k - 1u) * stride], strand_positions[(k + 1u) * stride], first_seg);
+        return seg_dir(strand_positions[base + (k - 1u) * stride], strand_positions[base + (k + 1u) * stride], first_seg);
     }
     if (k == 0u) {
-        vec3 t1 = seg_dir(strand_positions[0], strand_positions[2u * stride], first_seg);
+        vec3 t1 = seg_dir(strand_positions[base], strand_positions[base + 2u * stride], first_seg);
         return try_normalize(2.0 * first_seg * dot(t1, first_seg) - t1, first_seg);
     }
-    vec3 last_seg = seg_dir(strand_positions[(n - 2u) * stride], strand_positions[(n - 1u) * stride], first_seg);
-    vec3 tp = seg_dir(strand_positions[(n - 3u) * stride], strand_positions[(n - 1u) * stride], first_seg);
+    vec3 last_seg = seg_dir(strand_positions[base + (n - 2u) * stride], strand_positions[base + (n - 1u) * stride], first_seg);
+    vec3 tp = seg_dir(strand_positions[base + (n - 3u) * stride], strand_positions[base + (n - 1u) * stride], first_seg);
     return try_normalize(2.0 * last_seg * dot(tp, last_seg) - tp, last_seg);
 }
 
-// Phase 1: every thread computes its full-detail vertices into shared memory.
-void strand_compute_positions(uint bundle, uint strand, BundleLod l, uint thread) {
+// Phase 1: full-detail vertex k of a strand into shared memory at base + k.
+void strand_compute_vertex(uint bundle, uint strand, BundleLod l, uint base, uint k) {
     uint segments = 1u << l.level;
-    vec2 root = root_parameter(bundle, strand);
-    for (uint k = thread; k <= segments; k += STRAND_THREADS) {
-        strand_positions[k] = strand_point(bundle, strand, root, float(k) / float(segments));
-    }
+    strand_positions[base + k] = strand_point(bundle, strand, root_parameter(bundle, strand), float(k) / float(segments));
 }
 
 // Phase 2 (after a barrier): the morphed vertex k with its tangent and width.
-StrandVertex strand_vertex(uint bundle, uint strand, BundleLod l, uint k) {
+StrandVertex strand_vertex(uint bundle, uint strand, BundleLod l, uint base, uint k) {
     uint segments = 1u << l.level;
     uint n = segments + 1u;
     StrandVertex v;
-    vec3 full_tangent = polyline_tangent(k, n, 1u);
-    v.position = strand_positions[k];
+    vec3 full_tangent = polyline_tangent(base, k, n, 1u);
+    v.position = strand_positions[base + k];
     v.tangent = full_tangent;
     if (l.gamma > 0.0 && segments >= 2u) {
         float g = l.gamma;
         if ((k & 1u) == 1u) {
-            v.position = (1.0 - g) * strand_positions[k] + g * 0.5 * (strand_positions[k - 1u] + strand_positions[k + 1u]);
-            vec3 coarse = try_normalize(strand_positions[k + 1u] - strand_positions[k - 1u], full_tangent);
+            vec3 prev = strand_positions[base + k - 1u];
+            vec3 next = strand_positions[base + k + 1u];
+            v.position = (1.0 - g) * strand_positions[base + k] + g * 0.5 * (prev + next);
+            vec3 coarse = try_normalize(next - prev, full_tangent);
             v.tangent = try_normalize((1.0 - g) * full_tangent + g * coarse, full_tangent);
         } else {
-            vec3 coarse = polyline_tangent(k / 2u, segments / 2u + 1u, 2u);
+            vec3 coarse = polyline_tangent(base, k / 2u, segments / 2u + 1u, 2u);
             v.tangent = try_normalize((1.0 - g) * full_tangent + g * coarse, full_tangent);
         }
     }
@@ -374,6 +373,12 @@ StrandVertex strand_vertex(uint bundle, uint strand, BundleLod l, uint k) {
     return v;
 }
 
+// Strands one mesh workgroup draws at vertex level e: as many as fit the workgroup's output
+// (66 vertices, 64 triangles, 33 shared positions): 16 at e = 0 down to 1 at e >= 4.
+uint strands_per_mesh_group(uint level) {
+    uint segments = 1u << level;
+    return max(1u, min(66u / (2u * (segments + 1u)), 64u / (2u * segments)));
+}
 #endif
 
 // Camera-facing strip corners of a strand vertex, in clip space.

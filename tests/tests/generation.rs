@@ -204,7 +204,11 @@ fn main() -> ExitCode {
             let asset = head_cap_asset(1500, styled(0.1))?;
             let hair = GpuHair::upload(ctx, &asset, TexturePrecision::F32)?;
             let generator = Generator::new(ctx, Filtering::Hardware)?;
-            for lod in [full, lod] {
+            // Coarse vertex levels pack several strands into one mesh workgroup (16 at 2
+            // vertices): a high vertex α exercises that packing, with morphing in between.
+            let coarse = LodParams { vertex_alpha: 2000.0, ..lod };
+            let coarser = LodParams { vertex_alpha: 20000.0, ..lod };
+            for lod in [full, lod, coarse, coarser] {
                 let inputs = inputs_for(&asset, Vec3::new(0.1, 1.75, 0.45), lod);
                 let compute = generator.capture(ctx, &hair, &inputs, GenerationPath::Compute)?;
                 let mesh = generator.capture(ctx, &hair, &inputs, GenerationPath::Mesh)?;
@@ -225,8 +229,16 @@ fn main() -> ExitCode {
                     draw_hair(ctx, &generator, &hair, &inputs, GenerationPath::Compute)?;
                 // Same triangles in the same order per strand; strands overlap at equal depth
                 // only where they touch, so mean FLIP ≤ 0.01 and 99th percentile ≤ 0.1.
+                let vertex_counts: std::collections::BTreeSet<usize> =
+                    compute.strands.iter().map(|s| s.positions.len()).collect();
+                if lod.vertex_alpha >= 20000.0 {
+                    ensure!(
+                        vertex_counts.iter().all(|&n| n <= 5),
+                        "packing not exercised: {vertex_counts:?}"
+                    );
+                }
                 let stats = compare(
-                    &format!("hair_mesh_vs_compute_lod_{}", lod.enabled),
+                    &format!("hair_mesh_vs_compute_alpha_{}", lod.vertex_alpha),
                     &mesh_image,
                     &compute_image,
                     Tolerance { mean: 0.01, percentile: (0.99, 0.1) },
@@ -235,8 +247,9 @@ fn main() -> ExitCode {
                 let covered = compute_image.pixels.chunks_exact(4).filter(|p| p[0] > 10).count();
                 ensure!(covered > 500, "only {covered} hair pixels");
                 eprintln!(
-                    "  lod {}: FLIP mean {:.5}; mesh {:.1} ms, compute {:.1} ms (whole submission)",
+                    "  lod {} vertex α {} (vertices per strand {vertex_counts:?}): FLIP mean {:.5}; mesh {:.1} ms, compute {:.1} ms",
                     lod.enabled,
+                    lod.vertex_alpha,
                     stats.mean,
                     mt.passes[0].gpu_ms.unwrap_or(f64::NAN),
                     ct.passes[0].gpu_ms.unwrap_or(f64::NAN)
