@@ -6,11 +6,16 @@
 
 layout(local_size_x = 32) in;
 
+layout(push_constant) uniform ChunkParams {
+    uint chunk;
+} chunk_params;
+
 void main() {
-    uint slot = gl_WorkGroupID.y * DISPATCH_ROW + gl_WorkGroupID.x;
-    if (slot >= min(total_strands, params.seed_info.z)) {
+    uint local_slot = gl_WorkGroupID.y * DISPATCH_ROW + gl_WorkGroupID.x;
+    if (local_slot >= chunk_size(chunk_params.chunk)) {
         return;
     }
+    uint slot = chunk_params.chunk * chunk_slots() + local_slot;
     uint bundle = slot_bundle(slot);
     uint strand = slot - offsets[bundle];
     BundleLod l = lods[bundle];
@@ -21,9 +26,9 @@ void main() {
     }
     barrier();
     for (uint k = thread; k <= segments; k += STRAND_THREADS) {
-        store_vertex(slot, k, strand_vertex(bundle, strand, l, 0u, k));
+        store_vertex(local_slot, k, strand_vertex(bundle, strand, l, 0u, k));
     }
     if (thread == 0u) {
-        strand_info[slot] = uvec4(bundle, strand, segments + 1u, l.level);
+        strand_info[local_slot] = uvec4(bundle, strand, segments + 1u, l.level);
     }
 }

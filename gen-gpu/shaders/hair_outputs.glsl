@@ -7,23 +7,42 @@ struct DrawArgs {
     uint first_instance;
 };
 
+struct DispatchArgs {
+    uint x;
+    uint y;
+    uint z;
+};
+
+// Strand slots are processed in chunks whose vertex buffer window fits the device's storage
+// buffer range; chunk c holds slots [c * chunk_slots, (c + 1) * chunk_slots).
+const uint MAX_CHUNKS = 16u;
+
 layout(std430, set = 0, binding = 8) buffer LodBuffer { BundleLod lods[]; };
 layout(std430, set = 0, binding = 9) buffer OffsetBuffer {
     uint total_strands;
-    uint total_vertices;
-    uint dispatch_x;
-    uint dispatch_y;
-    uint dispatch_z;
+    uint generated_strands;    // min(total, capacity)
     uint pad0;
     uint pad1;
-    uint pad2;
-    DrawArgs draw;
-    uint offsets[];      // exclusive prefix sum of lods[].strands
+    DispatchArgs dispatches[MAX_CHUNKS];
+    DrawArgs draws[MAX_CHUNKS];
+    uint offsets[];            // exclusive prefix sum of lods[].strands
 };
-// Per strand slot: MAX_VERTICES x (vec4(position, width), vec4(tangent, tau)).
+// The current chunk's window. Per slot: MAX_VERTICES x (vec4(position, width),
+// vec4(tangent, tau)).
 layout(std430, set = 0, binding = 10) buffer StrandVertexBuffer { vec4 strand_vertices[]; };
-// Per strand slot: (bundle, strand index, vertex count, level).
+// The current chunk's window. Per slot: (bundle, strand index, vertex count, level).
 layout(std430, set = 0, binding = 11) buffer StrandInfoBuffer { uvec4 strand_info[]; };
+
+uint chunk_slots() {
+    return params.seed_info.w;
+}
+
+// Slots in chunk c.
+uint chunk_size(uint c) {
+    uint generated = min(total_strands, params.seed_info.z);
+    uint first = c * chunk_slots();
+    return generated > first ? min(generated - first, chunk_slots()) : 0u;
+}
 
 // Strands per row of the 2D dispatch (keeps each dimension within every device's limit).
 const uint DISPATCH_ROW = 32768u;
@@ -43,6 +62,7 @@ uint slot_bundle(uint slot) {
     return lo;
 }
 
+// `slot` is relative to the bound chunk window.
 void store_vertex(uint slot, uint k, StrandVertex v) {
     uint base = (slot * MAX_VERTICES + k) * 2u;
     strand_vertices[base] = vec4(v.position, v.width);

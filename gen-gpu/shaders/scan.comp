@@ -34,15 +34,18 @@ void main() {
     if (t == 0u) {
         // Slots beyond the buffers' capacity are not generated (the host sized them from its
         // own LOD estimate; total_strands still reports the real count).
-        uint slots = min(carry, params.seed_info.z);
         total_strands = carry;
-        total_vertices = slots * MAX_VERTICES;
-        dispatch_x = min(slots, DISPATCH_ROW);
-        dispatch_y = (slots + DISPATCH_ROW - 1u) / DISPATCH_ROW;
-        dispatch_z = 1u;
-        draw.vertex_count = MAX_SEGMENTS * 6u;
-        draw.instance_count = slots;
-        draw.first_vertex = 0u;
-        draw.first_instance = 0u;
+        generated_strands = min(carry, params.seed_info.z);
+    }
+    barrier();
+    if (t < MAX_CHUNKS) {
+        uint slots = chunk_size(t);
+        dispatches[t].x = min(slots, DISPATCH_ROW);
+        dispatches[t].y = (slots + DISPATCH_ROW - 1u) / DISPATCH_ROW;
+        dispatches[t].z = 1u;
+        draws[t].vertex_count = MAX_SEGMENTS * 6u;
+        draws[t].instance_count = slots;
+        draws[t].first_vertex = 0u;
+        draws[t].first_instance = 0u;
     }
 }

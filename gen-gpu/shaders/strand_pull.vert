@@ -11,9 +11,14 @@ layout(location = 0) out vec4 v_color;
 
 const uint CORNER[6] = uint[6](0u, 1u, 2u, 2u, 1u, 3u);
 
+layout(push_constant) uniform ChunkParams {
+    uint chunk;
+} chunk_params;
+
 #include "strand_color.glsl"
 
 void main() {
+    // Relative to the bound chunk window.
     uint slot = uint(gl_InstanceIndex);
     uint segment = uint(gl_VertexIndex) / 6u;
     uint corner = CORNER[uint(gl_VertexIndex) % 6u];

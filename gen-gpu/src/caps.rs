@@ -23,6 +23,7 @@ pub struct Capabilities {
     /// Nanoseconds per timestamp tick; `None` when the queue has no timestamps.
     pub timestamp_period_ns: Option<f32>,
     pub max_storage_buffer_range: u32,
+    pub min_storage_buffer_offset_alignment: u64,
     pub max_push_constants_size: u32,
     pub max_compute_work_group_count: [u32; 3],
     pub max_image_dimension_3d: u32,
@@ -128,6 +129,7 @@ impl Capabilities {
             linear_filter_rgba16f: filterable(vk::Format::R16G16B16A16_SFLOAT),
             timestamp_period_ns: timestamps.then_some(props.limits.timestamp_period),
             max_storage_buffer_range: props.limits.max_storage_buffer_range,
+            min_storage_buffer_offset_alignment: props.limits.min_storage_buffer_offset_alignment,
             max_push_constants_size: props.limits.max_push_constants_size,
             max_compute_work_group_count: props.limits.max_compute_work_group_count,
             max_image_dimension_3d: props.limits.max_image_dimension3_d,

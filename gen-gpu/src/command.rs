@@ -158,16 +158,31 @@ impl<'a> Recorder<'a> {
         }
     }
 
-    /// Binds storage buffers and combined image samplers of set 0 with push descriptors.
+    /// Binds whole storage buffers and combined image samplers of set 0 with push descriptors.
     pub fn push_descriptors(
         &self,
         pipeline: &Pipeline,
         buffers: &[(u32, &Buffer)],
         images: &[(u32, &Image, &crate::Sampler)],
     ) {
+        let ranged: Vec<(u32, &Buffer, u64, u64)> =
+            buffers.iter().map(|(b, buf)| (*b, *buf, 0, vk::WHOLE_SIZE)).collect();
+        self.push_descriptors_ranged(pipeline, &ranged, images);
+    }
+
+    /// Like [`Self::push_descriptors`], with `(binding, buffer, offset, range)` windows of
+    /// buffers larger than one descriptor may address.
+    pub fn push_descriptors_ranged(
+        &self,
+        pipeline: &Pipeline,
+        buffers: &[(u32, &Buffer, u64, u64)],
+        images: &[(u32, &Image, &crate::Sampler)],
+    ) {
         let buffer_infos: Vec<[vk::DescriptorBufferInfo; 1]> = buffers
             .iter()
-            .map(|(_, b)| [vk::DescriptorBufferInfo { buffer: b.raw, offset: 0, range: vk::WHOLE_SIZE }])
+            .map(|(_, b, offset, range)| {
+                [vk::DescriptorBufferInfo { buffer: b.raw, offset: *offset, range: *range }]
+            })
             .collect();
         let image_infos: Vec<[vk::DescriptorImageInfo; 1]> = images
             .iter()
@@ -182,7 +197,7 @@ impl<'a> Recorder<'a> {
         let mut writes: Vec<vk::WriteDescriptorSet<'_>> = buffers
             .iter()
             .zip(&buffer_infos)
-            .map(|((binding, _), info)| {
+            .map(|((binding, ..), info)| {
                 vk::WriteDescriptorSet::default()
                     .dst_binding(*binding)
                     .descriptor_type(vk::DescriptorType::STORAGE_BUFFER)

@@ -38,6 +38,9 @@ pub struct GeneratorOptions {
     pub filtering: Filtering,
     /// Evaluate the exact cubic between layers instead of two quadratics (accuracy benchmark).
     pub exact_cubic: bool,
+    /// Caps the strand slots per chunk below what the storage-buffer range allows (tests use
+    /// it to exercise chunking with few strands). Rounded down to the alignment step.
+    pub max_chunk_slots: Option<u64>,
 }
 
 /// What one frame generates for.
@@ -106,9 +109,12 @@ struct GenParams {
 /// Vertices per strand slot and bytes per vertex in the strand buffer (`hair_outputs.glsl`).
 pub const MAX_VERTICES: u64 = 33;
 pub const VERTEX_BYTES: u64 = 32;
-const OFFSETS_HEADER: u64 = 48;
-const DISPATCH_ARGS_OFFSET: u64 = 8;
-const DRAW_ARGS_OFFSET: u64 = 32;
+/// Chunks of strand slots (`MAX_CHUNKS` in `hair_outputs.glsl`).
+pub const MAX_CHUNKS: u64 = 16;
+const DISPATCH_ARGS_OFFSET: u64 = 16;
+const DRAW_ARGS_OFFSET: u64 = DISPATCH_ARGS_OFFSET + MAX_CHUNKS * 12;
+const OFFSETS_HEADER: u64 = DRAW_ARGS_OFFSET + MAX_CHUNKS * 16;
+const SLOT_BYTES: u64 = MAX_VERTICES * VERTEX_BYTES;
 
 /// One generated strand read back from the GPU.
 #[derive(Clone, Debug, PartialEq)]
@@ -146,6 +152,16 @@ pub struct FrameBuffers {
     strand_vertices: Buffer,
     strand_info: Buffer,
     capacity: u64,
+    /// Slots per chunk: one chunk's vertex window fits the device's storage-buffer range.
+    chunk_slots: u64,
+    chunks: u64,
+}
+
+impl FrameBuffers {
+    /// Chunks the strand slots are generated and drawn in.
+    pub fn chunks(&self) -> u64 {
+        self.chunks
+    }
 }
 
 /// Pipelines of both paths.
@@ -185,7 +201,7 @@ fn bindings() -> Vec<Binding> {
 
 impl Generator {
     pub fn new(ctx: &Context, filtering: Filtering) -> Result<Self> {
-        Self::with_options(ctx, GeneratorOptions { filtering, exact_cubic: false })
+        Self::with_options(ctx, GeneratorOptions { filtering, ..GeneratorOptions::default() })
     }
 
     pub fn with_options(ctx: &Context, options: GeneratorOptions) -> Result<Self> {
@@ -199,7 +215,7 @@ impl Generator {
                     name,
                     shader,
                     bindings: &bindings,
-                    push_constant_size: 0,
+                    push_constant_size: 4,
                     specialization: &[(0, manual), (2, cubic)],
                 },
             )
@@ -246,7 +262,7 @@ impl Generator {
                 "strands (vertex pulling)",
                 GraphicsStages::Vertex(&shaders::STRAND_PULL_VERT),
                 0,
-                0,
+                4,
             )?,
             mesh: if has_mesh { Some(graphics("strands (task+mesh)", mesh_stages, 0, 4)?) } else { None },
             mesh_capture: if has_mesh {
@@ -272,17 +288,25 @@ impl Generator {
     /// Allocates the frame buffers for `inputs` and writes the frame parameters.
     pub fn prepare(&self, ctx: &Context, hair: &GpuHair, inputs: &FrameInputs) -> Result<FrameBuffers> {
         let capacity = Self::capacity(hair, inputs);
-        let vertex_bytes = capacity * MAX_VERTICES * VERTEX_BYTES;
-        let limit = u64::from(ctx.capabilities().max_storage_buffer_range);
-        if vertex_bytes > limit {
+        let caps = ctx.capabilities();
+        // Chunk windows start at multiples of the storage-buffer offset alignment.
+        let align = caps.min_storage_buffer_offset_alignment.max(1);
+        let step =
+            (1..=256u64).find(|n| (n * SLOT_BYTES) % align == 0 && (n * 16) % align == 0).unwrap_or(256);
+        let range_slots = u64::from(caps.max_storage_buffer_range) / SLOT_BYTES;
+        let wanted = self.options.max_chunk_slots.map_or(range_slots, |m| m.min(range_slots));
+        let chunk_slots = (wanted / step * step).max(step);
+        let chunks = capacity.div_ceil(chunk_slots);
+        let vertex_bytes = capacity * SLOT_BYTES;
+        if chunks > MAX_CHUNKS || vertex_bytes > 1 << 31 {
             return Err(GpuError::OverBudget {
                 name: "generated strand vertices".into(),
                 requested: vertex_bytes,
-                budget: limit,
-                why: "maxStorageBufferRange; raise the LOD α or draw the character in parts",
+                budget: (MAX_CHUNKS * chunk_slots * SLOT_BYTES).min(1 << 31),
+                why: "at most 16 chunks of the storage-buffer range and 2 GiB per frame buffer; raise the LOD α or split the character",
             });
         }
-        let params = params(hair, inputs, capacity);
+        let params = params(hair, inputs, capacity, chunk_slots);
         let params = ctx.create_buffer_with_data(
             "generation parameters",
             BufferDesc::storage(size_of::<GenParams>() as u64).location(MemoryLocation::CpuToGpu),
@@ -301,21 +325,34 @@ impl Generator {
             strand_vertices: Buffer::new(ctx, "strand vertices", BufferDesc::storage(vertex_bytes))?,
             strand_info: Buffer::new(ctx, "strand info", BufferDesc::storage(capacity * 16))?,
             capacity,
+            chunk_slots,
+            chunks,
         })
     }
 
-    fn push_all(&self, rec: &Recorder<'_>, pipeline: &Pipeline, hair: &GpuHair, frame: &FrameBuffers) {
-        rec.push_descriptors(
+    /// Binds everything, with chunk `chunk`'s windows of the strand buffers.
+    fn push_all(
+        &self,
+        rec: &Recorder<'_>,
+        pipeline: &Pipeline,
+        hair: &GpuHair,
+        frame: &FrameBuffers,
+        chunk: u64,
+    ) {
+        let whole = vk::WHOLE_SIZE;
+        let first = chunk * frame.chunk_slots;
+        let slots = frame.chunk_slots.min(frame.capacity - first.min(frame.capacity)).max(1);
+        rec.push_descriptors_ranged(
             pipeline,
             &[
-                (0, &frame.params),
-                (1, &hair.bundles),
-                (2, &hair.samples),
-                (3, &hair.sample_sets),
-                (8, &frame.lods),
-                (9, &frame.offsets),
-                (10, &frame.strand_vertices),
-                (11, &frame.strand_info),
+                (0, &frame.params, 0, whole),
+                (1, &hair.bundles, 0, whole),
+                (2, &hair.samples, 0, whole),
+                (3, &hair.sample_sets, 0, whole),
+                (8, &frame.lods, 0, whole),
+                (9, &frame.offsets, 0, whole),
+                (10, &frame.strand_vertices, first * SLOT_BYTES, slots * SLOT_BYTES),
+                (11, &frame.strand_info, first * 16, slots * 16),
             ],
             &[
                 (4, &hair.hair_mesh, &hair.sampler),
@@ -332,13 +369,13 @@ impl Generator {
         let read = vk::AccessFlags2::SHADER_STORAGE_READ | vk::AccessFlags2::SHADER_STORAGE_WRITE;
         rec.pass("LOD + cull", |rec| {
             rec.bind_pipeline(&self.lod);
-            self.push_all(rec, &self.lod, hair, frame);
+            self.push_all(rec, &self.lod, hair, frame, 0);
             rec.dispatch(hair.bundle_count.div_ceil(shaders::LOD_COMP.workgroup_size[0]), 1, 1);
         });
         rec.memory_barrier(compute, (vk::PipelineStageFlags2::COMPUTE_SHADER, read));
         rec.pass("prefix sum", |rec| {
             rec.bind_pipeline(&self.scan);
-            self.push_all(rec, &self.scan, hair, frame);
+            self.push_all(rec, &self.scan, hair, frame, 0);
             rec.dispatch(1, 1, 1);
         });
         rec.memory_barrier(
@@ -358,8 +395,11 @@ impl Generator {
     pub fn record_generate(&self, rec: &mut Recorder<'_>, hair: &GpuHair, frame: &FrameBuffers) {
         rec.pass("generate (compute)", |rec| {
             rec.bind_pipeline(&self.generate);
-            self.push_all(rec, &self.generate, hair, frame);
-            rec.dispatch_indirect(&frame.offsets, DISPATCH_ARGS_OFFSET);
+            for chunk in 0..frame.chunks {
+                self.push_all(rec, &self.generate, hair, frame, chunk);
+                rec.push_constants(&self.generate, &(chunk as u32));
+                rec.dispatch_indirect(&frame.offsets, DISPATCH_ARGS_OFFSET + 12 * chunk);
+            }
         });
         rec.memory_barrier(
             (vk::PipelineStageFlags2::COMPUTE_SHADER, vk::AccessFlags2::SHADER_STORAGE_WRITE),
@@ -389,8 +429,11 @@ impl Generator {
         match path {
             GenerationPath::Compute => {
                 rec.bind_pipeline(&self.pull);
-                self.push_all(rec, &self.pull, hair, frame);
-                rec.draw_indirect(&frame.offsets, DRAW_ARGS_OFFSET);
+                for chunk in 0..frame.chunks {
+                    self.push_all(rec, &self.pull, hair, frame, chunk);
+                    rec.push_constants(&self.pull, &(chunk as u32));
+                    rec.draw_indirect(&frame.offsets, DRAW_ARGS_OFFSET + 16 * chunk);
+                }
                 Ok(())
             }
             GenerationPath::Mesh => {
@@ -419,8 +462,16 @@ impl Generator {
                         why: "maxTaskWorkGroupCount",
                     });
                 }
+                if capture && frame.chunks > 1 {
+                    return Err(GpuError::OverBudget {
+                        name: "mesh-path capture".into(),
+                        requested: frame.capacity,
+                        budget: frame.chunk_slots,
+                        why: "the mesh path captures one chunk of strand slots; use the compute path",
+                    });
+                }
                 rec.bind_pipeline(pipeline);
-                self.push_all(rec, pipeline, hair, frame);
+                self.push_all(rec, pipeline, hair, frame, 0);
                 rec.push_constants(pipeline, &per_row);
                 rec.draw_mesh_tasks(per_row, rows, 1)
             }
@@ -492,7 +543,7 @@ fn read_strands(ctx: &Context, frame: &FrameBuffers) -> Result<Vec<CapturedStran
         .collect())
 }
 
-fn params(hair: &GpuHair, inputs: &FrameInputs, capacity: u64) -> GenParams {
+fn params(hair: &GpuHair, inputs: &FrameInputs, capacity: u64, chunk_slots: u64) -> GenParams {
     let asset = &hair.asset;
     let t = &asset.textures;
     let s = &asset.style;
@@ -527,7 +578,12 @@ fn params(hair: &GpuHair, inputs: &FrameInputs, capacity: u64) -> GenParams {
         wave_frizz: [f(s.wave.amplitude), f(s.wave.frequency), f(s.frizz.amplitude), f(s.frizz.frequency)],
         frizz_clump: [f(s.frizz.exponent), f(s.clump.strength), f(s.clump.exponent), f(s.twist)],
         stray: [f(s.stray.fraction), f(s.stray.amplitude), 0.0, 0.0],
-        seed_info: [s.seed, asset.square_sets.len() as u32, capacity.min(u64::from(u32::MAX)) as u32, 0],
+        seed_info: [
+            s.seed,
+            asset.square_sets.len() as u32,
+            capacity.min(u64::from(u32::MAX)) as u32,
+            chunk_slots as u32,
+        ],
         viewport: [inputs.viewport[0] as f32, inputs.viewport[1] as f32, 0.0, 0.0],
     }
 }
