@@ -291,8 +291,9 @@ impl Generator {
         let caps = ctx.capabilities();
         // Chunk windows start at multiples of the storage-buffer offset alignment.
         let align = caps.min_storage_buffer_offset_alignment.max(1);
-        let step =
-            (1..=256u64).find(|n| (n * SLOT_BYTES) % align == 0 && (n * 16) % align == 0).unwrap_or(256);
+        let step = (1..=256u64)
+            .find(|n| (n * SLOT_BYTES).is_multiple_of(align) && (n * 16).is_multiple_of(align))
+            .unwrap_or(256);
         let range_slots = u64::from(caps.max_storage_buffer_range) / SLOT_BYTES;
         let wanted = self.options.max_chunk_slots.map_or(range_slots, |m| m.min(range_slots));
         let chunk_slots = (wanted / step * step).max(step);
