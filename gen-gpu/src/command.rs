@@ -495,13 +495,8 @@ impl Context {
         Ok((value, timings))
     }
 
-    /// An image filled with tightly packed `data` and left in SHADER_READ_ONLY_OPTIMAL layout.
-    pub fn create_image_with_data(&self, name: &str, desc: ImageDesc, data: &[u8]) -> Result<Image> {
-        let image = Image::new(
-            self,
-            name,
-            desc.with_usage(vk::ImageUsageFlags::TRANSFER_DST | vk::ImageUsageFlags::SAMPLED),
-        )?;
+    /// A host-visible transfer source holding `data`.
+    fn upload_staging(&self, name: &str, data: &[u8]) -> Result<Buffer> {
         let mut staging = Buffer::new(
             self,
             &format!("{name} (upload)"),
@@ -514,6 +509,30 @@ impl Context {
         if let Some(m) = staging.mapped_mut() {
             m[..data.len()].copy_from_slice(data);
         }
+        Ok(staging)
+    }
+
+    /// A host-visible transfer destination of `size` bytes for reading `name` back.
+    fn readback_staging(&self, name: &str, size: u64) -> Result<Buffer> {
+        Buffer::new(
+            self,
+            &format!("{name} (readback)"),
+            BufferDesc {
+                size: size.max(1),
+                usage: vk::BufferUsageFlags::TRANSFER_DST,
+                location: MemoryLocation::GpuToCpu,
+            },
+        )
+    }
+
+    /// An image filled with tightly packed `data` and left in SHADER_READ_ONLY_OPTIMAL layout.
+    pub fn create_image_with_data(&self, name: &str, desc: ImageDesc, data: &[u8]) -> Result<Image> {
+        let image = Image::new(
+            self,
+            name,
+            desc.with_usage(vk::ImageUsageFlags::TRANSFER_DST | vk::ImageUsageFlags::SAMPLED),
+        )?;
+        let staging = self.upload_staging(name, data)?;
         self.submit(&format!("upload {name}"), |rec| {
             rec.image_barrier(
                 &image,
@@ -554,18 +573,7 @@ impl Context {
             mapped[..data.len()].copy_from_slice(data);
             return Ok(buffer);
         }
-        let mut staging = Buffer::new(
-            self,
-            &format!("{name} (upload)"),
-            BufferDesc {
-                size: desc.size,
-                usage: vk::BufferUsageFlags::TRANSFER_SRC,
-                location: MemoryLocation::CpuToGpu,
-            },
-        )?;
-        if let Some(m) = staging.mapped_mut() {
-            m[..data.len()].copy_from_slice(data);
-        }
+        let staging = self.upload_staging(name, data)?;
         self.submit(&format!("upload {name}"), |rec| {
             rec.copy_buffer(&staging, &buffer, data.len() as u64);
             Ok(())
@@ -586,15 +594,7 @@ impl Context {
         if let Some(mapped) = buffer.mapped() {
             return Ok(mapped[..len as usize].to_vec());
         }
-        let staging = Buffer::new(
-            self,
-            &format!("{} (readback)", buffer.name()),
-            BufferDesc {
-                size: len.max(1),
-                usage: vk::BufferUsageFlags::TRANSFER_DST,
-                location: MemoryLocation::GpuToCpu,
-            },
-        )?;
+        let staging = self.readback_staging(buffer.name(), len)?;
         self.submit(&format!("read back {}", buffer.name()), |rec| {
             rec.copy_buffer(buffer, &staging, len);
             Ok(())
@@ -606,15 +606,7 @@ impl Context {
     pub fn read_image(&self, image: &Image, bytes_per_texel: u64) -> Result<Vec<u8>> {
         let e = image.desc.extent;
         let len = u64::from(e.width) * u64::from(e.height) * u64::from(e.depth) * bytes_per_texel;
-        let staging = Buffer::new(
-            self,
-            &format!("{} (readback)", image.name()),
-            BufferDesc {
-                size: len,
-                usage: vk::BufferUsageFlags::TRANSFER_DST,
-                location: MemoryLocation::GpuToCpu,
-            },
-        )?;
+        let staging = self.readback_staging(image.name(), len)?;
         self.submit(&format!("read back {}", image.name()), |rec| {
             rec.copy_image_to_buffer(image, &staging);
             Ok(())

@@ -2,17 +2,10 @@
 
 use std::path::{Path, PathBuf};
 
-use hairmesh::strands::{load_strands, load_tfxbone};
+mod common;
+use common::testdata;
 
-fn testdata() -> PathBuf {
-    let dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../shared/testdata");
-    assert!(
-        dir.is_dir(),
-        "test data folder {} is missing: clone the project beside `shared/`",
-        dir.display()
-    );
-    dir
-}
+use hairmesh::strands::{load_strands, load_tfxbone};
 
 #[test]
 fn tressfx_files_load_with_their_documented_counts() {

@@ -2,18 +2,11 @@
 
 use std::path::{Path, PathBuf};
 
+mod common;
+use common::testdata;
+
 use hairmesh::import::load_scalp;
 use hairmesh::{HairMeshError, ScalpSelector};
-
-fn testdata() -> PathBuf {
-    let dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../shared/testdata");
-    assert!(
-        dir.is_dir(),
-        "test data folder {} is missing: clone the project beside `shared/`",
-        dir.display()
-    );
-    dir
-}
 
 fn files(dir: &Path, out: &mut Vec<PathBuf>) {
     let mut entries: Vec<PathBuf> =

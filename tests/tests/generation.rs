@@ -18,11 +18,16 @@ use hairmesh::reference::{LodParams, bundle_lod};
 use hairmesh::style::{Clump, Curl, Frizz, Style, Wave};
 use hairmesh::texture::CurveEvaluation;
 
-fn head_cap_asset(strands: u64, style: Style) -> anyhow::Result<HairAsset> {
-    let scalp = hairmesh::procedural::head_cap(6, 24);
+/// Extrudes `scalp` into 4 layers and builds its asset.
+fn asset_from(
+    scalp: &hairmesh::ScalpMesh,
+    length: f64,
+    strands: u64,
+    style: Style,
+) -> anyhow::Result<HairAsset> {
     let hm = HairMesh::extrude(
-        &scalp,
-        &ExtrudeParams { layers: 4, length: 0.18, droop: 0.4, ..ExtrudeParams::default() },
+        scalp,
+        &ExtrudeParams { layers: 4, length, droop: 0.4, ..ExtrudeParams::default() },
     )?;
     Ok(HairAsset::build(
         &hm,
@@ -31,20 +36,16 @@ fn head_cap_asset(strands: u64, style: Style) -> anyhow::Result<HairAsset> {
     )?)
 }
 
+fn head_cap_asset(strands: u64, style: Style) -> anyhow::Result<HairAsset> {
+    asset_from(&hairmesh::procedural::head_cap(6, 24), 0.18, strands, style)
+}
+
 fn lee_perry_smith_asset(strands: u64, style: Style) -> anyhow::Result<HairAsset> {
     let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR"))
         .join("../../shared/testdata/heads/LeePerrySmith/LeePerrySmith.glb");
     let scalp = hairmesh::import::load_scalp(&path, &hairmesh::ScalpSelector::parse("above:0,1,0,1.5")?)
         .with_context(|| format!("{} (clone the project beside shared/)", path.display()))?;
-    let hm = HairMesh::extrude(
-        &scalp,
-        &ExtrudeParams { layers: 4, length: 3.0, droop: 0.4, ..ExtrudeParams::default() },
-    )?;
-    Ok(HairAsset::build(
-        &hm,
-        &AssetParams { strands: StrandCount::Total(strands), sample_sets: 2, seed: 5 },
-        style,
-    )?)
+    asset_from(&scalp, 3.0, strands, style)
 }
 
 fn styled(scale: f64) -> Style {

@@ -1,10 +1,13 @@
 //! Meshes shared by the integration tests.
 
+use std::path::{Path, PathBuf};
+
 use glam::{DVec2, DVec3};
 use hairmesh::ScalpMesh;
 use hairmesh::rng::SplitMix64;
 
 /// A bumpy n×n grid patch (quads) plus a fan of triangles on one side.
+#[allow(dead_code, reason = "each test binary uses a different part of this module")]
 pub fn patch(n: u32, origin: DVec3, scale: f64, rng: &mut SplitMix64) -> ScalpMesh {
     let mut positions = Vec::new();
     let mut uvs = Vec::new();
@@ -29,4 +32,16 @@ pub fn patch(n: u32, origin: DVec3, scale: f64, rng: &mut SplitMix64) -> ScalpMe
         faces.push(vec![apex, id(0, j), id(0, j + 1)]);
     }
     ScalpMesh { positions, uvs: Some(uvs), faces, ..Default::default() }
+}
+
+/// `../shared/testdata`, which CI provides beside the clone.
+#[allow(dead_code, reason = "each test binary uses a different part of this module")]
+pub fn testdata() -> PathBuf {
+    let dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../shared/testdata");
+    assert!(
+        dir.is_dir(),
+        "test data folder {} is missing: clone the project beside `shared/`",
+        dir.display()
+    );
+    dir
 }
