@@ -132,30 +132,7 @@ impl<'a> Recorder<'a> {
 
     /// Binds whole storage buffers to set 0 with push descriptors.
     pub fn push_storage_buffers(&self, pipeline: &Pipeline, buffers: &[(u32, &Buffer)]) {
-        let infos: Vec<[vk::DescriptorBufferInfo; 1]> = buffers
-            .iter()
-            .map(|(_, b)| [vk::DescriptorBufferInfo { buffer: b.raw, offset: 0, range: vk::WHOLE_SIZE }])
-            .collect();
-        let writes: Vec<_> = buffers
-            .iter()
-            .zip(&infos)
-            .map(|((binding, _), info)| {
-                vk::WriteDescriptorSet::default()
-                    .dst_binding(*binding)
-                    .descriptor_type(vk::DescriptorType::STORAGE_BUFFER)
-                    .buffer_info(info)
-            })
-            .collect();
-        // SAFETY: recording; the writes point at live buffers and match the set layout.
-        unsafe {
-            self.ctx.shared.push_descriptor.cmd_push_descriptor_set(
-                self.cmd,
-                pipeline.bind_point,
-                pipeline.layout,
-                0,
-                &writes,
-            );
-        }
+        self.push_descriptors(pipeline, buffers, &[]);
     }
 
     /// Binds whole storage buffers and combined image samplers of set 0 with push descriptors.
