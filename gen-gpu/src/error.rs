@@ -33,6 +33,8 @@ pub enum GpuError {
     },
     #[error("`{name}` needs {requested} bytes, over the budget of {budget} bytes ({why})")]
     OverBudget { name: String, requested: u64, budget: u64, why: &'static str },
+    #[error("GPU result differs from the CPU reference: {0}")]
+    Mismatch(String),
     #[error("buffer `{name}` holds {size} bytes; cannot read {requested} bytes from it")]
     OutOfRange { name: String, size: u64, requested: u64 },
 }

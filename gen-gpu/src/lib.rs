@@ -8,6 +8,7 @@
 //! # Ok::<(), gen_gpu::GpuError>(())
 //! ```
 
+pub mod accuracy;
 mod caps;
 mod command;
 mod context;

@@ -2,7 +2,9 @@
 //! the renderer's frame graph: every pass is labelled and timed.
 
 use gen_gpu::diagnostics::RenderTarget;
-use gen_gpu::{Context, FrameInputs, FrameTimings, GenerationPath, GenerationStats, Generator, GpuHair};
+use gen_gpu::{
+    Context, FrameBuffers, FrameInputs, FrameTimings, GenerationPath, GenerationStats, Generator, GpuHair,
+};
 use glam::{Mat4, Vec3};
 use hairmesh::reference::{LodParams, Projection, ViewParams};
 
@@ -76,32 +78,61 @@ pub fn render_crowd(
     characters: &[Character],
     view: &CrowdView,
 ) -> gen_gpu::Result<CrowdFrame> {
-    let CrowdView { camera, width, height, path, lod } = *view;
-    let camera = &camera;
-    let frames = characters
+    let frames = prepare_crowd(ctx, generator, hairs, characters, view)?;
+    render_prepared(ctx, generator, hairs, characters, &frames, view, true)
+}
+
+/// Frame buffers for every character, sized from the LOD the view asks for.
+pub fn prepare_crowd(
+    ctx: &Context,
+    generator: &Generator,
+    hairs: &[GpuHair],
+    characters: &[Character],
+    view: &CrowdView,
+) -> gen_gpu::Result<Vec<FrameBuffers>> {
+    characters
         .iter()
         .map(|c| {
-            let inputs = character_inputs(camera, c, width, height, lod);
+            let inputs = character_inputs(&view.camera, c, view.width, view.height, view.lod);
             generator.prepare(ctx, &hairs[c.hair], &inputs)
         })
-        .collect::<gen_gpu::Result<Vec<_>>>()?;
+        .collect()
+}
+
+/// Draws prepared characters. With `regenerate` the strands are generated for this frame
+/// (on the fly); without it the strand buffers of an earlier compute-path frame are drawn
+/// as stored strands (the baseline that shows what generating every frame costs).
+pub fn render_prepared(
+    ctx: &Context,
+    generator: &Generator,
+    hairs: &[GpuHair],
+    characters: &[Character],
+    frames: &[FrameBuffers],
+    view: &CrowdView,
+    regenerate: bool,
+) -> gen_gpu::Result<CrowdFrame> {
+    let CrowdView { width, height, path, .. } = *view;
+    let path = if regenerate { path } else { GenerationPath::Compute };
     let target = RenderTarget::new(ctx, width, height)?;
     let ((), timings) = ctx.submit("crowd frame", |rec| {
         // The compute path generates every character before the raster pass; the mesh path
         // needs the LOD pass only for statistics, and generates while drawing.
-        rec.pass("generate", |rec| {
-            for (c, frame) in characters.iter().zip(&frames) {
-                generator.record_lod(rec, &hairs[c.hair], frame);
-                if path == GenerationPath::Compute {
-                    generator.record_generate(rec, &hairs[c.hair], frame);
+        if regenerate {
+            rec.pass("generate", |rec| {
+                for (c, frame) in characters.iter().zip(frames) {
+                    generator.record_lod(rec, &hairs[c.hair], frame);
+                    if path == GenerationPath::Compute {
+                        generator.record_generate(rec, &hairs[c.hair], frame);
+                    }
                 }
-            }
-        });
+            });
+        }
         target.begin(rec);
-        let drawn = rec.pass(&format!("raster ({path})"), |rec| {
+        let name = if regenerate { format!("raster ({path})") } else { "raster (stored strands)".to_owned() };
+        let drawn = rec.pass(&name, |rec| {
             characters
                 .iter()
-                .zip(&frames)
+                .zip(frames)
                 .try_for_each(|(c, frame)| generator.record_draw(rec, &hairs[c.hair], frame, path, false))
         });
         rec.end_rendering();
@@ -109,7 +140,7 @@ pub fn render_crowd(
         drawn
     })?;
     let mut stats = GenerationStats::default();
-    for (c, frame) in characters.iter().zip(&frames) {
+    for (c, frame) in characters.iter().zip(frames) {
         let s = generator.stats(ctx, &hairs[c.hair], frame)?;
         stats.bundles += s.bundles;
         stats.bundles_culled += s.bundles_culled;

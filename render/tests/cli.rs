@@ -69,14 +69,21 @@ fn main() -> ExitCode {
             ensure!(out.status.success(), "hair-bench failed: {}", String::from_utf8_lossy(&out.stderr));
             let report = std::fs::read_to_string(dir.path().join("benchmarks.md"))?;
             ensure!(report.contains(&ctx.capabilities().device_name), "the report names the device");
-            let csv = std::fs::read_to_string(dir.path().join("bench-generation.csv"))?;
-            let rows: Vec<&str> = csv.lines().skip(1).collect();
-            ensure!(rows.len() >= 2, "{csv}");
-            for row in rows {
-                for value in row.split(',').skip(2) {
-                    let v: f64 = value.parse()?;
-                    ensure!(v.is_finite() && v >= 0.0, "{row}");
+            for (file, skip, min_rows) in
+                [("bench-generation.csv", 2, 2), ("bench-stored.csv", 0, 2), ("bench-accuracy.csv", 1, 7)]
+            {
+                let csv = std::fs::read_to_string(dir.path().join(file))?;
+                let rows: Vec<&str> = csv.lines().skip(1).collect();
+                ensure!(rows.len() >= min_rows, "{file}: {csv}");
+                for row in rows {
+                    for value in row.split(',').skip(skip) {
+                        let v: f64 = value.parse()?;
+                        ensure!(v.is_finite() && v >= 0.0, "{file}: {row}");
+                    }
                 }
+            }
+            for section in ["On-the-fly vs stored", "Accuracy vs time", "GPU memory"] {
+                ensure!(report.contains(section), "`{section}` missing");
             }
             // A second run replaces its own section and keeps the rest of the file.
             std::fs::write(dir.path().join("benchmarks.md"), format!("# Benchmarks\n\nkeep me\n\n{report}"))?;

@@ -4,6 +4,7 @@
 use std::process::ExitCode;
 
 use anyhow::{Context as _, bail, ensure};
+use gen_gpu::accuracy::Accuracy;
 use gen_gpu::diagnostics::draw_hair;
 use gen_gpu::{
     Capture, Context, Filtering, FrameInputs, GenerationPath, Generator, GeneratorOptions, GpuHair,
@@ -14,7 +15,7 @@ use hairkit_tests::harness::{GpuTest, Requirements, run_gpu_tests};
 use hairkit_tests::image_compare::{Tolerance, compare};
 use hairmesh::asset::{AssetParams, HairAsset, StrandCount};
 use hairmesh::hair_mesh::{ExtrudeParams, HairMesh};
-use hairmesh::reference::{LodParams, bundle_lod};
+use hairmesh::reference::LodParams;
 use hairmesh::style::{Clump, Curl, Frizz, Style, Wave};
 use hairmesh::texture::CurveEvaluation;
 
@@ -61,59 +62,12 @@ fn styled(scale: f64) -> Style {
     }
 }
 
-/// Errors of a capture against the CPU reference.
-#[derive(Debug, Default)]
-struct Errors {
-    strands: usize,
-    max_position_widths: f64,
-    mean_position_widths: f64,
-    max_tangent_degrees: f64,
-    max_width_relative: f64,
-}
-
 fn compare_to_reference(
     asset: &HairAsset,
     inputs: &FrameInputs,
     capture: &Capture,
-) -> anyhow::Result<Errors> {
-    // Identical strand counts per bundle.
-    let mut counts = vec![0u32; asset.bundles.len()];
-    for s in &capture.strands {
-        counts[s.bundle as usize] += 1;
-    }
-    for (b, &n) in counts.iter().enumerate() {
-        let expected = bundle_lod(asset, b as u32, &inputs.view, &inputs.lod).strands;
-        ensure!(n == expected, "bundle {b}: GPU generated {n} strands, the reference {expected}");
-    }
-    let mut e = Errors { strands: capture.strands.len(), ..Errors::default() };
-    let mut sum = 0.0;
-    let mut samples = 0usize;
-    for s in &capture.strands {
-        let l = bundle_lod(asset, s.bundle, &inputs.view, &inputs.lod);
-        let r = asset.generate_strand(s.bundle, s.index, &l);
-        ensure!(
-            s.positions.len() == r.positions.len(),
-            "bundle {} strand {}: {} vertices, reference {}",
-            s.bundle,
-            s.index,
-            s.positions.len(),
-            r.positions.len()
-        );
-        let width = asset.style.width;
-        for k in 0..r.positions.len() {
-            let d = s.positions[k].as_dvec3().distance(r.positions[k]) / width;
-            ensure!(d.is_finite(), "non-finite GPU vertex");
-            e.max_position_widths = e.max_position_widths.max(d);
-            sum += d;
-            samples += 1;
-            let cos = s.tangents[k].as_dvec3().normalize_or_zero().dot(r.tangents[k]).clamp(-1.0, 1.0);
-            e.max_tangent_degrees = e.max_tangent_degrees.max(cos.acos().to_degrees());
-            e.max_width_relative =
-                e.max_width_relative.max((f64::from(s.widths[k]) - r.widths[k]).abs() / r.widths[k]);
-        }
-    }
-    e.mean_position_widths = sum / samples.max(1) as f64;
-    Ok(e)
+) -> anyhow::Result<Accuracy> {
+    Ok(gen_gpu::accuracy::compare_to_reference(asset, inputs, capture)?)
 }
 
 fn inputs_for(asset: &HairAsset, eye: Vec3, lod: LodParams) -> FrameInputs {

@@ -14,15 +14,16 @@ use std::path::{Path, PathBuf};
 use anyhow::{Context as _, Result};
 use clap::Parser;
 use gen_gpu::{
-    Context, ContextDesc, Filtering, GenerationPath, Generator, GpuHair, PathChoice, TexturePrecision,
-    Validation,
+    Context, ContextDesc, Filtering, GenerationPath, Generator, GeneratorOptions, GpuHair, PathChoice,
+    TexturePrecision, Validation,
 };
 use glam::{Mat4, Vec3};
 use hairmesh::asset::{AssetParams, HairAsset, StrandCount};
 use hairmesh::hair_mesh::{ExtrudeParams, HairMesh};
 use hairmesh::reference::LodParams;
 use hairmesh::style::{Clump, Style, Wave};
-use render::crowd::{Camera, Character, CrowdView, render_crowd};
+use render::RgbaImage;
+use render::crowd::{Camera, Character, CrowdView, prepare_crowd, render_crowd, render_prepared};
 
 #[derive(Parser, Debug)]
 #[command(name = "hair-bench", version, about = "GPU benchmarks of on-the-fly hair generation")]
@@ -195,8 +196,46 @@ fn run(cli: &Cli) -> Result<()> {
     }
     let _ = writeln!(
         md,
-        "\nThe 2×2-block texture layout spends 4 texels per bundle per slice; the shared-vertex lattice layout (about 4× smaller) is the planned step toward the 2000× goal.\n{END}"
+        "\nThe 2×2-block texture layout spends 4 texels per bundle per slice; the shared-vertex lattice layout (about 4× smaller) is the planned step toward the 2000× goal."
     );
+
+    // On the fly vs stored: the same strands, generated every frame or drawn from the buffers
+    // an earlier frame filled.
+    let _ = writeln!(md, "\n### On-the-fly vs stored strands\n");
+    let _ = writeln!(
+        md,
+        "Compute path; \"stored\" draws the strand buffers an earlier frame generated (vertex pulling, same shading), so only generation differs.\n"
+    );
+    let _ = writeln!(
+        md,
+        "| strands | on the fly (ms) | stored (ms) | time ratio (goal ≤ 1.05×) |\n|---|---|---|---|"
+    );
+    let mut stored_csv = String::from("strands,on_the_fly_ms,stored_ms,ratio\n");
+    for &strands in sizes {
+        let hairs = [GpuHair::upload(&ctx, &asset(strands)?, TexturePrecision::Auto)?];
+        let lod = LodParams { enabled: false, ..LodParams::default() };
+        let view = CrowdView { camera, width, height, path: GenerationPath::Compute, lod };
+        let buffers = prepare_crowd(&ctx, &generator, &hairs, &character, &view)?;
+        render_prepared(&ctx, &generator, &hairs, &character, &buffers, &view, true)?;
+        let mut live = Vec::new();
+        let mut stored = Vec::new();
+        for _ in 0..frames {
+            let frame = |regenerate| -> Result<f64> {
+                let f = render_prepared(&ctx, &generator, &hairs, &character, &buffers, &view, regenerate)?;
+                Ok(f.timings.pass_ms("crowd frame").unwrap_or(f64::NAN))
+            };
+            live.push(frame(true)?);
+            stored.push(frame(false)?);
+        }
+        let (live, stored) = (median(live), median(stored));
+        let n = hairs[0].total_strands();
+        let _ = writeln!(md, "| {n} | {live:.1} | {stored:.1} | {:.2}× |", live / stored);
+        let _ = writeln!(stored_csv, "{n},{live:.3},{stored:.3},{:.4}", live / stored);
+    }
+
+    let accuracy = accuracy_table(&ctx, cli.quick, width, height, frames)?;
+    md.push_str(&accuracy.markdown);
+    let _ = writeln!(md, "{END}");
 
     std::fs::create_dir_all(&cli.out).with_context(|| format!("creating {}", cli.out.display()))?;
     let report = cli.out.join("benchmarks.md");
@@ -217,12 +256,143 @@ fn run(cli: &Cli) -> Result<()> {
         );
     }
     write(&cli.out.join("bench-generation.csv"), csv.as_bytes())?;
+    write(&cli.out.join("bench-stored.csv"), stored_csv.as_bytes())?;
+    write(&cli.out.join("bench-accuracy.csv"), accuracy.csv.as_bytes())?;
     println!("{}", md.replace(BEGIN, "").replace(END, "").trim());
-    println!("\nwrote {} and {}", report.display(), cli.out.join("bench-generation.csv").display());
+    println!("\nwrote {} and the CSV files beside it", report.display());
     Ok(())
 }
 
 fn write(path: &Path, bytes: &[u8]) -> Result<()> {
     hairmesh::atomic::write_file_atomic(path, |w| w.write_all(bytes))
         .with_context(|| format!("writing {}", path.display()))
+}
+
+struct Table {
+    markdown: String,
+    csv: String,
+}
+
+fn flip_mean(reference: &RgbaImage, test: &RgbaImage) -> f64 {
+    let rgb =
+        |i: &RgbaImage| -> Vec<u8> { i.pixels.chunks_exact(4).flat_map(|p| [p[0], p[1], p[2]]).collect() };
+    let r = nv_flip::FlipImageRgb8::with_data(reference.width, reference.height, &rgb(reference));
+    let t = nv_flip::FlipImageRgb8::with_data(test.width, test.height, &rgb(test));
+    let map = nv_flip::flip(r, t, nv_flip::DEFAULT_PIXELS_PER_DEGREE);
+    f64::from(nv_flip::FlipPool::from_image(&map).mean())
+}
+
+/// Every accuracy switch side by side: error against the f64 CPU reference, image error against
+/// the most accurate render (exact cubic, manual f32 filtering, LOD off), GPU time, memory.
+fn accuracy_table(ctx: &Context, quick: bool, width: u32, height: u32, frames: usize) -> Result<Table> {
+    let strands = if quick { 1_000 } else { 10_000 };
+    let asset = asset(strands)?;
+    // Far enough that LOD has something to drop.
+    let camera = Camera {
+        eye: Vec3::new(0.0, 1.8, 1.6),
+        target: Vec3::new(0.0, 1.55, 0.0),
+        fov_y: 50f32.to_radians(),
+    };
+    let character = [Character { hair: 0, transform: Mat4::IDENTITY }];
+    let off = LodParams { enabled: false, ..LodParams::default() };
+    let lod = |alpha: f64| LodParams { strand_alpha: alpha, vertex_alpha: alpha, ..LodParams::default() };
+    let configs: Vec<(&str, TexturePrecision, GeneratorOptions, LodParams)> = vec![
+        (
+            "exact cubic / f32 / manual filtering",
+            TexturePrecision::F32,
+            GeneratorOptions {
+                filtering: Filtering::Manual,
+                exact_cubic: true,
+                ..GeneratorOptions::default()
+            },
+            off,
+        ),
+        (
+            "quadratics / f32 / manual filtering",
+            TexturePrecision::F32,
+            GeneratorOptions { filtering: Filtering::Manual, ..GeneratorOptions::default() },
+            off,
+        ),
+        ("quadratics / f32 / hardware trilinear", TexturePrecision::F32, GeneratorOptions::default(), off),
+        ("quadratics / f16 / hardware trilinear", TexturePrecision::F16, GeneratorOptions::default(), off),
+        ("f32 hardware / LOD α = 1", TexturePrecision::F32, GeneratorOptions::default(), lod(1.0)),
+        ("f32 hardware / LOD α = 4", TexturePrecision::F32, GeneratorOptions::default(), lod(4.0)),
+        ("f32 hardware / LOD α = 16", TexturePrecision::F32, GeneratorOptions::default(), lod(16.0)),
+    ];
+    let mut md = String::new();
+    let _ = writeln!(md, "\n### Accuracy vs time\n");
+    let _ = writeln!(
+        md,
+        "{} strands, {width}×{height}, compute path, camera 1.6 m away. Position error against the f64 CPU reference at the same LOD (so LOD rows show the generation error; what LOD drops shows in the image error), in strand widths ({:.1} mm) and in % of the hair length; image error: mean FLIP against the first row. Medians of {frames} frames.\n",
+        asset.total_strands(),
+        asset.style.width * 1e3
+    );
+    let _ = writeln!(
+        md,
+        "| configuration | max error (widths) | mean (widths) | max (% of length) | strands drawn | FLIP mean | frame (ms) | asset bytes |\n|---|---|---|---|---|---|---|---|"
+    );
+    let mut csv = String::from(
+        "configuration,max_widths,mean_widths,max_percent_length,strands,flip_mean,frame_ms,asset_bytes\n",
+    );
+    let mut reference: Option<RgbaImage> = None;
+    for (name, precision, options, lod) in configs {
+        eprintln!("accuracy: {name}…");
+        let generator = Generator::with_options(ctx, options)?;
+        let hair = GpuHair::upload(ctx, &asset, precision)?;
+        let view = CrowdView { camera, width, height, path: GenerationPath::Compute, lod };
+        let inputs = render::crowd::character_inputs(&camera, &character[0], width, height, lod);
+        let capture = generator.capture(
+            ctx,
+            &hair,
+            &gen_gpu::FrameInputs { cull: false, ..inputs },
+            GenerationPath::Compute,
+        )?;
+        let mut oracle_asset = asset.clone();
+        oracle_asset.curve = if options.exact_cubic {
+            hairmesh::texture::CurveEvaluation::Cubic
+        } else {
+            hairmesh::texture::CurveEvaluation::Quadratic
+        };
+        let a = gen_gpu::accuracy::compare_to_reference(
+            &oracle_asset,
+            &gen_gpu::FrameInputs { cull: false, ..inputs },
+            &capture,
+        )?;
+        let hairs = [hair];
+        render_crowd(ctx, &generator, &hairs, &character, &view)?;
+        let mut times = Vec::new();
+        let mut image = None;
+        for _ in 0..frames {
+            let frame = render_crowd(ctx, &generator, &hairs, &character, &view)?;
+            times.push(frame.timings.pass_ms("crowd frame").unwrap_or(f64::NAN));
+            image = Some(frame.image);
+        }
+        let image = image.context("no frame rendered")?;
+        let flip = match &reference {
+            None => {
+                reference = Some(image);
+                0.0
+            }
+            Some(r) => flip_mean(r, &image),
+        };
+        let t = median(times);
+        let bytes = hairs[0].bytes.total();
+        let _ = writeln!(
+            md,
+            "| {name} | {:.4} | {:.5} | {:.5} | {} | {flip:.4} | {t:.1} | {bytes} |",
+            a.max_position_widths,
+            a.mean_position_widths,
+            a.max_position_of_length * 100.0,
+            a.strands
+        );
+        let _ = writeln!(
+            csv,
+            "{name},{:.6},{:.6},{:.6},{},{flip:.6},{t:.3},{bytes}",
+            a.max_position_widths,
+            a.mean_position_widths,
+            a.max_position_of_length * 100.0,
+            a.strands
+        );
+    }
+    Ok(Table { markdown: md, csv })
 }
