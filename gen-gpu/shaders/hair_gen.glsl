@@ -381,10 +381,39 @@ uint strands_per_mesh_group(uint level) {
 }
 #endif
 
-// Camera-facing strip corners of a strand vertex, in clip space.
-void strip_corners(StrandVertex v, out vec4 left, out vec4 right) {
+// Camera-facing strip corners of a strand vertex, in clip space. Strips narrower than a pixel
+// are widened to one pixel and report the fraction they really cover (coverage AA: the
+// fragment stage scales alpha by it instead of drawing thinner-than-a-pixel geometry).
+void strip_corners(StrandVertex v, out vec4 left, out vec4 right, out float coverage) {
     vec3 to_eye = params.projection.z > 0.5 ? params.eye.xyz : params.eye.xyz - v.position;
     vec3 side = try_normalize(cross(v.tangent, to_eye), any_orthonormal(v.tangent)) * (0.5 * v.width);
+    vec4 centre = params.view_proj * vec4(v.position, 1.0);
     left = params.view_proj * vec4(v.position - side, 1.0);
     right = params.view_proj * vec4(v.position + side, 1.0);
+    coverage = 1.0;
+    if (left.w > 0.0 && right.w > 0.0) {
+        vec2 pixels = (right.xy / right.w - left.xy / left.w) * 0.5 * params.viewport.xy;
+        float width_px = length(pixels);
+        if (width_px < 1.0) {
+            float grow = 1.0 / max(width_px, 1e-3);
+            left = centre + (left - centre) * grow;
+            right = centre + (right - centre) * grow;
+            coverage = width_px;
+        }
+    }
+}
+
+// What the pre-raster stages hand the fragment stage (locations 0-2), in object space.
+struct StrandVaryings {
+    vec4 position_tau;    // xyz position, w strand parameter
+    vec4 tangent_random;  // xyz unit tangent, w per-strand random in [0, 1)
+    vec4 coverage_side;   // x coverage in [0, 1], y -1 on the left edge, +1 on the right
+};
+
+StrandVaryings strand_varyings(StrandVertex v, uint bundle, uint strand, float coverage, float side) {
+    StrandVaryings o;
+    o.position_tau = vec4(v.position, v.tau);
+    o.tangent_random = vec4(v.tangent, strand_random(bundle, strand, 7u));
+    o.coverage_side = vec4(coverage, side, 0.0, 0.0);
+    return o;
 }

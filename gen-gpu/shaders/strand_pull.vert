@@ -7,15 +7,17 @@
 #include "hair_gen.glsl"
 #include "hair_outputs.glsl"
 
-layout(location = 0) out vec4 v_color;
+layout(location = 0) out vec4 v_position_tau;
+layout(location = 1) out vec4 v_tangent_random;
+layout(location = 2) out vec4 v_coverage_side;
 
 const uint CORNER[6] = uint[6](0u, 1u, 2u, 2u, 1u, 3u);
 
+// Bytes 0-15 of the push constants belong to the pre-raster stages, 16+ to the fragment stage.
 layout(push_constant) uniform ChunkParams {
     uint chunk;
 } chunk_params;
 
-#include "strand_color.glsl"
 
 void main() {
     // Relative to the bound chunk window.
@@ -25,7 +27,9 @@ void main() {
     uvec4 info = strand_info[slot];
     if (segment + 1u >= info.z) {
         gl_Position = vec4(0.0, 0.0, -1.0, 1.0);
-        v_color = vec4(0.0);
+        v_position_tau = vec4(0.0);
+        v_tangent_random = vec4(0.0);
+        v_coverage_side = vec4(0.0);
         return;
     }
     uint k = segment + corner / 2u;
@@ -37,7 +41,12 @@ void main() {
     v.tau = strand_vertices[base + 1u].w;
     vec4 left;
     vec4 right;
-    strip_corners(v, left, right);
-    gl_Position = (corner & 1u) == 0u ? left : right;
-    v_color = strand_color(v, info.x, info.y);
+    float coverage;
+    strip_corners(v, left, right, coverage);
+    bool is_left = (corner & 1u) == 0u;
+    gl_Position = is_left ? left : right;
+    StrandVaryings o = strand_varyings(v, info.x, info.y, coverage, is_left ? -1.0 : 1.0);
+    v_position_tau = o.position_tau;
+    v_tangent_random = o.tangent_random;
+    v_coverage_side = o.coverage_side;
 }

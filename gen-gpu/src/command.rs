@@ -205,6 +205,23 @@ impl<'a> Recorder<'a> {
         unsafe { self.device().cmd_dispatch_indirect(self.cmd, args.raw, offset) };
     }
 
+    /// Raw push-constant bytes at `offset` (nothing for an empty slice).
+    pub fn push_constant_bytes(&self, pipeline: &Pipeline, offset: u32, bytes: &[u8]) {
+        if bytes.is_empty() {
+            return;
+        }
+        // SAFETY: recording; the caller keeps offset + len within the layout's range.
+        unsafe {
+            self.device().cmd_push_constants(
+                self.cmd,
+                pipeline.layout,
+                pipeline.push_constant_stages,
+                offset,
+                bytes,
+            );
+        }
+    }
+
     pub fn push_constants<T: bytemuck::Pod>(&self, pipeline: &Pipeline, data: &T) {
         // SAFETY: recording; the layout declares a push-constant range at offset 0 that the
         // caller sized for `T`.

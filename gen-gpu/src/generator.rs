@@ -32,8 +32,24 @@ pub enum Filtering {
     Manual,
 }
 
-/// Pipeline variants (specialization constants of `hair_gen.glsl`).
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash)]
+/// A fragment stage for strand strips, supplied by the renderer. It reads locations 0–2 (see
+/// `StrandVaryings` in `hair_gen.glsl`: object-space position and strand parameter, tangent and
+/// per-strand random, coverage and strip side) and its push constants start at byte
+/// [`FRAGMENT_PUSH_OFFSET`].
+#[derive(Clone, Copy, Debug)]
+pub struct FragmentStage {
+    pub shader: &'static shader_build::ShaderSpirv,
+    pub push_constant_bytes: u32,
+    /// Premultiplied-alpha blending (else replace).
+    pub blend: bool,
+}
+
+/// Where the fragment stage's push constants begin (bytes before it belong to the
+/// pre-raster stages).
+pub const FRAGMENT_PUSH_OFFSET: u32 = 16;
+
+/// Pipeline variants (specialization constants of `hair_gen.glsl`) and the fragment stage.
+#[derive(Clone, Copy, Debug, Default)]
 pub struct GeneratorOptions {
     pub filtering: Filtering,
     /// Evaluate the exact cubic between layers instead of two quadratics (accuracy benchmark).
@@ -41,6 +57,8 @@ pub struct GeneratorOptions {
     /// Caps the strand slots per chunk below what the storage-buffer range allows (tests use
     /// it to exercise chunking with few strands). Rounded down to the alignment step.
     pub max_chunk_slots: Option<u64>,
+    /// The fragment stage; `None` uses gen-gpu's placeholder shading (`strand.frag`).
+    pub fragment: Option<FragmentStage>,
 }
 
 /// What one frame generates for.
@@ -220,19 +238,25 @@ impl Generator {
                 },
             )
         };
-        let graphics = |name, stages, capture: u32, push: u32| {
+        let fragment = options.fragment.unwrap_or(FragmentStage {
+            shader: &shaders::STRAND_FRAG,
+            push_constant_bytes: 0,
+            blend: false,
+        });
+        let push_size = FRAGMENT_PUSH_OFFSET + fragment.push_constant_bytes;
+        let graphics = |name, stages, capture: u32| {
             Pipeline::graphics(
                 ctx,
                 &GraphicsPipelineDesc {
                     name,
                     stages,
-                    fragment: &shaders::STRAND_FRAG,
+                    fragment: fragment.shader,
                     bindings: &bindings,
-                    push_constant_size: push,
+                    push_constant_size: push_size,
                     specialization: &[(0, manual), (1, capture), (2, cubic)],
                     color_format: COLOR_FORMAT,
                     depth_format: Some(DEPTH_FORMAT),
-                    blend: false,
+                    blend: fragment.blend,
                 },
             )
         };
@@ -262,11 +286,10 @@ impl Generator {
                 "strands (vertex pulling)",
                 GraphicsStages::Vertex(&shaders::STRAND_PULL_VERT),
                 0,
-                4,
             )?,
-            mesh: if has_mesh { Some(graphics("strands (task+mesh)", mesh_stages, 0, 4)?) } else { None },
+            mesh: if has_mesh { Some(graphics("strands (task+mesh)", mesh_stages, 0)?) } else { None },
             mesh_capture: if has_mesh {
-                Some(graphics("strands (task+mesh, capture)", mesh_stages, 1, 4)?)
+                Some(graphics("strands (task+mesh, capture)", mesh_stages, 1)?)
             } else {
                 None
             },
@@ -427,12 +450,27 @@ impl Generator {
         path: GenerationPath,
         capture: bool,
     ) -> Result<()> {
+        self.record_draw_with(rec, hair, frame, path, capture, &[])
+    }
+
+    /// [`Self::record_draw`] with the fragment stage's push constants (at
+    /// [`FRAGMENT_PUSH_OFFSET`]).
+    pub fn record_draw_with(
+        &self,
+        rec: &mut Recorder<'_>,
+        hair: &GpuHair,
+        frame: &FrameBuffers,
+        path: GenerationPath,
+        capture: bool,
+        fragment_constants: &[u8],
+    ) -> Result<()> {
         match path {
             GenerationPath::Compute => {
                 rec.bind_pipeline(&self.pull);
                 for chunk in 0..frame.chunks {
                     self.push_all(rec, &self.pull, hair, frame, chunk);
                     rec.push_constants(&self.pull, &(chunk as u32));
+                    rec.push_constant_bytes(&self.pull, FRAGMENT_PUSH_OFFSET, fragment_constants);
                     rec.draw_indirect(&frame.offsets, DRAW_ARGS_OFFSET + 16 * chunk);
                 }
                 Ok(())
@@ -474,6 +512,7 @@ impl Generator {
                 rec.bind_pipeline(pipeline);
                 self.push_all(rec, pipeline, hair, frame, 0);
                 rec.push_constants(pipeline, &per_row);
+                rec.push_constant_bytes(pipeline, FRAGMENT_PUSH_OFFSET, fragment_constants);
                 rec.draw_mesh_tasks(per_row, rows, 1)
             }
         }

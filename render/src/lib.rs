@@ -3,6 +3,8 @@
 //! transparency, shadows, scenes and the volume path build on this.
 
 pub mod crowd;
+pub mod frame;
 pub mod output;
+pub mod scene;
 
 pub use gen_gpu::diagnostics::RgbaImage;

@@ -1,0 +1,349 @@
+//! Scene files (JSON): camera, lights, characters, output, and the effects to compute.
+//!
+//! ```json
+//! {
+//!   "output": { "width": 640, "height": 360 },
+//!   "camera": { "eye": [0, 1.8, 1.2], "target": [0, 1.55, 0], "fov_y_degrees": 45 },
+//!   "lights": [ { "directional": { "direction": [0.4, 0.8, 0.5], "color": [1, 1, 1] } } ],
+//!   "characters": [ { "hair": "hair/head_cap_long", "transform": { "translation": [0, 0, 0] },
+//!                     "color": [0.3, 0.18, 0.1], "style": { "curl": { "radius": 0.003 } } } ],
+//!   "effects": { "transparency": "opaque", "shadows": false },
+//!   "lod": { "enabled": true, "strand_alpha": 1, "vertex_alpha": 1 }
+//! }
+//! ```
+//!
+//! Unknown fields are errors, reported with line and column. Paths are relative to the scene
+//! file. Every number is checked (finite, in range) and errors name the file and the field.
+//! Effects that are not built yet (`transparency: "oit"`, `shadows`, `ao`, `volume_lod`,
+//! `dynamics`) are refused with a clear "not supported yet".
+
+use std::path::{Path, PathBuf};
+
+use glam::{Mat4, Quat, Vec3};
+use serde::{Deserialize, Serialize};
+
+/// Largest output side accepted (the GPU's 2D image limit is checked too).
+pub const MAX_OUTPUT_SIDE: u32 = 8192;
+/// Most characters in one scene.
+pub const MAX_CHARACTERS: usize = 4096;
+
+#[derive(Debug, thiserror::Error)]
+pub enum SceneError {
+    #[error("{path}: {message}")]
+    Io { path: PathBuf, message: String },
+    #[error("{path}: line {line}, column {column}: {message}")]
+    Syntax { path: PathBuf, line: usize, column: usize, message: String },
+    #[error("{path}: {field}: {message}")]
+    Invalid { path: PathBuf, field: String, message: String },
+    #[error("{path}: {field}: {effect} is not supported yet")]
+    NotSupportedYet { path: PathBuf, field: String, effect: String },
+}
+
+#[derive(Clone, Copy, Debug, Deserialize, Serialize, PartialEq)]
+#[serde(deny_unknown_fields)]
+pub struct Output {
+    pub width: u32,
+    pub height: u32,
+}
+
+#[derive(Clone, Copy, Debug, Deserialize, Serialize, PartialEq)]
+#[serde(deny_unknown_fields)]
+pub struct CameraDesc {
+    pub eye: [f32; 3],
+    pub target: [f32; 3],
+    #[serde(default = "default_fov")]
+    pub fov_y_degrees: f32,
+}
+
+fn default_fov() -> f32 {
+    45.0
+}
+
+#[derive(Clone, Copy, Debug, Deserialize, Serialize, PartialEq)]
+#[serde(deny_unknown_fields, rename_all = "snake_case")]
+pub enum Light {
+    Directional {
+        /// Toward the light.
+        direction: [f32; 3],
+        #[serde(default = "white")]
+        color: [f32; 3],
+    },
+    Point {
+        position: [f32; 3],
+        #[serde(default = "white")]
+        color: [f32; 3],
+    },
+}
+
+fn white() -> [f32; 3] {
+    [1.0, 1.0, 1.0]
+}
+
+#[derive(Clone, Copy, Debug, Default, Deserialize, Serialize, PartialEq)]
+#[serde(deny_unknown_fields, default)]
+pub struct TransformDesc {
+    pub translation: [f32; 3],
+    pub rotation_y_degrees: f32,
+    pub scale: Option<f32>,
+}
+
+impl TransformDesc {
+    pub fn matrix(&self) -> Mat4 {
+        Mat4::from_scale_rotation_translation(
+            Vec3::splat(self.scale.unwrap_or(1.0)),
+            Quat::from_rotation_y(self.rotation_y_degrees.to_radians()),
+            Vec3::from_array(self.translation),
+        )
+    }
+}
+
+#[derive(Clone, Debug, Deserialize, Serialize, PartialEq)]
+#[serde(deny_unknown_fields)]
+pub struct CharacterDesc {
+    /// A hair asset folder (or its hair.json), relative to the scene file.
+    pub hair: PathBuf,
+    #[serde(default)]
+    pub transform: TransformDesc,
+    /// Base hair colour (linear RGB).
+    #[serde(default = "brown")]
+    pub color: [f32; 3],
+    /// Per-strand colour variation (0 = none).
+    #[serde(default = "default_variation")]
+    pub color_variation: f32,
+    /// Fields of `hairmesh::style::Style` that replace the asset's.
+    #[serde(default)]
+    pub style: Option<serde_json::Value>,
+}
+
+fn brown() -> [f32; 3] {
+    [0.3, 0.17, 0.08]
+}
+
+fn default_variation() -> f32 {
+    0.3
+}
+
+#[derive(Clone, Copy, Debug, Default, Deserialize, Serialize, PartialEq, Eq)]
+#[serde(rename_all = "snake_case")]
+pub enum Transparency {
+    #[default]
+    Opaque,
+    Oit,
+}
+
+#[derive(Clone, Copy, Debug, Default, Deserialize, Serialize, PartialEq, Eq)]
+#[serde(deny_unknown_fields, default)]
+pub struct Effects {
+    pub transparency: Transparency,
+    pub shadows: bool,
+    pub ao: bool,
+    pub volume_lod: bool,
+    pub dynamics: bool,
+}
+
+#[derive(Clone, Copy, Debug, Deserialize, Serialize, PartialEq)]
+#[serde(deny_unknown_fields, default)]
+pub struct LodDesc {
+    pub enabled: bool,
+    pub strand_alpha: f64,
+    pub vertex_alpha: f64,
+}
+
+impl Default for LodDesc {
+    fn default() -> Self {
+        Self { enabled: true, strand_alpha: 1.0, vertex_alpha: 1.0 }
+    }
+}
+
+/// A scene as written in its file.
+#[derive(Clone, Debug, Deserialize, Serialize, PartialEq)]
+#[serde(deny_unknown_fields)]
+pub struct Scene {
+    pub output: Output,
+    pub camera: CameraDesc,
+    #[serde(default)]
+    pub lights: Vec<Light>,
+    pub characters: Vec<CharacterDesc>,
+    #[serde(default)]
+    pub effects: Effects,
+    #[serde(default)]
+    pub lod: LodDesc,
+}
+
+/// A scene with its file's folder, for resolving paths.
+#[derive(Clone, Debug)]
+pub struct LoadedScene {
+    pub path: PathBuf,
+    pub scene: Scene,
+}
+
+impl LoadedScene {
+    /// A character's hair path, resolved against the scene file's folder.
+    pub fn hair_path(&self, character: &CharacterDesc) -> PathBuf {
+        self.path.parent().unwrap_or(Path::new(".")).join(&character.hair)
+    }
+}
+
+/// Reads, parses and validates a scene file.
+pub fn load_scene(path: &Path) -> Result<LoadedScene, SceneError> {
+    let io = |e: std::io::Error| SceneError::Io { path: path.to_owned(), message: e.to_string() };
+    let len = std::fs::metadata(path).map_err(io)?.len();
+    if len > 64 << 20 {
+        return Err(SceneError::Io {
+            path: path.to_owned(),
+            message: format!("{len} bytes is too large for a scene file"),
+        });
+    }
+    let text = std::fs::read_to_string(path).map_err(io)?;
+    let scene: Scene = serde_json::from_str(&text).map_err(|e| SceneError::Syntax {
+        path: path.to_owned(),
+        line: e.line(),
+        column: e.column(),
+        message: e.to_string(),
+    })?;
+    let loaded = LoadedScene { path: path.to_owned(), scene };
+    validate(&loaded)?;
+    Ok(loaded)
+}
+
+fn validate(loaded: &LoadedScene) -> Result<(), SceneError> {
+    let s = &loaded.scene;
+    let path = &loaded.path;
+    let invalid = |field: &str, message: String| SceneError::Invalid {
+        path: path.clone(),
+        field: field.into(),
+        message,
+    };
+    let finite = |field: &str, v: &[f32]| -> Result<(), SceneError> {
+        if v.iter().all(|x| x.is_finite()) {
+            Ok(())
+        } else {
+            Err(invalid(field, format!("{v:?} is not finite")))
+        }
+    };
+    let o = s.output;
+    if o.width == 0 || o.height == 0 || o.width > MAX_OUTPUT_SIDE || o.height > MAX_OUTPUT_SIDE {
+        return Err(invalid(
+            "output",
+            format!("{}×{} (each side must be 1..={MAX_OUTPUT_SIDE})", o.width, o.height),
+        ));
+    }
+    finite("camera.eye", &s.camera.eye)?;
+    finite("camera.target", &s.camera.target)?;
+    if !(1.0..=179.0).contains(&s.camera.fov_y_degrees) {
+        return Err(invalid(
+            "camera.fov_y_degrees",
+            format!("{} (expected 1..=179)", s.camera.fov_y_degrees),
+        ));
+    }
+    if Vec3::from_array(s.camera.eye).distance(Vec3::from_array(s.camera.target)) <= 0.0 {
+        return Err(invalid("camera", "eye and target are the same point".into()));
+    }
+    if s.lights.len() > 2 {
+        return Err(invalid("lights", format!("{} lights (at most 2 are shaded today)", s.lights.len())));
+    }
+    for (i, l) in s.lights.iter().enumerate() {
+        let (v, c) = match l {
+            Light::Directional { direction, color } => (direction, color),
+            Light::Point { position, color } => (position, color),
+        };
+        finite(&format!("lights[{i}]"), v)?;
+        finite(&format!("lights[{i}].color"), c)?;
+        if let Light::Directional { direction, .. } = l
+            && Vec3::from_array(*direction).length() <= 0.0
+        {
+            return Err(invalid(&format!("lights[{i}].direction"), "is zero".into()));
+        }
+    }
+    if s.characters.is_empty() || s.characters.len() > MAX_CHARACTERS {
+        return Err(invalid(
+            "characters",
+            format!("{} characters (expected 1..={MAX_CHARACTERS})", s.characters.len()),
+        ));
+    }
+    for (i, c) in s.characters.iter().enumerate() {
+        let field = format!("characters[{i}]");
+        let t = &c.transform;
+        finite(&format!("{field}.transform.translation"), &t.translation)?;
+        finite(&format!("{field}.transform.rotation_y_degrees"), &[t.rotation_y_degrees])?;
+        if let Some(scale) = t.scale
+            && !(scale.is_finite() && scale > 0.0)
+        {
+            return Err(invalid(
+                &format!("{field}.transform.scale"),
+                format!("{scale} (expected a positive number)"),
+            ));
+        }
+        finite(&format!("{field}.color"), &c.color)?;
+        let hair = loaded.hair_path(c);
+        let ext = hair.extension().and_then(|e| e.to_str()).unwrap_or_default();
+        if matches!(ext, "tfx" | "hair") {
+            return Err(SceneError::NotSupportedYet {
+                path: path.clone(),
+                field: format!("{field}.hair"),
+                effect: "an explicit strand file as a character".into(),
+            });
+        }
+        if !hair.exists() {
+            return Err(invalid(&format!("{field}.hair"), format!("{} does not exist", hair.display())));
+        }
+    }
+    let l = s.lod;
+    if !(l.strand_alpha.is_finite()
+        && l.strand_alpha > 0.0
+        && l.vertex_alpha.is_finite()
+        && l.vertex_alpha > 0.0)
+    {
+        return Err(invalid("lod", "alphas must be positive".into()));
+    }
+    let e = s.effects;
+    let unsupported = [
+        (e.transparency == Transparency::Oit, "effects.transparency", "order-independent transparency (oit)"),
+        (e.shadows, "effects.shadows", "shadows"),
+        (e.ao, "effects.ao", "ambient occlusion"),
+        (e.volume_lod, "effects.volume_lod", "the volume LOD path"),
+        (e.dynamics, "effects.dynamics", "dynamics"),
+    ];
+    if let Some((_, field, effect)) = unsupported.iter().find(|(on, ..)| *on) {
+        return Err(SceneError::NotSupportedYet {
+            path: path.clone(),
+            field: (*field).into(),
+            effect: (*effect).into(),
+        });
+    }
+    Ok(())
+}
+
+/// The asset's style with the character's overrides applied (unknown fields are errors).
+pub fn merged_style(
+    scene_path: &Path,
+    index: usize,
+    base: &hairmesh::style::Style,
+    overrides: Option<&serde_json::Value>,
+) -> Result<hairmesh::style::Style, SceneError> {
+    let Some(overrides) = overrides else { return Ok(*base) };
+    let invalid = |message: String| SceneError::Invalid {
+        path: scene_path.to_owned(),
+        field: format!("characters[{index}].style"),
+        message,
+    };
+    let mut value = serde_json::to_value(base).map_err(|e| invalid(e.to_string()))?;
+    merge(&mut value, overrides);
+    serde_json::from_value(value).map_err(|e| invalid(e.to_string()))
+}
+
+fn merge(base: &mut serde_json::Value, overrides: &serde_json::Value) {
+    match (base, overrides) {
+        (serde_json::Value::Object(b), serde_json::Value::Object(o)) => {
+            for (k, v) in o {
+                match b.get_mut(k) {
+                    Some(existing) => merge(existing, v),
+                    None => {
+                        b.insert(k.clone(), v.clone());
+                    }
+                }
+            }
+        }
+        (b, o) => *b = o.clone(),
+    }
+}

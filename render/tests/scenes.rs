@@ -1,0 +1,188 @@
+//! Scene rendering: golden images, the frame graph, and bad scene files. GPU harness,
+//! validation layer on.
+
+use std::path::{Path, PathBuf};
+use std::process::{Command, ExitCode};
+
+use anyhow::{Context as _, ensure};
+use gen_gpu::GenerationPath;
+use hairkit_tests::harness::{GpuTest, Requirements, run_gpu_tests};
+use hairkit_tests::image_compare::{Tolerance, compare};
+use render::frame::SceneRenderer;
+use render::scene::load_scene;
+
+fn repo(path: &str) -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR")).join("..").join(path)
+}
+
+/// The example scene at a test size, written beside the assets so its relative paths resolve.
+fn small_scene(dir: &Path, name: &str, width: u32, height: u32) -> anyhow::Result<PathBuf> {
+    let text = std::fs::read_to_string(repo(&format!("assets/scenes/{name}.json")))?;
+    let mut json: serde_json::Value = serde_json::from_str(&text)?;
+    json["output"] = serde_json::json!({ "width": width, "height": height });
+    for c in json["characters"].as_array_mut().context("characters")? {
+        let hair = c["hair"].as_str().context("hair")?.to_owned();
+        c["hair"] = serde_json::json!(repo("assets/scenes").join(hair));
+    }
+    let path = dir.join(format!("{name}.json"));
+    std::fs::write(&path, serde_json::to_vec_pretty(&json)?)?;
+    Ok(path)
+}
+
+/// Compares with `tests/golden/NAME.png`; `HAIRKIT_UPDATE_GOLDEN=1` rewrites the golden.
+fn check_golden(name: &str, image: &render::RgbaImage) -> anyhow::Result<()> {
+    let golden = Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/golden").join(format!("{name}.png"));
+    if std::env::var("HAIRKIT_UPDATE_GOLDEN").is_ok_and(|v| v == "1") {
+        render::output::write_png(&golden, image)?;
+    }
+    let expected = render::output::read_png(&golden)
+        .with_context(|| format!("golden image {} (HAIRKIT_UPDATE_GOLDEN=1 writes it)", golden.display()))?;
+    // lavapipe is deterministic run to run; the tolerance leaves room for other drivers'
+    // rasterization rules and transcendental functions: mean FLIP ≤ 0.02, 99th percentile ≤ 0.3.
+    compare(name, image, &expected, Tolerance { mean: 0.02, percentile: (0.99, 0.3) })
+        .map_err(anyhow::Error::msg)?;
+    Ok(())
+}
+
+fn hair_render(args: &[&str]) -> (bool, String) {
+    match Command::new(env!("CARGO_BIN_EXE_hair-render")).args(args).output() {
+        Ok(out) => (out.status.success(), String::from_utf8_lossy(&out.stderr).into_owned()),
+        Err(e) => (false, e.to_string()),
+    }
+}
+
+fn main() -> ExitCode {
+    run_gpu_tests(vec![
+        GpuTest::new("one_character_matches_its_golden_image", Requirements::NONE, |ctx| {
+            let dir = tempfile::tempdir()?;
+            let scene = load_scene(&small_scene(dir.path(), "one_character", 256, 192)?)?;
+            let renderer = SceneRenderer::new(ctx, &scene, GenerationPath::Compute)?;
+            let frame = renderer.render(ctx)?;
+            let lit = frame.image.pixels.chunks_exact(4).filter(|p| p[0] > 30).count();
+            ensure!(lit > 5000, "only {lit} lit pixels");
+            check_golden("one_character", &frame.image)
+        }),
+        GpuTest::new("small_crowd_matches_its_golden_image_on_both_paths", Requirements::NONE, |ctx| {
+            let dir = tempfile::tempdir()?;
+            let scene = load_scene(&small_scene(dir.path(), "small_crowd", 256, 160)?)?;
+            let compute = SceneRenderer::new(ctx, &scene, GenerationPath::Compute)?.render(ctx)?;
+            check_golden("small_crowd", &compute.image)?;
+            if ctx.capabilities().mesh_shader.is_some() {
+                let mesh = SceneRenderer::new(ctx, &scene, GenerationPath::Mesh)?.render(ctx)?;
+                compare(
+                    "small_crowd_mesh_vs_compute",
+                    &mesh.image,
+                    &compute.image,
+                    Tolerance { mean: 0.01, percentile: (0.99, 0.1) },
+                )
+                .map_err(anyhow::Error::msg)?;
+            }
+            Ok(())
+        }),
+        GpuTest::new("the_frame_runs_exactly_the_passes_of_its_graph", Requirements::NONE, |ctx| {
+            let dir = tempfile::tempdir()?;
+            let scene = load_scene(&small_scene(dir.path(), "small_crowd", 64, 48)?)?;
+            let renderer = SceneRenderer::new(ctx, &scene, GenerationPath::Compute)?;
+            let graph = renderer.graph();
+            let names: Vec<String> = graph.passes.iter().map(|p| p.name.clone()).collect();
+            let frame = renderer.render(ctx)?;
+            ensure!(frame.passes == names, "recorded {:?}\ngraph {:?}", frame.passes, names);
+            // No effect asks for shadows: no shadow pass exists or runs.
+            ensure!(!names.iter().any(|n| n.contains("shadow")), "{names:?}");
+            ensure!(names.iter().filter(|n| n.starts_with("generate character")).count() == 5);
+            // Characters sharing an asset and style share one upload (3 distinct here).
+            ensure!(format!("{renderer:?}").contains("hairs: 3"), "{renderer:?}");
+            Ok(())
+        }),
+        GpuTest::new("bad_scene_files_are_refused_clearly_and_write_nothing", Requirements::NONE, |_| {
+            let dir = tempfile::tempdir()?;
+            let good = small_scene(dir.path(), "one_character", 64, 48)?;
+            let base: serde_json::Value = serde_json::from_slice(&std::fs::read(&good)?)?;
+            let out = dir.path().join("out.png");
+            let cases: Vec<(&str, Box<dyn Fn(&mut serde_json::Value)>, &str)> = vec![
+                ("unknown.json", Box::new(|v| v["colour"] = 1.into()), "unknown field `colour`"),
+                (
+                    "missing.json",
+                    Box::new(|v| v["characters"][0]["hair"] = "no/such/asset".into()),
+                    "characters[0].hair",
+                ),
+                (
+                    "zero.json",
+                    Box::new(|v| v["output"] = serde_json::json!({"width": 0, "height": 10})),
+                    "output",
+                ),
+                (
+                    "huge.json",
+                    Box::new(|v| v["output"] = serde_json::json!({"width": 1000000, "height": 1000000})),
+                    "output",
+                ),
+                (
+                    "scale.json",
+                    Box::new(|v| v["characters"][0]["transform"] = serde_json::json!({"scale": -1.0})),
+                    "characters[0].transform.scale",
+                ),
+                ("oit.json", Box::new(|v| v["effects"]["transparency"] = "oit".into()), "not supported yet"),
+                ("shadows.json", Box::new(|v| v["effects"]["shadows"] = true.into()), "not supported yet"),
+                ("volume.json", Box::new(|v| v["effects"]["volume_lod"] = true.into()), "not supported yet"),
+                (
+                    "style.json",
+                    Box::new(|v| v["characters"][0]["style"] = serde_json::json!({"curly": 1})),
+                    "characters[0].style",
+                ),
+            ];
+            for (name, edit, expected) in cases {
+                let mut v = base.clone();
+                edit(&mut v);
+                let path = dir.path().join(name);
+                std::fs::write(&path, serde_json::to_vec_pretty(&v)?)?;
+                let (ok, stderr) =
+                    hair_render(&[path.to_str().context("utf-8")?, "-o", out.to_str().context("utf-8")?]);
+                ensure!(!ok, "{name} should fail");
+                ensure!(
+                    stderr.contains(name) && stderr.contains(expected),
+                    "{name}: `{stderr}` should name the file and mention `{expected}`"
+                );
+                ensure!(!out.exists(), "{name}: an image was written");
+            }
+            // NaN is not JSON: a syntax error with line and column.
+            let nan = dir.path().join("nan.json");
+            let text = std::fs::read_to_string(&good)?.replacen(
+                "\"fov_y_degrees\": 45",
+                "\"fov_y_degrees\": NaN",
+                1,
+            );
+            std::fs::write(&nan, text)?;
+            let (ok, stderr) =
+                hair_render(&[nan.to_str().context("utf-8")?, "-o", out.to_str().context("utf-8")?]);
+            ensure!(
+                !ok && stderr.contains("nan.json") && stderr.contains("line ") && stderr.contains("column "),
+                "{stderr}"
+            );
+            ensure!(!out.exists());
+            Ok(())
+        }),
+        GpuTest::new("hair_render_writes_the_image_and_stats", Requirements::NONE, |_| {
+            let dir = tempfile::tempdir()?;
+            let scene = small_scene(dir.path(), "one_character", 96, 64)?;
+            let out = dir.path().join("frame.png");
+            let stats = dir.path().join("stats.json");
+            let (ok, stderr) = hair_render(&[
+                scene.to_str().context("utf-8")?,
+                "-o",
+                out.to_str().context("utf-8")?,
+                "--stats",
+                "--stats-json",
+                stats.to_str().context("utf-8")?,
+                "--print-graph",
+            ]);
+            ensure!(ok, "{stderr}");
+            ensure!(!stderr.contains("vulkan validation"), "{stderr}");
+            let image = render::output::read_png(&out)?;
+            ensure!((image.width, image.height) == (96, 64));
+            let json: serde_json::Value = serde_json::from_slice(&std::fs::read(&stats)?)?;
+            ensure!(json["passes"].as_array().is_some_and(|p| p.len() >= 4), "{json}");
+            ensure!(json["strands"].as_u64().is_some_and(|s| s > 0), "{json}");
+            Ok(())
+        }),
+    ])
+}
