@@ -44,6 +44,9 @@ fn check_golden(name: &str, image: &render::RgbaImage) -> anyhow::Result<()> {
     Ok(())
 }
 
+/// A change that breaks a scene.
+type SceneEdit = Box<dyn Fn(&mut serde_json::Value)>;
+
 fn hair_render(args: &[&str]) -> (bool, String) {
     match Command::new(env!("CARGO_BIN_EXE_hair-render")).args(args).output() {
         Ok(out) => (out.status.success(), String::from_utf8_lossy(&out.stderr).into_owned()),
@@ -99,7 +102,7 @@ fn main() -> ExitCode {
             let good = small_scene(dir.path(), "one_character", 64, 48)?;
             let base: serde_json::Value = serde_json::from_slice(&std::fs::read(&good)?)?;
             let out = dir.path().join("out.png");
-            let cases: Vec<(&str, Box<dyn Fn(&mut serde_json::Value)>, &str)> = vec![
+            let cases: Vec<(&str, SceneEdit, &str)> = vec![
                 ("unknown.json", Box::new(|v| v["colour"] = 1.into()), "unknown field `colour`"),
                 (
                     "missing.json",
