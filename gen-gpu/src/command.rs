@@ -323,6 +323,47 @@ impl<'a> Recorder<'a> {
         }
     }
 
+    /// Begins rendering into `color` keeping its contents (no depth attachment).
+    pub fn begin_rendering_load(&self, color: &Image) {
+        let extent = vk::Extent2D { width: color.desc.extent.width, height: color.desc.extent.height };
+        let color_att = [vk::RenderingAttachmentInfo::default()
+            .image_view(color.view)
+            .image_layout(vk::ImageLayout::COLOR_ATTACHMENT_OPTIMAL)
+            .load_op(vk::AttachmentLoadOp::LOAD)
+            .store_op(vk::AttachmentStoreOp::STORE)];
+        let area = vk::Rect2D { offset: vk::Offset2D::default(), extent };
+        let info =
+            vk::RenderingInfo::default().render_area(area).layer_count(1).color_attachments(&color_att);
+        let viewport = vk::Viewport {
+            x: 0.0,
+            y: 0.0,
+            width: extent.width as f32,
+            height: extent.height as f32,
+            min_depth: 0.0,
+            max_depth: 1.0,
+        };
+        // SAFETY: recording; the colour image is live and in COLOR_ATTACHMENT_OPTIMAL.
+        unsafe {
+            self.device().cmd_begin_rendering(self.cmd, &info);
+            self.device().cmd_set_viewport(self.cmd, 0, &[viewport]);
+            self.device().cmd_set_scissor(self.cmd, 0, &[area]);
+        }
+    }
+
+    /// Fills a whole buffer with a repeated 32-bit value.
+    pub fn fill_buffer(&self, buffer: &Buffer, value: u32) {
+        // SAFETY: recording outside rendering; the buffer is live and was created with
+        // TRANSFER_DST (storage buffers here are).
+        unsafe { self.device().cmd_fill_buffer(self.cmd, buffer.raw, 0, vk::WHOLE_SIZE, value) };
+    }
+
+    /// Writes up to 64 KiB of data into a buffer (vkCmdUpdateBuffer).
+    pub fn update_buffer(&self, buffer: &Buffer, offset: u64, data: &[u8]) {
+        // SAFETY: recording outside rendering; offset and size are multiples of 4 within the
+        // buffer (the caller passes whole u32 words).
+        unsafe { self.device().cmd_update_buffer(self.cmd, buffer.raw, offset, data) };
+    }
+
     pub fn end_rendering(&self) {
         // SAFETY: matches begin_rendering.
         unsafe { self.device().cmd_end_rendering(self.cmd) };

@@ -131,6 +131,8 @@ pub fn draw_test_strips(
                 color_format: COLOR_FORMAT,
                 depth_format: Some(DEPTH_FORMAT),
                 blend: false,
+                depth_write: true,
+                color_write: true,
             },
         )
     };

@@ -42,6 +42,19 @@ pub struct FragmentStage {
     pub push_constant_bytes: u32,
     /// Premultiplied-alpha blending (else replace).
     pub blend: bool,
+    /// Depth writes (the depth test stays on).
+    pub depth_write: bool,
+    /// Colour writes (off for a fill pass that only appends to buffers).
+    pub color_write: bool,
+    /// Storage buffers of its own, at bindings 12 and up of set 0.
+    pub extra_bindings: &'static [u32],
+}
+
+/// What a renderer adds to a strand draw: its fragment stage's push constants and buffers.
+#[derive(Clone, Copy, Debug, Default)]
+pub struct DrawExtras<'a> {
+    pub fragment_constants: &'a [u8],
+    pub buffers: &'a [(u32, &'a Buffer)],
 }
 
 /// Where the fragment stage's push constants begin (bytes before it belong to the
@@ -205,7 +218,7 @@ const MESH_THREADS: u32 = 32;
 pub const COLOR_FORMAT: vk::Format = vk::Format::R8G8B8A8_UNORM;
 pub const DEPTH_FORMAT: vk::Format = vk::Format::D32_SFLOAT;
 
-fn bindings() -> Vec<Binding> {
+fn bindings(extra: &[u32]) -> Vec<Binding> {
     let all = vk::ShaderStageFlags::ALL;
     let mut b: Vec<Binding> = (0..4).map(|i| Binding::storage_buffer(i, all)).collect();
     b.extend((4..8).map(|i| Binding {
@@ -214,6 +227,7 @@ fn bindings() -> Vec<Binding> {
         stages: all,
     }));
     b.extend((8..12).map(|i| Binding::storage_buffer(i, all)));
+    b.extend(extra.iter().map(|&i| Binding::storage_buffer(i, all)));
     b
 }
 
@@ -225,7 +239,8 @@ impl Generator {
     pub fn with_options(ctx: &Context, options: GeneratorOptions) -> Result<Self> {
         let manual = u32::from(options.filtering == Filtering::Manual);
         let cubic = u32::from(options.exact_cubic);
-        let bindings = bindings();
+        let extra = options.fragment.map_or(&[][..], |f| f.extra_bindings);
+        let bindings = bindings(extra);
         let compute = |name, shader| {
             Pipeline::compute(
                 ctx,
@@ -242,6 +257,9 @@ impl Generator {
             shader: &shaders::STRAND_FRAG,
             push_constant_bytes: 0,
             blend: false,
+            depth_write: true,
+            color_write: true,
+            extra_bindings: &[],
         });
         let push_size = FRAGMENT_PUSH_OFFSET + fragment.push_constant_bytes;
         let graphics = |name, stages, capture: u32| {
@@ -257,6 +275,8 @@ impl Generator {
                     color_format: COLOR_FORMAT,
                     depth_format: Some(DEPTH_FORMAT),
                     blend: fragment.blend,
+                    depth_write: fragment.depth_write,
+                    color_write: fragment.color_write,
                 },
             )
         };
@@ -363,21 +383,36 @@ impl Generator {
         frame: &FrameBuffers,
         chunk: u64,
     ) {
+        self.push_all_with(rec, pipeline, hair, frame, chunk, &[]);
+    }
+
+    /// [`Self::push_all`] plus the fragment stage's own buffers.
+    fn push_all_with(
+        &self,
+        rec: &Recorder<'_>,
+        pipeline: &Pipeline,
+        hair: &GpuHair,
+        frame: &FrameBuffers,
+        chunk: u64,
+        extra: &[(u32, &Buffer)],
+    ) {
         let whole = vk::WHOLE_SIZE;
         let first = chunk * frame.chunk_slots;
         let slots = frame.chunk_slots.min(frame.capacity - first.min(frame.capacity)).max(1);
+        let mut buffers = vec![
+            (0, &frame.params, 0, whole),
+            (1, &hair.bundles, 0, whole),
+            (2, &hair.samples, 0, whole),
+            (3, &hair.sample_sets, 0, whole),
+            (8, &frame.lods, 0, whole),
+            (9, &frame.offsets, 0, whole),
+            (10, &frame.strand_vertices, first * SLOT_BYTES, slots * SLOT_BYTES),
+            (11, &frame.strand_info, first * 16, slots * 16),
+        ];
+        buffers.extend(extra.iter().map(|(b, buf)| (*b, *buf, 0, whole)));
         rec.push_descriptors_ranged(
             pipeline,
-            &[
-                (0, &frame.params, 0, whole),
-                (1, &hair.bundles, 0, whole),
-                (2, &hair.samples, 0, whole),
-                (3, &hair.sample_sets, 0, whole),
-                (8, &frame.lods, 0, whole),
-                (9, &frame.offsets, 0, whole),
-                (10, &frame.strand_vertices, first * SLOT_BYTES, slots * SLOT_BYTES),
-                (11, &frame.strand_info, first * 16, slots * 16),
-            ],
+            &buffers,
             &[
                 (4, &hair.hair_mesh, &hair.sampler),
                 (5, &hair.u, &hair.sampler),
@@ -450,11 +485,11 @@ impl Generator {
         path: GenerationPath,
         capture: bool,
     ) -> Result<()> {
-        self.record_draw_with(rec, hair, frame, path, capture, &[])
+        self.record_draw_with(rec, hair, frame, path, capture, DrawExtras::default())
     }
 
     /// [`Self::record_draw`] with the fragment stage's push constants (at
-    /// [`FRAGMENT_PUSH_OFFSET`]).
+    /// [`FRAGMENT_PUSH_OFFSET`]) and buffers.
     pub fn record_draw_with(
         &self,
         rec: &mut Recorder<'_>,
@@ -462,13 +497,14 @@ impl Generator {
         frame: &FrameBuffers,
         path: GenerationPath,
         capture: bool,
-        fragment_constants: &[u8],
+        extras: DrawExtras<'_>,
     ) -> Result<()> {
+        let fragment_constants = extras.fragment_constants;
         match path {
             GenerationPath::Compute => {
                 rec.bind_pipeline(&self.pull);
                 for chunk in 0..frame.chunks {
-                    self.push_all(rec, &self.pull, hair, frame, chunk);
+                    self.push_all_with(rec, &self.pull, hair, frame, chunk, extras.buffers);
                     rec.push_constants(&self.pull, &(chunk as u32));
                     rec.push_constant_bytes(&self.pull, FRAGMENT_PUSH_OFFSET, fragment_constants);
                     rec.draw_indirect(&frame.offsets, DRAW_ARGS_OFFSET + 16 * chunk);
@@ -510,7 +546,7 @@ impl Generator {
                     });
                 }
                 rec.bind_pipeline(pipeline);
-                self.push_all(rec, pipeline, hair, frame, 0);
+                self.push_all_with(rec, pipeline, hair, frame, 0, extras.buffers);
                 rec.push_constants(pipeline, &per_row);
                 rec.push_constant_bytes(pipeline, FRAGMENT_PUSH_OFFSET, fragment_constants);
                 rec.draw_mesh_tasks(per_row, rows, 1)

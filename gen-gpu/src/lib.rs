@@ -26,8 +26,9 @@ pub use command::{FrameTimings, PassTiming, Recorder};
 pub use context::{Context, ContextDesc, Validation, ValidationMessage};
 pub use error::{GpuError, Result};
 pub use generator::{
-    COLOR_FORMAT, Capture, CapturedStrand, DEPTH_FORMAT, FRAGMENT_PUSH_OFFSET, Filtering, FragmentStage,
-    FrameBuffers, FrameInputs, GenerationStats, Generator, GeneratorOptions, MAX_VERTICES, VERTEX_BYTES,
+    COLOR_FORMAT, Capture, CapturedStrand, DEPTH_FORMAT, DrawExtras, FRAGMENT_PUSH_OFFSET, Filtering,
+    FragmentStage, FrameBuffers, FrameInputs, GenerationStats, Generator, GeneratorOptions, MAX_VERTICES,
+    VERTEX_BYTES,
 };
 pub use gpu_allocator::MemoryLocation;
 pub use hair::{GpuHair, TextureBytes, TexturePrecision};

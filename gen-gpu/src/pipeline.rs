@@ -54,6 +54,10 @@ pub struct GraphicsPipelineDesc<'a> {
     pub depth_format: Option<vk::Format>,
     /// Premultiplied-alpha blending instead of replacing.
     pub blend: bool,
+    /// Depth writes (with a depth format; the depth test is on whenever there is one).
+    pub depth_write: bool,
+    /// Colour writes (off for passes that only store into buffers).
+    pub color_write: bool,
 }
 
 /// A pipeline with its layout and push-descriptor set layout; all destroyed on drop.
@@ -278,8 +282,10 @@ impl Pipeline {
             .rasterization_samples(vk::SampleCountFlags::TYPE_1);
         let depth = vk::PipelineDepthStencilStateCreateInfo::default()
             .depth_test_enable(desc.depth_format.is_some())
-            .depth_write_enable(desc.depth_format.is_some())
+            .depth_write_enable(desc.depth_format.is_some() && desc.depth_write)
             .depth_compare_op(vk::CompareOp::LESS);
+        let write_mask =
+            if desc.color_write { vk::ColorComponentFlags::RGBA } else { vk::ColorComponentFlags::empty() };
         let attachment = if desc.blend {
             vk::PipelineColorBlendAttachmentState::default()
                 .blend_enable(true)
@@ -289,9 +295,9 @@ impl Pipeline {
                 .src_alpha_blend_factor(vk::BlendFactor::ONE)
                 .dst_alpha_blend_factor(vk::BlendFactor::ONE_MINUS_SRC_ALPHA)
                 .alpha_blend_op(vk::BlendOp::ADD)
-                .color_write_mask(vk::ColorComponentFlags::RGBA)
+                .color_write_mask(write_mask)
         } else {
-            vk::PipelineColorBlendAttachmentState::default().color_write_mask(vk::ColorComponentFlags::RGBA)
+            vk::PipelineColorBlendAttachmentState::default().color_write_mask(write_mask)
         };
         let attachments = [attachment];
         let blend = vk::PipelineColorBlendStateCreateInfo::default().attachments(&attachments);

@@ -6,15 +6,16 @@ use std::fmt;
 
 use gen_gpu::diagnostics::RenderTarget;
 use gen_gpu::{
-    Context, FragmentStage, FrameTimings, GenerationPath, GenerationStats, Generator, GeneratorOptions,
-    GpuHair, TexturePrecision,
+    Binding, Buffer, BufferDesc, Context, DrawExtras, FragmentStage, FrameTimings, GenerationPath,
+    GenerationStats, Generator, GeneratorOptions, GpuHair, GraphicsPipelineDesc, GraphicsStages, Pipeline,
+    TexturePrecision, vk,
 };
 use glam::{Mat4, Vec3, Vec4};
 use hairmesh::reference::LodParams;
 
 use crate::RgbaImage;
 use crate::crowd::{Camera, Character, CrowdView, character_inputs};
-use crate::scene::{Light, LoadedScene, SceneError, merged_style};
+use crate::scene::{Light, LoadedScene, SceneError, Transparency, merged_style};
 
 /// The SPIR-V of this crate's shaders.
 pub mod shaders {
@@ -76,6 +77,19 @@ struct Shading {
     hair_color: [f32; 4],
     specular_shift: [f32; 4],
     specular_strength: [f32; 4],
+    hair_opacity: [f32; 4],
+}
+
+/// Bindings of the OIT buffers (`oit.glsl`).
+const OIT_BINDINGS: [u32; 3] = [12, 13, 14];
+const OIT_NODE_BYTES: u64 = 16;
+
+/// Order-independent transparency: the fill generator (hair_oit.frag) and the resolve pass.
+struct Oit {
+    fill: Generator,
+    resolve: Pipeline,
+    k: u32,
+    nodes_per_pixel: f32,
 }
 
 struct SceneCharacter {
@@ -88,6 +102,7 @@ struct SceneCharacter {
 /// Everything a scene needs on the GPU, built once and rendered many times.
 pub struct SceneRenderer {
     generator: Generator,
+    oit: Option<Oit>,
     hairs: Vec<GpuHair>,
     characters: Vec<SceneCharacter>,
     scene: LoadedScene,
@@ -111,6 +126,10 @@ pub struct RenderedFrame {
     pub stats: GenerationStats,
     /// The passes recorded, by name, in order.
     pub passes: Vec<String>,
+    /// OIT: fragments dropped because the node pool was full (`None` in opaque mode).
+    pub oit_overflow: Option<u64>,
+    /// OIT: nodes in the pool.
+    pub oit_pool: Option<u64>,
 }
 
 impl SceneRenderer {
@@ -122,10 +141,53 @@ impl SceneRenderer {
                     shader: &shaders::HAIR_FRAG,
                     push_constant_bytes: size_of::<Shading>() as u32,
                     blend: true,
+                    depth_write: true,
+                    color_write: true,
+                    extra_bindings: &[],
                 }),
                 ..GeneratorOptions::default()
             },
         )?;
+        let effects = scene.scene.effects;
+        let oit = if effects.transparency == Transparency::Oit {
+            let fill = Generator::with_options(
+                ctx,
+                GeneratorOptions {
+                    fragment: Some(FragmentStage {
+                        shader: &shaders::HAIR_OIT_FRAG,
+                        push_constant_bytes: size_of::<Shading>() as u32,
+                        blend: false,
+                        depth_write: false,
+                        color_write: false,
+                        extra_bindings: &OIT_BINDINGS,
+                    }),
+                    ..GeneratorOptions::default()
+                },
+            )?;
+            let bindings: Vec<Binding> = OIT_BINDINGS
+                .iter()
+                .map(|&b| Binding::storage_buffer(b, vk::ShaderStageFlags::FRAGMENT))
+                .collect();
+            let resolve = Pipeline::graphics(
+                ctx,
+                &GraphicsPipelineDesc {
+                    name: "OIT resolve",
+                    stages: GraphicsStages::Vertex(&shaders::FULLSCREEN_VERT),
+                    fragment: &shaders::OIT_RESOLVE_FRAG,
+                    bindings: &bindings,
+                    push_constant_size: 4,
+                    specialization: &[],
+                    color_format: gen_gpu::COLOR_FORMAT,
+                    depth_format: None,
+                    blend: true,
+                    depth_write: false,
+                    color_write: true,
+                },
+            )?;
+            Some(Oit { fill, resolve, k: effects.oit_k, nodes_per_pixel: effects.oit_nodes_per_pixel })
+        } else {
+            None
+        };
         // One upload per (asset, style): characters sharing both share the GPU hair.
         let mut keys: HashMap<(std::path::PathBuf, String), usize> = HashMap::new();
         let mut hairs = Vec::new();
@@ -151,7 +213,7 @@ impl SceneRenderer {
                 variation: c.color_variation,
             });
         }
-        Ok(Self { generator, hairs, characters, scene: scene.clone(), path })
+        Ok(Self { generator, oit, hairs, characters, scene: scene.clone(), path })
     }
 
     fn view(&self) -> CrowdView {
@@ -197,11 +259,26 @@ impl SceneRenderer {
             })
             .collect();
         reads.push("lights".into());
-        passes.push(PassNode {
-            name: format!("raster hair ({}, opaque)", self.path),
-            reads,
-            writes: vec!["colour".into(), "depth".into()],
-        });
+        if self.oit.is_some() {
+            let lists = || vec!["OIT lists".to_owned()];
+            passes.push(PassNode { name: "clear OIT lists".into(), reads: vec![], writes: lists() });
+            passes.push(PassNode {
+                name: format!("raster hair ({}, OIT fill)", self.path),
+                reads,
+                writes: lists(),
+            });
+            passes.push(PassNode {
+                name: "OIT resolve".into(),
+                reads: lists(),
+                writes: vec!["colour".into()],
+            });
+        } else {
+            passes.push(PassNode {
+                name: format!("raster hair ({}, opaque)", self.path),
+                reads,
+                writes: vec!["colour".into(), "depth".into()],
+            });
+        }
         passes.push(PassNode {
             name: "copy out".into(),
             reads: vec!["colour".into()],
@@ -237,6 +314,8 @@ impl SceneRenderer {
             hair_color: Vec4::new(c.color[0], c.color[1], c.color[2], c.variation).to_array(),
             specular_shift: [-0.08, 0.12, 80.0, 12.0],
             specular_strength: [0.25, 0.35, 0.2, 0.6],
+            // Opaque mode draws strands solid (coverage aside); OIT lets a strand transmit.
+            hair_opacity: [if self.oit.is_some() { 0.7 } else { 1.0 }, 0.0, 0.0, 0.0],
         }
     }
 
@@ -257,6 +336,22 @@ impl SceneRenderer {
             })
             .collect::<gen_gpu::Result<Vec<_>>>()?;
         let target = RenderTarget::new(ctx, view.width, view.height)?;
+        // The OIT node pool is bounded by the output size and the storage-buffer range.
+        let oit_buffers = match &self.oit {
+            Some(oit) => {
+                let pixels = u64::from(view.width) * u64::from(view.height);
+                let range = u64::from(ctx.capabilities().max_storage_buffer_range) / OIT_NODE_BYTES;
+                let pool = ((pixels as f64 * f64::from(oit.nodes_per_pixel)) as u64)
+                    .clamp(1, range.min(u64::from(u32::MAX - 1)));
+                Some((
+                    Buffer::new(ctx, "OIT heads", BufferDesc::storage(pixels * 4))?,
+                    Buffer::new(ctx, "OIT nodes", BufferDesc::storage(pool * OIT_NODE_BYTES))?,
+                    Buffer::new(ctx, "OIT counters", BufferDesc::storage(16))?,
+                    pool,
+                ))
+            }
+            None => None,
+        };
         let mut recorded = Vec::new();
         let ((), timings) = ctx.submit("scene frame", |rec| {
             for (i, (c, frame)) in characters.iter().zip(&frames).enumerate() {
@@ -272,23 +367,84 @@ impl SceneRenderer {
                     recorded.push(format!("generate character {i}"));
                 }
             }
-            target.begin(rec);
-            let raster = format!("raster hair ({}, opaque)", self.path);
-            let drawn = rec.pass(&raster, |rec| {
-                self.characters.iter().zip(&frames).try_for_each(|(c, frame)| {
-                    let shading = self.shading(c);
-                    self.generator.record_draw_with(
-                        rec,
-                        &self.hairs[c.hair],
-                        frame,
-                        self.path,
-                        false,
-                        bytemuck::bytes_of(&shading),
-                    )
-                })
-            });
-            recorded.push(raster);
-            rec.end_rendering();
+            let drawn = match (&self.oit, &oit_buffers) {
+                (Some(oit), Some((heads, nodes, counters, pool))) => {
+                    rec.pass("clear OIT lists", |rec| {
+                        rec.fill_buffer(heads, u32::MAX);
+                        let init = [0u32, *pool as u32, 0, view.width];
+                        rec.update_buffer(counters, 0, bytemuck::cast_slice(&init));
+                    });
+                    recorded.push("clear OIT lists".to_owned());
+                    rec.memory_barrier(
+                        (
+                            vk::PipelineStageFlags2::CLEAR | vk::PipelineStageFlags2::COPY,
+                            vk::AccessFlags2::TRANSFER_WRITE,
+                        ),
+                        (
+                            vk::PipelineStageFlags2::FRAGMENT_SHADER,
+                            vk::AccessFlags2::SHADER_STORAGE_READ | vk::AccessFlags2::SHADER_STORAGE_WRITE,
+                        ),
+                    );
+                    target.begin(rec);
+                    let fill = format!("raster hair ({}, OIT fill)", self.path);
+                    let extra = [(12, heads), (13, nodes), (14, counters)];
+                    let drawn = rec.pass(&fill, |rec| {
+                        self.characters.iter().zip(&frames).try_for_each(|(c, frame)| {
+                            let shading = self.shading(c);
+                            let extras = DrawExtras {
+                                fragment_constants: bytemuck::bytes_of(&shading),
+                                buffers: &extra,
+                            };
+                            oit.fill.record_draw_with(
+                                rec,
+                                &self.hairs[c.hair],
+                                frame,
+                                self.path,
+                                false,
+                                extras,
+                            )
+                        })
+                    });
+                    recorded.push(fill);
+                    rec.end_rendering();
+                    rec.memory_barrier(
+                        (vk::PipelineStageFlags2::FRAGMENT_SHADER, vk::AccessFlags2::SHADER_STORAGE_WRITE),
+                        (vk::PipelineStageFlags2::FRAGMENT_SHADER, vk::AccessFlags2::SHADER_STORAGE_READ),
+                    );
+                    rec.pass("OIT resolve", |rec| {
+                        rec.begin_rendering_load(&target.color);
+                        rec.bind_pipeline(&oit.resolve);
+                        rec.push_storage_buffers(&oit.resolve, &extra);
+                        rec.push_constants(&oit.resolve, &oit.k);
+                        rec.draw(3, 1);
+                        rec.end_rendering();
+                    });
+                    recorded.push("OIT resolve".to_owned());
+                    drawn
+                }
+                _ => {
+                    target.begin(rec);
+                    let raster = format!("raster hair ({}, opaque)", self.path);
+                    let drawn = rec.pass(&raster, |rec| {
+                        self.characters.iter().zip(&frames).try_for_each(|(c, frame)| {
+                            let shading = self.shading(c);
+                            let extras =
+                                DrawExtras { fragment_constants: bytemuck::bytes_of(&shading), buffers: &[] };
+                            self.generator.record_draw_with(
+                                rec,
+                                &self.hairs[c.hair],
+                                frame,
+                                self.path,
+                                false,
+                                extras,
+                            )
+                        })
+                    });
+                    recorded.push(raster);
+                    rec.end_rendering();
+                    drawn
+                }
+            };
             rec.pass("copy out", |rec| target.copy_out(rec));
             recorded.push("copy out".into());
             drawn
@@ -302,6 +458,20 @@ impl SceneRenderer {
             stats.strands += s.strands;
             stats.vertices += s.vertices;
         }
-        Ok(RenderedFrame { image: target.read(ctx)?, timings, stats, passes: recorded })
+        let (oit_overflow, oit_pool) = match &oit_buffers {
+            Some((_, _, counters, pool)) => {
+                let c: Vec<u32> = bytemuck::pod_collect_to_vec(&ctx.read_buffer(counters, 16)?);
+                (Some(u64::from(c[2])), Some(*pool))
+            }
+            None => (None, None),
+        };
+        Ok(RenderedFrame {
+            image: target.read(ctx)?,
+            timings,
+            stats,
+            passes: recorded,
+            oit_overflow,
+            oit_pool,
+        })
     }
 }

@@ -14,8 +14,10 @@
 //!
 //! Unknown fields are errors, reported with line and column. Paths are relative to the scene
 //! file. Every number is checked (finite, in range) and errors name the file and the field.
-//! Effects that are not built yet (`transparency: "oit"`, `shadows`, `ao`, `volume_lod`,
-//! `dynamics`) are refused with a clear "not supported yet".
+//! `effects.transparency` is `"opaque"` (coverage-scaled strands blended in draw order, depth
+//! tested) or `"oit"` (per-pixel linked lists with a k-buffer resolve, `oit_k` sorted, pool of
+//! `oit_nodes_per_pixel` nodes per pixel on average). Effects that are not built yet
+//! (`shadows`, `ao`, `volume_lod`, `dynamics`) are refused with a clear "not supported yet".
 
 use std::path::{Path, PathBuf};
 
@@ -131,14 +133,32 @@ pub enum Transparency {
     Oit,
 }
 
-#[derive(Clone, Copy, Debug, Default, Deserialize, Serialize, PartialEq, Eq)]
+#[derive(Clone, Copy, Debug, Deserialize, Serialize, PartialEq)]
 #[serde(deny_unknown_fields, default)]
 pub struct Effects {
     pub transparency: Transparency,
+    /// OIT: fragments kept sorted per pixel (the rest blend order-independently), 1..=16.
+    pub oit_k: u32,
+    /// OIT: average list nodes per pixel the pool holds (it is capped by the storage range).
+    pub oit_nodes_per_pixel: f32,
     pub shadows: bool,
     pub ao: bool,
     pub volume_lod: bool,
     pub dynamics: bool,
+}
+
+impl Default for Effects {
+    fn default() -> Self {
+        Self {
+            transparency: Transparency::Opaque,
+            oit_k: 8,
+            oit_nodes_per_pixel: 32.0,
+            shadows: false,
+            ao: false,
+            volume_lod: false,
+            dynamics: false,
+        }
+    }
 }
 
 #[derive(Clone, Copy, Debug, Deserialize, Serialize, PartialEq)]
@@ -297,8 +317,16 @@ fn validate(loaded: &LoadedScene) -> Result<(), SceneError> {
         return Err(invalid("lod", "alphas must be positive".into()));
     }
     let e = s.effects;
+    if !(1..=16).contains(&e.oit_k) {
+        return Err(invalid("effects.oit_k", format!("{} (expected 1..=16)", e.oit_k)));
+    }
+    if !(e.oit_nodes_per_pixel.is_finite() && e.oit_nodes_per_pixel > 0.0 && e.oit_nodes_per_pixel <= 256.0) {
+        return Err(invalid(
+            "effects.oit_nodes_per_pixel",
+            format!("{} (expected more than 0, at most 256)", e.oit_nodes_per_pixel),
+        ));
+    }
     let unsupported = [
-        (e.transparency == Transparency::Oit, "effects.transparency", "order-independent transparency (oit)"),
         (e.shadows, "effects.shadows", "shadows"),
         (e.ao, "effects.ao", "ambient occlusion"),
         (e.volume_lod, "effects.volume_lod", "the volume LOD path"),

@@ -1,0 +1,20 @@
+// Per-pixel linked lists of hair fragments (order-independent transparency, as TressFX): the
+// fill pass appends shaded fragments; the resolve pass keeps the nearest K sorted and blends the
+// rest order-independently.
+
+const uint OIT_END = 0xffffffffu;
+const uint OIT_MAX_K = 16u;
+// A list is never walked further than this, whatever the pool holds (no hang on any input).
+const uint OIT_MAX_WALK = 4096u;
+
+struct OitNode {
+    uint next;
+    uint depth;   // float bits
+    uint color;   // premultiplied RGBA8
+    uint pad;
+};
+
+layout(std430, set = 0, binding = 12) coherent buffer OitHeads { uint oit_heads[]; };
+layout(std430, set = 0, binding = 13) buffer OitNodes { OitNode oit_nodes[]; };
+// x: next free node; y: pool size; z: fragments dropped because the pool was full; w: width.
+layout(std430, set = 0, binding = 14) coherent buffer OitCounters { uvec4 oit_counters; };

@@ -1,0 +1,61 @@
+#version 460
+// OIT resolve: walk the pixel's list, keep the K nearest fragments sorted (k-buffer), blend
+// the others order-independently (their premultiplied average weighted by their combined
+// coverage), then composite front to back; the output is premultiplied and blended over the
+// opaque image.
+#extension GL_GOOGLE_include_directive : require
+#include "oit.glsl"
+
+layout(push_constant) uniform ResolveParams {
+    uint k;
+} resolve;
+
+layout(location = 0) out vec4 out_color;
+
+void main() {
+    uint pixel = uint(gl_FragCoord.y) * oit_counters.w + uint(gl_FragCoord.x);
+    uint k = clamp(resolve.k, 1u, OIT_MAX_K);
+    float depths[OIT_MAX_K];
+    vec4 colors[OIT_MAX_K];
+    uint count = 0u;
+    vec4 tail_sum = vec4(0.0);
+    float tail_transmittance = 1.0;
+    uint node = oit_heads[pixel];
+    for (uint walked = 0u; node != OIT_END && walked < OIT_MAX_WALK && node < oit_counters.y; ++walked) {
+        float depth = uintBitsToFloat(oit_nodes[node].depth);
+        vec4 color = unpackUnorm4x8(oit_nodes[node].color);
+        node = oit_nodes[node].next;
+        if (count == k) {
+            if (depth >= depths[k - 1u]) {
+                tail_sum += color;
+                tail_transmittance *= 1.0 - color.a;
+                continue;
+            }
+            // Evict the farthest kept fragment to the tail.
+            tail_sum += colors[k - 1u];
+            tail_transmittance *= 1.0 - colors[k - 1u].a;
+            count -= 1u;
+        }
+        // Insertion into the sorted k-buffer.
+        uint i = count;
+        while (i > 0u && depths[i - 1u] > depth) {
+            depths[i] = depths[i - 1u];
+            colors[i] = colors[i - 1u];
+            i -= 1u;
+        }
+        depths[i] = depth;
+        colors[i] = color;
+        count += 1u;
+    }
+    vec3 result = vec3(0.0);
+    float transmittance = 1.0;
+    for (uint i = 0u; i < count; ++i) {
+        result += transmittance * colors[i].rgb;
+        transmittance *= 1.0 - colors[i].a;
+    }
+    if (tail_sum.a > 0.0) {
+        result += transmittance * (tail_sum.rgb / tail_sum.a) * (1.0 - tail_transmittance);
+        transmittance *= tail_transmittance;
+    }
+    out_color = vec4(result, 1.0 - transmittance);
+}
