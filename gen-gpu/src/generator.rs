@@ -120,7 +120,7 @@ impl FrameInputs {
 /// `GenParams` in `hair_gen.glsl` (std430).
 #[repr(C)]
 #[derive(Clone, Copy, Debug, bytemuck::Pod, bytemuck::Zeroable)]
-struct GenParams {
+pub(crate) struct GenParams {
     view_proj: [f32; 16],
     eye: [f32; 4],
     projection: [f32; 4],
@@ -617,6 +617,28 @@ fn read_strands(ctx: &Context, frame: &FrameBuffers) -> Result<Vec<CapturedStran
             }
         })
         .collect())
+}
+
+/// Parameters with only the view filled in (stored strands have no asset).
+pub(crate) fn view_only_params(inputs: &FrameInputs, chunk_slots: u64) -> GenParams {
+    let e = inputs.view.eye.as_vec3();
+    let (tan_half, ortho_half, ortho) = match inputs.view.projection {
+        Projection::Perspective { fov_y } => ((0.5 * fov_y).tan() as f32, 0.0, 0.0),
+        Projection::Orthographic { height } => (0.0, 0.5 * height as f32, 1.0),
+    };
+    let mut p: GenParams = bytemuck::Zeroable::zeroed();
+    p.view_proj = inputs.view_proj.to_cols_array();
+    p.eye = [e.x, e.y, e.z, inputs.view.vertical_resolution as f32];
+    p.projection = [tan_half, ortho_half, ortho, 0.0];
+    p.seed_info = [0, 0, u32::MAX, chunk_slots as u32];
+    p.viewport = [inputs.viewport[0] as f32, inputs.viewport[1] as f32, 0.0, 0.0];
+    p
+}
+
+impl Generator {
+    pub(crate) fn pull_pipeline(&self) -> &Pipeline {
+        &self.pull
+    }
 }
 
 fn params(hair: &GpuHair, inputs: &FrameInputs, capacity: u64, chunk_slots: u64) -> GenParams {

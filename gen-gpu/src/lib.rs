@@ -19,6 +19,7 @@ mod hair;
 mod path;
 mod pipeline;
 mod resource;
+mod stored;
 
 pub use ash::vk;
 pub use caps::{Capabilities, MeshShaderLimits};
@@ -38,6 +39,7 @@ pub use pipeline::{
     Pipeline,
 };
 pub use resource::{Buffer, BufferDesc, Image, ImageDesc, Sampler};
+pub use stored::StoredStrands;
 
 /// The SPIR-V modules of this crate, compiled from `gen-gpu/shaders` at build time.
 pub mod shaders {

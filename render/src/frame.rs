@@ -104,7 +104,11 @@ pub struct SceneRenderer {
     generator: Generator,
     oit: Option<Oit>,
     hairs: Vec<GpuHair>,
+    /// Characters whose hair is generated.
     characters: Vec<SceneCharacter>,
+    /// Explicit strands uploaded once, and the characters drawing them.
+    stored: Vec<gen_gpu::StoredStrands>,
+    stored_characters: Vec<SceneCharacter>,
     scene: LoadedScene,
     path: GenerationPath,
 }
@@ -192,8 +196,30 @@ impl SceneRenderer {
         let mut keys: HashMap<(std::path::PathBuf, String), usize> = HashMap::new();
         let mut hairs = Vec::new();
         let mut characters = Vec::new();
+        let mut stored = Vec::new();
+        let mut stored_characters = Vec::new();
         for (i, c) in scene.scene.characters.iter().enumerate() {
             let path = scene.hair_path(c);
+            if matches!(path.extension().and_then(|e| e.to_str()), Some("tfx" | "hair")) {
+                let set = hairmesh::strands::load_strands(&path)
+                    .map_err(|source| RenderError::Asset { path: path.clone(), source })?;
+                let (lo, hi) = set.bounds().unwrap_or_default();
+                let width = c.strand_width.unwrap_or((hi - lo).length() / 2000.0);
+                stored.push(gen_gpu::StoredStrands::upload(
+                    ctx,
+                    &set.points,
+                    &set.strand_points,
+                    width,
+                    0.3,
+                )?);
+                stored_characters.push(SceneCharacter {
+                    hair: stored.len() - 1,
+                    transform: c.transform.matrix(),
+                    color: c.color,
+                    variation: c.color_variation,
+                });
+                continue;
+            }
             let key = (path.clone(), c.style.as_ref().map(|s| s.to_string()).unwrap_or_default());
             let hair = match keys.get(&key) {
                 Some(&h) => h,
@@ -213,7 +239,7 @@ impl SceneRenderer {
                 variation: c.color_variation,
             });
         }
-        Ok(Self { generator, oit, hairs, characters, scene: scene.clone(), path })
+        Ok(Self { generator, oit, hairs, characters, stored, stored_characters, scene: scene.clone(), path })
     }
 
     fn view(&self) -> CrowdView {
@@ -258,6 +284,7 @@ impl SceneRenderer {
                 if self.path == GenerationPath::Compute { format!("strands {i}") } else { format!("lod {i}") }
             })
             .collect();
+        reads.extend((0..self.stored_characters.len()).map(|i| format!("stored strands {i}")));
         reads.push("lights".into());
         if self.oit.is_some() {
             let lists = || vec!["OIT lists".to_owned()];
@@ -319,6 +346,21 @@ impl SceneRenderer {
         }
     }
 
+    /// Draws the explicit-strand characters with `generator`'s fragment stage.
+    fn draw_stored(
+        &self,
+        rec: &mut gen_gpu::Recorder<'_>,
+        generator: &Generator,
+        params: &[Buffer],
+        extra: &[(u32, &Buffer)],
+    ) {
+        for (c, params) in self.stored_characters.iter().zip(params) {
+            let shading = self.shading(c);
+            let extras = DrawExtras { fragment_constants: bytemuck::bytes_of(&shading), buffers: extra };
+            generator.record_draw_stored(rec, &self.stored[c.hair], params, extras);
+        }
+    }
+
     /// Renders one frame.
     pub fn render(&self, ctx: &Context) -> Result<RenderedFrame, RenderError> {
         let view = self.view();
@@ -333,6 +375,16 @@ impl SceneRenderer {
                     &self.hairs[c.hair],
                     &character_inputs(&view.camera, c, view.width, view.height, view.lod),
                 )
+            })
+            .collect::<gen_gpu::Result<Vec<_>>>()?;
+        let stored_params = self
+            .stored_characters
+            .iter()
+            .map(|c| {
+                let character = Character { hair: c.hair, transform: c.transform };
+                let inputs = character_inputs(&view.camera, &character, view.width, view.height, view.lod);
+                // The fill and the opaque generators share the parameter layout.
+                self.generator.stored_params(ctx, &self.stored[c.hair], &inputs)
             })
             .collect::<gen_gpu::Result<Vec<_>>>()?;
         let target = RenderTarget::new(ctx, view.width, view.height)?;
@@ -403,7 +455,9 @@ impl SceneRenderer {
                                 false,
                                 extras,
                             )
-                        })
+                        })?;
+                        self.draw_stored(rec, &oit.fill, &stored_params, &extra);
+                        Ok(())
                     });
                     recorded.push(fill);
                     rec.end_rendering();
@@ -438,7 +492,9 @@ impl SceneRenderer {
                                 false,
                                 extras,
                             )
-                        })
+                        })?;
+                        self.draw_stored(rec, &self.generator, &stored_params, &[]);
+                        Ok(())
                     });
                     recorded.push(raster);
                     rec.end_rendering();
@@ -451,6 +507,7 @@ impl SceneRenderer {
         })?;
         debug_assert_eq!(recorded, graph.passes.iter().map(|p| p.name.clone()).collect::<Vec<_>>());
         let mut stats = GenerationStats::default();
+        stats.strands += self.stored_characters.iter().map(|c| self.stored[c.hair].strands).sum::<u64>();
         for (c, frame) in characters.iter().zip(&frames) {
             let s = self.generator.stats(ctx, &self.hairs[c.hair], frame)?;
             stats.bundles += s.bundles;

@@ -102,7 +102,8 @@ impl TransformDesc {
 #[derive(Clone, Debug, Deserialize, Serialize, PartialEq)]
 #[serde(deny_unknown_fields)]
 pub struct CharacterDesc {
-    /// A hair asset folder (or its hair.json), relative to the scene file.
+    /// A hair asset folder (or its hair.json), or an explicit strand file (`.tfx` TressFX 3/4,
+    /// `.hair`), relative to the scene file.
     pub hair: PathBuf,
     #[serde(default)]
     pub transform: TransformDesc,
@@ -112,9 +113,13 @@ pub struct CharacterDesc {
     /// Per-strand colour variation (0 = none).
     #[serde(default = "default_variation")]
     pub color_variation: f32,
-    /// Fields of `hairmesh::style::Style` that replace the asset's.
+    /// Fields of `hairmesh::style::Style` that replace the asset's (hair assets only).
     #[serde(default)]
     pub style: Option<serde_json::Value>,
+    /// Root width of explicit strands (`.tfx`, `.hair`) in the file's units [default: 1/2000
+    /// of the strands' bounding-box diagonal].
+    #[serde(default)]
+    pub strand_width: Option<f32>,
 }
 
 fn brown() -> [f32; 3] {
@@ -296,13 +301,13 @@ fn validate(loaded: &LoadedScene) -> Result<(), SceneError> {
         }
         finite(&format!("{field}.color"), &c.color)?;
         let hair = loaded.hair_path(c);
-        let ext = hair.extension().and_then(|e| e.to_str()).unwrap_or_default();
-        if matches!(ext, "tfx" | "hair") {
-            return Err(SceneError::NotSupportedYet {
-                path: path.clone(),
-                field: format!("{field}.hair"),
-                effect: "an explicit strand file as a character".into(),
-            });
+        if let Some(w) = c.strand_width
+            && !(w.is_finite() && w > 0.0)
+        {
+            return Err(invalid(
+                &format!("{field}.strand_width"),
+                format!("{w} (expected a positive number)"),
+            ));
         }
         if !hair.exists() {
             return Err(invalid(&format!("{field}.hair"), format!("{} does not exist", hair.display())));

@@ -148,6 +148,39 @@ fn main() -> ExitCode {
             ensure!(drawn > 0, "what fits is still drawn");
             Ok(())
         }),
+        GpuTest::new("sintel_groom_from_tressfx_matches_its_golden_images", Requirements::NONE, |ctx| {
+            // The artist's full Sintel groom (11,400 strands × 16 points), read from
+            // ../shared/testdata at run time, drawn as explicit strands.
+            let dir = tempfile::tempdir()?;
+            let groom = repo("../shared/testdata/strands/tressfx/v4/sintel_hair_full_16points.tfx");
+            ensure!(groom.is_file(), "{} is missing (clone the project beside shared/)", groom.display());
+            for (name, effects) in [
+                ("sintel_opaque", serde_json::json!({ "transparency": "opaque" })),
+                ("sintel_oit", serde_json::json!({ "transparency": "oit" })),
+            ] {
+                let scene = serde_json::json!({
+                    "output": { "width": 256, "height": 256 },
+                    "camera": { "eye": [0.15, 1.62, 0.5], "target": [0.0, 1.52, 0.0], "fov_y_degrees": 40 },
+                    "lights": [ { "directional": { "direction": [0.3, 0.9, 0.6] } } ],
+                    "characters": [ { "hair": groom, "color": [0.45, 0.22, 0.08], "strand_width": 0.0004 } ],
+                    "effects": effects
+                });
+                let path = dir.path().join(format!("{name}.json"));
+                std::fs::write(&path, serde_json::to_vec_pretty(&scene)?)?;
+                let renderer = SceneRenderer::new(ctx, &load_scene(&path)?, GenerationPath::Compute)?;
+                let frame = renderer.render(ctx)?;
+                ensure!(frame.stats.strands == 11_400, "{:?}", frame.stats);
+                ensure!(
+                    !frame.passes.iter().any(|p| p.starts_with("generate")),
+                    "explicit strands are not generated: {:?}",
+                    frame.passes
+                );
+                let lit = frame.image.pixels.chunks_exact(4).filter(|p| p[0] > 30).count();
+                ensure!(lit > 3000, "{name}: only {lit} lit pixels");
+                check_golden(name, &frame.image)?;
+            }
+            Ok(())
+        }),
         GpuTest::new("the_frame_runs_exactly_the_passes_of_its_graph", Requirements::NONE, |ctx| {
             let dir = tempfile::tempdir()?;
             let scene = load_scene(&small_scene(dir.path(), "small_crowd", 64, 48)?)?;

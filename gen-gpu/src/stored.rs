@@ -1,0 +1,194 @@
+//! Explicit strands (an artist's groom from a strand file, or strands captured once) drawn by
+//! the same vertex-pulling pipeline and fragment stage as generated hair: the stored-strand
+//! path of the renderer and the baseline of the benchmarks.
+
+use glam::Vec3;
+
+use crate::generator::{FRAGMENT_PUSH_OFFSET, MAX_VERTICES, VERTEX_BYTES};
+use crate::{Buffer, BufferDesc, Context, DrawExtras, FrameInputs, GpuError, Recorder, Result};
+
+const SLOT_BYTES: u64 = MAX_VERTICES * VERTEX_BYTES;
+/// Header of the offsets buffer: 16 bytes, 16 dispatch records (12 B), then draw records.
+const DRAW_ARGS_OFFSET: u64 = 16 + 16 * 12;
+const MAX_CHUNKS: u64 = 16;
+
+/// Strands uploaded once, in the generator's strand-buffer layout.
+#[derive(Debug)]
+pub struct StoredStrands {
+    pub(crate) vertices: Buffer,
+    pub(crate) info: Buffer,
+    pub(crate) offsets: Buffer,
+    pub(crate) chunk_slots: u64,
+    pub(crate) chunks: u64,
+    pub strands: u64,
+    pub vertices_total: u64,
+    /// Object-space bounds of all points.
+    pub bounds: (Vec3, Vec3),
+    /// Bytes on the GPU.
+    pub bytes: u64,
+}
+
+/// Eq. 5–6 tangents of a polyline (f32 port of `hairmesh::reference::tangents`).
+fn tangents(points: &[Vec3]) -> Vec<Vec3> {
+    let n = points.len();
+    let dir = |a: Vec3, b: Vec3, f: Vec3| (b - a).try_normalize().unwrap_or(f);
+    let first = dir(points[0], points[1], Vec3::Y);
+    if n == 2 {
+        return vec![first, first];
+    }
+    let last = dir(points[n - 2], points[n - 1], first);
+    let mut t: Vec<Vec3> = (0..n)
+        .map(|k| if k == 0 || k == n - 1 { Vec3::ZERO } else { dir(points[k - 1], points[k + 1], first) })
+        .collect();
+    t[0] = (2.0 * first * t[1].dot(first) - t[1]).try_normalize().unwrap_or(first);
+    t[n - 1] = (2.0 * last * t[n - 2].dot(last) - t[n - 2]).try_normalize().unwrap_or(last);
+    t
+}
+
+impl StoredStrands {
+    /// Uploads strands given as consecutive points (`strand_points[i]` points each). Strands
+    /// of more than 33 points are resampled to 33 (evenly by index); strands of fewer than 2
+    /// are skipped. `width` is the root width, tapering to `tip_width` × width.
+    pub fn upload(
+        ctx: &Context,
+        points: &[Vec3],
+        strand_points: &[u32],
+        width: f32,
+        tip_width: f32,
+    ) -> Result<Self> {
+        let mut vertex_data: Vec<[f32; 8]> = Vec::new();
+        let mut info: Vec<[u32; 4]> = Vec::new();
+        let mut lo = Vec3::splat(f32::INFINITY);
+        let mut hi = Vec3::splat(f32::NEG_INFINITY);
+        let mut at = 0usize;
+        for &n in strand_points {
+            let n = n as usize;
+            let strand = points
+                .get(at..at + n)
+                .ok_or_else(|| GpuError::Mismatch("strand point counts exceed the points".into()))?;
+            at += n;
+            if n < 2 {
+                continue;
+            }
+            let keep = n.min(MAX_VERTICES as usize);
+            let resampled: Vec<Vec3> = (0..keep).map(|k| strand[k * (n - 1) / (keep - 1)]).collect();
+            let t = tangents(&resampled);
+            let slot = info.len() as u32;
+            for k in 0..MAX_VERTICES as usize {
+                let v = if k < keep {
+                    let tau = k as f32 / (keep - 1) as f32;
+                    let p = resampled[k];
+                    lo = lo.min(p);
+                    hi = hi.max(p);
+                    [p.x, p.y, p.z, width * (1.0 + (tip_width - 1.0) * tau), t[k].x, t[k].y, t[k].z, tau]
+                } else {
+                    [0.0; 8]
+                };
+                vertex_data.push(v);
+            }
+            info.push([slot, 0, keep as u32, 0]);
+        }
+        let strands = info.len() as u64;
+        if strands == 0 {
+            return Err(GpuError::Mismatch("no strand has two or more points".into()));
+        }
+        let caps = ctx.capabilities();
+        let align = caps.min_storage_buffer_offset_alignment.max(1);
+        let step = (1..=256u64)
+            .find(|n| (n * SLOT_BYTES).is_multiple_of(align) && (n * 16).is_multiple_of(align))
+            .unwrap_or(256);
+        let chunk_slots = (u64::from(caps.max_storage_buffer_range) / SLOT_BYTES / step * step).max(step);
+        let chunks = strands.div_ceil(chunk_slots);
+        if chunks > MAX_CHUNKS || strands * SLOT_BYTES > 1 << 31 {
+            return Err(GpuError::OverBudget {
+                name: "stored strands".into(),
+                requested: strands * SLOT_BYTES,
+                budget: (MAX_CHUNKS * chunk_slots * SLOT_BYTES).min(1 << 31),
+                why: "16 chunks of the storage-buffer range, 2 GiB in all",
+            });
+        }
+        // The draw records the generator's pulling pass reads, one per chunk.
+        let mut offsets = vec![0u32; (DRAW_ARGS_OFFSET / 4 + MAX_CHUNKS * 4) as usize];
+        offsets[0] = strands as u32;
+        offsets[1] = strands as u32;
+        for c in 0..chunks {
+            let slots = (strands - c * chunk_slots).min(chunk_slots);
+            let base = (DRAW_ARGS_OFFSET / 4 + 4 * c) as usize;
+            offsets[base] = (MAX_VERTICES as u32 - 1) * 6;
+            offsets[base + 1] = slots as u32;
+        }
+        let indirect = ash::vk::BufferUsageFlags::INDIRECT_BUFFER;
+        let vbytes: &[u8] = bytemuck::cast_slice(&vertex_data);
+        let ibytes: &[u8] = bytemuck::cast_slice(&info);
+        let obytes: &[u8] = bytemuck::cast_slice(&offsets);
+        Ok(Self {
+            vertices: ctx.create_buffer_with_data(
+                "stored strand vertices",
+                BufferDesc::storage(vbytes.len() as u64),
+                vbytes,
+            )?,
+            info: ctx.create_buffer_with_data(
+                "stored strand info",
+                BufferDesc::storage(ibytes.len() as u64),
+                ibytes,
+            )?,
+            offsets: ctx.create_buffer_with_data(
+                "stored strand draws",
+                BufferDesc::storage(obytes.len() as u64).usage(indirect),
+                obytes,
+            )?,
+            chunk_slots,
+            chunks,
+            strands,
+            vertices_total: vertex_data.len() as u64,
+            bounds: (lo, hi),
+            bytes: (vbytes.len() + ibytes.len() + obytes.len()) as u64,
+        })
+    }
+}
+
+impl crate::Generator {
+    /// The frame parameters for drawing stored strands (view, viewport; no hair asset).
+    pub fn stored_params(
+        &self,
+        ctx: &Context,
+        stored: &StoredStrands,
+        inputs: &FrameInputs,
+    ) -> Result<Buffer> {
+        let params = crate::generator::view_only_params(inputs, stored.chunk_slots);
+        ctx.create_buffer_with_data(
+            "stored strand parameters",
+            BufferDesc::storage(size_of_val(&params) as u64).location(crate::MemoryLocation::CpuToGpu),
+            bytemuck::bytes_of(&params),
+        )
+    }
+
+    /// Draws stored strands with the pulling pipeline and the generator's fragment stage, inside
+    /// a rendering scope begun by the caller.
+    pub fn record_draw_stored(
+        &self,
+        rec: &mut Recorder<'_>,
+        stored: &StoredStrands,
+        params: &Buffer,
+        extras: DrawExtras<'_>,
+    ) {
+        let pipeline = self.pull_pipeline();
+        rec.bind_pipeline(pipeline);
+        let whole = ash::vk::WHOLE_SIZE;
+        for chunk in 0..stored.chunks {
+            let first = chunk * stored.chunk_slots;
+            let slots = stored.chunk_slots.min(stored.strands - first);
+            let mut buffers = vec![
+                (0, params, 0, whole),
+                (9, &stored.offsets, 0, whole),
+                (10, &stored.vertices, first * SLOT_BYTES, slots * SLOT_BYTES),
+                (11, &stored.info, first * 16, slots * 16),
+            ];
+            buffers.extend(extras.buffers.iter().map(|(b, buf)| (*b, *buf, 0, whole)));
+            rec.push_descriptors_ranged(pipeline, &buffers, &[]);
+            rec.push_constants(pipeline, &(chunk as u32));
+            rec.push_constant_bytes(pipeline, FRAGMENT_PUSH_OFFSET, extras.fragment_constants);
+            rec.draw_indirect(&stored.offsets, DRAW_ARGS_OFFSET + 16 * chunk);
+        }
+    }
+}
