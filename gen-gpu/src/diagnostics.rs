@@ -130,7 +130,7 @@ pub fn draw_test_strips(
                 specialization: &[],
                 color_format: COLOR_FORMAT,
                 depth_format: Some(DEPTH_FORMAT),
-                blend: false,
+                blend: crate::Blend::Replace,
                 depth_write: true,
                 color_write: true,
             },

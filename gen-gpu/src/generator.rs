@@ -40,8 +40,7 @@ pub enum Filtering {
 pub struct FragmentStage {
     pub shader: &'static shader_build::ShaderSpirv,
     pub push_constant_bytes: u32,
-    /// Premultiplied-alpha blending (else replace).
-    pub blend: bool,
+    pub blend: crate::Blend,
     /// Depth writes (the depth test stays on).
     pub depth_write: bool,
     /// Colour writes (off for a fill pass that only appends to buffers).
@@ -72,6 +71,8 @@ pub struct GeneratorOptions {
     pub max_chunk_slots: Option<u64>,
     /// The fragment stage; `None` uses gen-gpu's placeholder shading (`strand.frag`).
     pub fragment: Option<FragmentStage>,
+    /// Colour attachment format of the draws [default: [`COLOR_FORMAT`]].
+    pub color_format: Option<vk::Format>,
 }
 
 /// What one frame generates for.
@@ -256,7 +257,7 @@ impl Generator {
         let fragment = options.fragment.unwrap_or(FragmentStage {
             shader: &shaders::STRAND_FRAG,
             push_constant_bytes: 0,
-            blend: false,
+            blend: crate::Blend::Replace,
             depth_write: true,
             color_write: true,
             extra_bindings: &[],
@@ -272,7 +273,7 @@ impl Generator {
                     bindings: &bindings,
                     push_constant_size: push_size,
                     specialization: &[(0, manual), (1, capture), (2, cubic)],
-                    color_format: COLOR_FORMAT,
+                    color_format: options.color_format.unwrap_or(COLOR_FORMAT),
                     depth_format: Some(DEPTH_FORMAT),
                     blend: fragment.blend,
                     depth_write: fragment.depth_write,

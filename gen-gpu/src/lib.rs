@@ -35,8 +35,8 @@ pub use gpu_allocator::MemoryLocation;
 pub use hair::{GpuHair, TextureBytes, TexturePrecision};
 pub use path::{GenerationPath, PathChoice};
 pub use pipeline::{
-    Binding, ComputePipeline, ComputePipelineDesc, GraphicsPipeline, GraphicsPipelineDesc, GraphicsStages,
-    Pipeline,
+    Binding, Blend, ComputePipeline, ComputePipelineDesc, GraphicsPipeline, GraphicsPipelineDesc,
+    GraphicsStages, Pipeline,
 };
 pub use resource::{Buffer, BufferDesc, Image, ImageDesc, Sampler};
 pub use stored::StoredStrands;

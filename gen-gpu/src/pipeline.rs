@@ -41,6 +41,18 @@ pub enum GraphicsStages<'a> {
     Mesh { task: Option<&'a ShaderSpirv>, mesh: &'a ShaderSpirv },
 }
 
+/// How fragments combine with the colour target.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash)]
+pub enum Blend {
+    /// Replace.
+    #[default]
+    Replace,
+    /// Premultiplied alpha "over".
+    Over,
+    /// Sum (accumulation targets such as opacity maps).
+    Additive,
+}
+
 /// How to create a graphics [`Pipeline`] drawing triangles with dynamic rendering.
 #[derive(Clone, Copy, Debug)]
 pub struct GraphicsPipelineDesc<'a> {
@@ -52,8 +64,7 @@ pub struct GraphicsPipelineDesc<'a> {
     pub specialization: &'a [(u32, u32)],
     pub color_format: vk::Format,
     pub depth_format: Option<vk::Format>,
-    /// Premultiplied-alpha blending instead of replacing.
-    pub blend: bool,
+    pub blend: Blend,
     /// Depth writes (with a depth format; the depth test is on whenever there is one).
     pub depth_write: bool,
     /// Colour writes (off for passes that only store into buffers).
@@ -286,18 +297,21 @@ impl Pipeline {
             .depth_compare_op(vk::CompareOp::LESS);
         let write_mask =
             if desc.color_write { vk::ColorComponentFlags::RGBA } else { vk::ColorComponentFlags::empty() };
-        let attachment = if desc.blend {
+        let blended = |dst| {
             vk::PipelineColorBlendAttachmentState::default()
                 .blend_enable(true)
                 .src_color_blend_factor(vk::BlendFactor::ONE)
-                .dst_color_blend_factor(vk::BlendFactor::ONE_MINUS_SRC_ALPHA)
+                .dst_color_blend_factor(dst)
                 .color_blend_op(vk::BlendOp::ADD)
                 .src_alpha_blend_factor(vk::BlendFactor::ONE)
-                .dst_alpha_blend_factor(vk::BlendFactor::ONE_MINUS_SRC_ALPHA)
+                .dst_alpha_blend_factor(dst)
                 .alpha_blend_op(vk::BlendOp::ADD)
                 .color_write_mask(write_mask)
-        } else {
-            vk::PipelineColorBlendAttachmentState::default().color_write_mask(write_mask)
+        };
+        let attachment = match desc.blend {
+            Blend::Replace => vk::PipelineColorBlendAttachmentState::default().color_write_mask(write_mask),
+            Blend::Over => blended(vk::BlendFactor::ONE_MINUS_SRC_ALPHA),
+            Blend::Additive => blended(vk::BlendFactor::ONE),
         };
         let attachments = [attachment];
         let blend = vk::PipelineColorBlendStateCreateInfo::default().attachments(&attachments);

@@ -19,7 +19,46 @@ layout(push_constant) uniform Shading {
     vec4 specular_shift;                     // x primary shift, y secondary shift, z primary exponent, w secondary exponent
     vec4 specular_strength;                  // x primary, y secondary, z ambient, w sparkle
     vec4 hair_opacity;                       // x: opacity of one strand (1 = opaque)
+    mat4 light_view_proj;                    // object space -> shadow light clip space (orthographic)
+    vec4 shadow;                             // xyz: ends of the 3 opacity layers (light depth units); w: map size, 0 = no shadows
 } shading;
+
+// Deep opacity map of the shadow-casting light (Yuksel & Keyser 2008): the nearest hair depth
+// per texel and the opacity accumulated up to the end of each of three layers behind it.
+layout(std430, set = 0, binding = 15) readonly buffer ShadowDepth { float shadow_depth[]; };
+layout(std430, set = 0, binding = 16) readonly buffer ShadowOpacity { vec4 shadow_opacity[]; };
+
+// Fraction of the light reaching p through the hair in front of it.
+float shadow_transmittance(vec3 p) {
+    float size = shading.shadow.w;
+    if (size < 0.5) {
+        return 1.0;
+    }
+    vec4 clip = shading.light_view_proj * vec4(p, 1.0);
+    vec3 ndc = clip.xyz / clip.w;
+    vec2 uv = ndc.xy * 0.5 + 0.5;
+    if (any(lessThan(uv, vec2(0.0))) || any(greaterThanEqual(uv, vec2(1.0)))) {
+        return 1.0;
+    }
+    uvec2 texel = uvec2(uv * size);
+    uint index = texel.y * uint(size) + texel.x;
+    float d = ndc.z - shadow_depth[index];
+    vec3 ends = shading.shadow.xyz;
+    vec4 o = shadow_opacity[index];
+    float opacity;
+    if (d <= 0.0) {
+        opacity = 0.0;
+    } else if (d < ends.x) {
+        opacity = o.x * d / ends.x;
+    } else if (d < ends.y) {
+        opacity = mix(o.x, o.y, (d - ends.x) / (ends.y - ends.x));
+    } else if (d < ends.z) {
+        opacity = mix(o.y, o.z, (d - ends.y) / (ends.z - ends.y));
+    } else {
+        opacity = o.z;
+    }
+    return exp(-1.5 * opacity);
+}
 
 float hash(float x) {
     return fract(sin(x * 12.9898) * 43758.5453);
@@ -50,6 +89,8 @@ vec4 shade_hair() {
 
     vec3 color = base * shading.specular_strength.z;
     uint lights = min(uint(shading.eye.w), MAX_LIGHTS);
+    // The first light casts the shadow.
+    float shadowed = shadow_transmittance(p);
     for (uint i = 0u; i < lights; ++i) {
         vec4 lv = shading.light_vector[i];
         vec3 l = lv.w > 0.5 ? normalize(lv.xyz - p) : normalize(lv.xyz);
@@ -60,7 +101,8 @@ vec4 shade_hair() {
         vec3 diffuse = base * mix(lambert, kajiya, 0.5);
         vec3 primary = vec3(shading.specular_strength.x * strand_specular(t1, h, shading.specular_shift.z));
         vec3 secondary = base * shading.specular_strength.y * sparkle * strand_specular(t2, h, shading.specular_shift.w);
-        color += shading.light_color[i].rgb * (diffuse + primary + secondary);
+        float transmittance = i == 0u ? shadowed : 1.0;
+        color += shading.light_color[i].rgb * transmittance * (diffuse + primary + secondary);
     }
     float alpha = clamp(v_coverage_side.x, 0.0, 1.0) * shading.hair_opacity.x;
     return vec4(color * alpha, alpha);

@@ -78,10 +78,14 @@ struct Shading {
     specular_shift: [f32; 4],
     specular_strength: [f32; 4],
     hair_opacity: [f32; 4],
+    light_view_proj: [f32; 16],
+    shadow: [f32; 4],
 }
 
 /// Bindings of the OIT buffers (`oit.glsl`).
-const OIT_BINDINGS: [u32; 3] = [12, 13, 14];
+const OIT_BINDINGS: [u32; 5] = [12, 13, 14, 15, 16];
+/// Bindings of the shadow maps (`hair_shading.glsl`).
+const SHADOW_BINDINGS: [u32; 2] = [15, 16];
 const OIT_NODE_BYTES: u64 = 16;
 
 /// Order-independent transparency: the fill generator (hair_oit.frag) and the resolve pass.
@@ -103,6 +107,10 @@ struct SceneCharacter {
 pub struct SceneRenderer {
     generator: Generator,
     oit: Option<Oit>,
+    /// Shadow pipelines and the maps of the first frame (the scene is static).
+    shadow: Option<(crate::shadow::ShadowPipelines, std::sync::Mutex<Option<crate::shadow::ShadowMaps>>)>,
+    /// Bound at 15 and 16 when the scene has no shadows.
+    no_shadow: (Buffer, Buffer),
     hairs: Vec<GpuHair>,
     /// Characters whose hair is generated.
     characters: Vec<SceneCharacter>,
@@ -134,6 +142,8 @@ pub struct RenderedFrame {
     pub oit_overflow: Option<u64>,
     /// OIT: nodes in the pool.
     pub oit_pool: Option<u64>,
+    /// Shadow maps were reused from an earlier frame.
+    pub shadow_cached: bool,
 }
 
 impl SceneRenderer {
@@ -144,10 +154,10 @@ impl SceneRenderer {
                 fragment: Some(FragmentStage {
                     shader: &shaders::HAIR_FRAG,
                     push_constant_bytes: size_of::<Shading>() as u32,
-                    blend: true,
+                    blend: gen_gpu::Blend::Over,
                     depth_write: true,
                     color_write: true,
-                    extra_bindings: &[],
+                    extra_bindings: &SHADOW_BINDINGS,
                 }),
                 ..GeneratorOptions::default()
             },
@@ -160,7 +170,7 @@ impl SceneRenderer {
                     fragment: Some(FragmentStage {
                         shader: &shaders::HAIR_OIT_FRAG,
                         push_constant_bytes: size_of::<Shading>() as u32,
-                        blend: false,
+                        blend: gen_gpu::Blend::Replace,
                         depth_write: false,
                         color_write: false,
                         extra_bindings: &OIT_BINDINGS,
@@ -183,7 +193,7 @@ impl SceneRenderer {
                     specialization: &[],
                     color_format: gen_gpu::COLOR_FORMAT,
                     depth_format: None,
-                    blend: true,
+                    blend: gen_gpu::Blend::Over,
                     depth_write: false,
                     color_write: true,
                 },
@@ -239,7 +249,27 @@ impl SceneRenderer {
                 variation: c.color_variation,
             });
         }
-        Ok(Self { generator, oit, hairs, characters, stored, stored_characters, scene: scene.clone(), path })
+        let shadow = if effects.shadows {
+            Some((crate::shadow::ShadowPipelines::new(ctx)?, std::sync::Mutex::new(None)))
+        } else {
+            None
+        };
+        let no_shadow = (
+            Buffer::new(ctx, "no shadow depth", BufferDesc::storage(16))?,
+            Buffer::new(ctx, "no shadow opacity", BufferDesc::storage(16))?,
+        );
+        Ok(Self {
+            generator,
+            oit,
+            shadow,
+            no_shadow,
+            hairs,
+            characters,
+            stored,
+            stored_characters,
+            scene: scene.clone(),
+            path,
+        })
     }
 
     fn view(&self) -> CrowdView {
@@ -265,6 +295,25 @@ impl SceneRenderer {
     /// The passes this scene's frame runs (built from its effects).
     pub fn graph(&self) -> FrameGraph {
         let mut passes = Vec::new();
+        if self.shadow.is_some() {
+            let casters: Vec<String> =
+                (0..self.characters.len()).map(|i| format!("hair {}", self.characters[i].hair)).collect();
+            passes.push(PassNode {
+                name: "shadow: generate in the light's view".into(),
+                reads: casters,
+                writes: vec!["light-view strands".into()],
+            });
+            passes.push(PassNode {
+                name: "shadow depth".into(),
+                reads: vec!["light-view strands".into()],
+                writes: vec!["shadow depth map".into()],
+            });
+            passes.push(PassNode {
+                name: "shadow opacity".into(),
+                reads: vec!["light-view strands".into(), "shadow depth map".into()],
+                writes: vec!["deep opacity map (cached after the first frame)".into()],
+            });
+        }
         for (i, c) in self.characters.iter().enumerate() {
             passes.push(PassNode {
                 name: format!("lod+cull character {i}"),
@@ -314,7 +363,7 @@ impl SceneRenderer {
         FrameGraph { passes }
     }
 
-    fn shading(&self, c: &SceneCharacter) -> Shading {
+    fn shading(&self, c: &SceneCharacter, maps: Option<&crate::shadow::ShadowMaps>) -> Shading {
         let s = &self.scene.scene;
         let to_object = c.transform.inverse();
         let eye = to_object.transform_point3(Vec3::from_array(s.camera.eye));
@@ -343,7 +392,60 @@ impl SceneRenderer {
             specular_strength: [0.25, 0.35, 0.2, 0.6],
             // Opaque mode draws strands solid (coverage aside); OIT lets a strand transmit.
             hair_opacity: [if self.oit.is_some() { 0.7 } else { 1.0 }, 0.0, 0.0, 0.0],
+            light_view_proj: maps.map_or(Mat4::IDENTITY, |m| m.light_view_proj * c.transform).to_cols_array(),
+            shadow: maps
+                .map_or([0.0; 4], |m| [m.layer_ends[0], m.layer_ends[1], m.layer_ends[2], m.size as f32]),
         }
+    }
+
+    /// Deep opacity maps of the first light over every character's world bounds.
+    fn render_shadow_maps(
+        &self,
+        ctx: &Context,
+        pipes: &crate::shadow::ShadowPipelines,
+    ) -> Result<crate::shadow::ShadowMaps, RenderError> {
+        let s = &self.scene.scene;
+        let toward_light = match s.lights.first() {
+            Some(Light::Directional { direction, .. }) => Vec3::from_array(*direction),
+            _ => Vec3::new(0.4, 0.8, 0.5),
+        };
+        let mut lo = Vec3::splat(f32::INFINITY);
+        let mut hi = Vec3::splat(f32::NEG_INFINITY);
+        let mut add_box = |m: Mat4, (a, b): (Vec3, Vec3)| {
+            for k in 0..8 {
+                let p = Vec3::new(
+                    if k & 1 == 0 { a.x } else { b.x },
+                    if k & 2 == 0 { a.y } else { b.y },
+                    if k & 4 == 0 { a.z } else { b.z },
+                );
+                let w = m.transform_point3(p);
+                lo = lo.min(w);
+                hi = hi.max(w);
+            }
+        };
+        for c in &self.characters {
+            for b in &self.hairs[c.hair].asset.bundles {
+                add_box(c.transform, (b.bounds_min.as_vec3(), b.bounds_max.as_vec3()));
+            }
+        }
+        for c in &self.stored_characters {
+            add_box(c.transform, self.stored[c.hair].bounds);
+        }
+        let generated: Vec<(usize, Mat4)> = self.characters.iter().map(|c| (c.hair, c.transform)).collect();
+        let stored: Vec<(usize, Mat4)> =
+            self.stored_characters.iter().map(|c| (c.hair, c.transform)).collect();
+        let casters = crate::shadow::ShadowCasters {
+            hairs: &self.hairs,
+            generated: &generated,
+            stored: &self.stored,
+            stored_characters: &stored,
+        };
+        let settings = crate::shadow::ShadowSettings {
+            size: s.effects.shadow_map_size,
+            layer_fractions: s.effects.shadow_layers,
+            lod: self.view().lod,
+        };
+        Ok(crate::shadow::render_shadow_maps(ctx, pipes, &casters, toward_light, (lo, hi), settings)?)
     }
 
     /// Draws the explicit-strand characters with `generator`'s fragment stage.
@@ -353,9 +455,10 @@ impl SceneRenderer {
         generator: &Generator,
         params: &[Buffer],
         extra: &[(u32, &Buffer)],
+        maps: Option<&crate::shadow::ShadowMaps>,
     ) {
         for (c, params) in self.stored_characters.iter().zip(params) {
-            let shading = self.shading(c);
+            let shading = self.shading(c, maps);
             let extras = DrawExtras { fragment_constants: bytemuck::bytes_of(&shading), buffers: extra };
             generator.record_draw_stored(rec, &self.stored[c.hair], params, extras);
         }
@@ -365,6 +468,30 @@ impl SceneRenderer {
     pub fn render(&self, ctx: &Context) -> Result<RenderedFrame, RenderError> {
         let view = self.view();
         let graph = self.graph();
+        let mut recorded = Vec::new();
+        // Shadow maps: computed on the first frame, then reused (static characters and light).
+        let mut shadow_cached = false;
+        let mut shadow_guard = match &self.shadow {
+            Some((pipes, cache)) => {
+                let mut guard = cache.lock().unwrap_or_else(|e| e.into_inner());
+                if guard.is_some() {
+                    shadow_cached = true;
+                } else {
+                    *guard = Some(self.render_shadow_maps(ctx, pipes)?);
+                    recorded.extend(
+                        ["shadow: generate in the light's view", "shadow depth", "shadow opacity"]
+                            .map(String::from),
+                    );
+                }
+                Some(guard)
+            }
+            None => None,
+        };
+        let maps = shadow_guard.as_mut().and_then(|g| g.as_ref());
+        let shadow_extra: [(u32, &Buffer); 2] = match maps {
+            Some(m) => [(15, &m.depth), (16, &m.opacity)],
+            None => [(15, &self.no_shadow.0), (16, &self.no_shadow.1)],
+        };
         let characters: Vec<Character> =
             self.characters.iter().map(|c| Character { hair: c.hair, transform: c.transform }).collect();
         let frames = characters
@@ -404,7 +531,6 @@ impl SceneRenderer {
             }
             None => None,
         };
-        let mut recorded = Vec::new();
         let ((), timings) = ctx.submit("scene frame", |rec| {
             for (i, (c, frame)) in characters.iter().zip(&frames).enumerate() {
                 let hair = &self.hairs[c.hair];
@@ -439,10 +565,10 @@ impl SceneRenderer {
                     );
                     target.begin(rec);
                     let fill = format!("raster hair ({}, OIT fill)", self.path);
-                    let extra = [(12, heads), (13, nodes), (14, counters)];
+                    let extra = [(12, heads), (13, nodes), (14, counters), shadow_extra[0], shadow_extra[1]];
                     let drawn = rec.pass(&fill, |rec| {
                         self.characters.iter().zip(&frames).try_for_each(|(c, frame)| {
-                            let shading = self.shading(c);
+                            let shading = self.shading(c, maps);
                             let extras = DrawExtras {
                                 fragment_constants: bytemuck::bytes_of(&shading),
                                 buffers: &extra,
@@ -456,7 +582,7 @@ impl SceneRenderer {
                                 extras,
                             )
                         })?;
-                        self.draw_stored(rec, &oit.fill, &stored_params, &extra);
+                        self.draw_stored(rec, &oit.fill, &stored_params, &extra, maps);
                         Ok(())
                     });
                     recorded.push(fill);
@@ -481,9 +607,11 @@ impl SceneRenderer {
                     let raster = format!("raster hair ({}, opaque)", self.path);
                     let drawn = rec.pass(&raster, |rec| {
                         self.characters.iter().zip(&frames).try_for_each(|(c, frame)| {
-                            let shading = self.shading(c);
-                            let extras =
-                                DrawExtras { fragment_constants: bytemuck::bytes_of(&shading), buffers: &[] };
+                            let shading = self.shading(c, maps);
+                            let extras = DrawExtras {
+                                fragment_constants: bytemuck::bytes_of(&shading),
+                                buffers: &shadow_extra,
+                            };
                             self.generator.record_draw_with(
                                 rec,
                                 &self.hairs[c.hair],
@@ -493,7 +621,7 @@ impl SceneRenderer {
                                 extras,
                             )
                         })?;
-                        self.draw_stored(rec, &self.generator, &stored_params, &[]);
+                        self.draw_stored(rec, &self.generator, &stored_params, &shadow_extra, maps);
                         Ok(())
                     });
                     recorded.push(raster);
@@ -505,7 +633,9 @@ impl SceneRenderer {
             recorded.push("copy out".into());
             drawn
         })?;
-        debug_assert_eq!(recorded, graph.passes.iter().map(|p| p.name.clone()).collect::<Vec<_>>());
+        if !shadow_cached {
+            debug_assert_eq!(recorded, graph.passes.iter().map(|p| p.name.clone()).collect::<Vec<_>>());
+        }
         let mut stats = GenerationStats::default();
         stats.strands += self.stored_characters.iter().map(|c| self.stored[c.hair].strands).sum::<u64>();
         for (c, frame) in characters.iter().zip(&frames) {
@@ -529,6 +659,7 @@ impl SceneRenderer {
             passes: recorded,
             oit_overflow,
             oit_pool,
+            shadow_cached,
         })
     }
 }

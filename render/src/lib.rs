@@ -6,5 +6,6 @@ pub mod crowd;
 pub mod frame;
 pub mod output;
 pub mod scene;
+pub mod shadow;
 
 pub use gen_gpu::diagnostics::RgbaImage;

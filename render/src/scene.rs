@@ -16,8 +16,9 @@
 //! file. Every number is checked (finite, in range) and errors name the file and the field.
 //! `effects.transparency` is `"opaque"` (coverage-scaled strands blended in draw order, depth
 //! tested) or `"oit"` (per-pixel linked lists with a k-buffer resolve, `oit_k` sorted, pool of
-//! `oit_nodes_per_pixel` nodes per pixel on average). Effects that are not built yet
-//! (`shadows`, `ao`, `volume_lod`, `dynamics`) are refused with a clear "not supported yet".
+//! `oit_nodes_per_pixel` nodes per pixel on average). `shadows` adds deep opacity maps from the
+//! first (directional) light (`shadow_map_size`, `shadow_layers`). Effects that are not built
+//! yet (`ao`, `volume_lod`, `dynamics`) are refused with a clear "not supported yet".
 
 use std::path::{Path, PathBuf};
 
@@ -146,7 +147,12 @@ pub struct Effects {
     pub oit_k: u32,
     /// OIT: average list nodes per pixel the pool holds (it is capped by the storage range).
     pub oit_nodes_per_pixel: f32,
+    /// Self-shadowing by deep opacity maps from the first light (which must be directional).
     pub shadows: bool,
+    /// Shadow map resolution (texels per side).
+    pub shadow_map_size: u32,
+    /// Ends of the three opacity layers, as fractions of the light box's radius.
+    pub shadow_layers: [f32; 3],
     pub ao: bool,
     pub volume_lod: bool,
     pub dynamics: bool,
@@ -159,6 +165,8 @@ impl Default for Effects {
             oit_k: 8,
             oit_nodes_per_pixel: 32.0,
             shadows: false,
+            shadow_map_size: 512,
+            shadow_layers: [0.02, 0.06, 0.16],
             ao: false,
             volume_lod: false,
             dynamics: false,
@@ -322,6 +330,28 @@ fn validate(loaded: &LoadedScene) -> Result<(), SceneError> {
         return Err(invalid("lod", "alphas must be positive".into()));
     }
     let e = s.effects;
+    if e.shadows {
+        if let Some(Light::Point { .. }) = s.lights.first() {
+            return Err(SceneError::NotSupportedYet {
+                path: path.clone(),
+                field: "lights[0]".into(),
+                effect: "shadows from a point light (make the first light directional)".into(),
+            });
+        }
+        if !(16..=4096).contains(&e.shadow_map_size) {
+            return Err(invalid(
+                "effects.shadow_map_size",
+                format!("{} (expected 16..=4096)", e.shadow_map_size),
+            ));
+        }
+        let l = e.shadow_layers;
+        if !(l.iter().all(|x| x.is_finite() && *x > 0.0) && l[0] < l[1] && l[1] < l[2]) {
+            return Err(invalid(
+                "effects.shadow_layers",
+                format!("{l:?} (expected three increasing positive numbers)"),
+            ));
+        }
+    }
     if !(1..=16).contains(&e.oit_k) {
         return Err(invalid("effects.oit_k", format!("{} (expected 1..=16)", e.oit_k)));
     }
@@ -332,7 +362,6 @@ fn validate(loaded: &LoadedScene) -> Result<(), SceneError> {
         ));
     }
     let unsupported = [
-        (e.shadows, "effects.shadows", "shadows"),
         (e.ao, "effects.ao", "ambient occlusion"),
         (e.volume_lod, "effects.volume_lod", "the volume LOD path"),
         (e.dynamics, "effects.dynamics", "dynamics"),

@@ -157,6 +157,10 @@ fn main() -> ExitCode {
             for (name, effects) in [
                 ("sintel_opaque", serde_json::json!({ "transparency": "opaque" })),
                 ("sintel_oit", serde_json::json!({ "transparency": "oit" })),
+                (
+                    "sintel_oit_shadows",
+                    serde_json::json!({ "transparency": "oit", "shadows": true, "shadow_map_size": 256 }),
+                ),
             ] {
                 let scene = serde_json::json!({
                     "output": { "width": 256, "height": 256 },
@@ -181,6 +185,56 @@ fn main() -> ExitCode {
             }
             Ok(())
         }),
+        GpuTest::new(
+            "deep_opacity_shadows_are_computed_once_and_darken_the_hair",
+            Requirements::NONE,
+            |ctx| {
+                let dir = tempfile::tempdir()?;
+                let effects =
+                    serde_json::json!({ "transparency": "oit", "shadows": true, "shadow_map_size": 256 });
+                let scene = load_scene(&scene_with(dir.path(), "one_character", 256, 192, effects)?)?;
+                let renderer = SceneRenderer::new(ctx, &scene, GenerationPath::Compute)?;
+                let graph: Vec<String> = renderer.graph().passes.iter().map(|p| p.name.clone()).collect();
+                ensure!(
+                    graph.iter().filter(|n| n.starts_with("shadow")).count() == 3,
+                    "one light casts: {graph:?}"
+                );
+                let first = renderer.render(ctx)?;
+                ensure!(!first.shadow_cached && first.passes == graph, "{:?}", first.passes);
+                let second = renderer.render(ctx)?;
+                ensure!(second.shadow_cached, "a static scene reuses its shadow maps");
+                ensure!(!second.passes.iter().any(|p| p.starts_with("shadow")), "{:?}", second.passes);
+                ensure!(first.image == second.image, "cached maps give the same frame");
+                let unshadowed = SceneRenderer::new(
+                    ctx,
+                    &load_scene(&scene_with(
+                        dir.path(),
+                        "one_character",
+                        256,
+                        192,
+                        serde_json::json!({ "transparency": "oit" }),
+                    )?)?,
+                    GenerationPath::Compute,
+                )?
+                .render(ctx)?;
+                let brightness = |i: &render::RgbaImage| {
+                    i.pixels
+                        .chunks_exact(4)
+                        .map(|p| u64::from(p[0]) + u64::from(p[1]) + u64::from(p[2]))
+                        .sum::<u64>()
+                };
+                let (lit, shadowed) = (brightness(&unshadowed.image), brightness(&first.image));
+                eprintln!(
+                    "  brightness without shadows {lit}, with {shadowed} ({:.1}%)",
+                    100.0 * shadowed as f64 / lit as f64
+                );
+                ensure!(
+                    shadowed < lit * 95 / 100 && shadowed > lit / 4,
+                    "self-shadowing darkens, but not to black"
+                );
+                check_golden("one_character_oit_shadows", &first.image)
+            },
+        ),
         GpuTest::new("the_frame_runs_exactly_the_passes_of_its_graph", Requirements::NONE, |ctx| {
             let dir = tempfile::tempdir()?;
             let scene = load_scene(&small_scene(dir.path(), "small_crowd", 64, 48)?)?;
@@ -224,7 +278,22 @@ fn main() -> ExitCode {
                     "characters[0].transform.scale",
                 ),
                 ("k.json", Box::new(|v| v["effects"]["oit_k"] = 40.into()), "effects.oit_k"),
-                ("shadows.json", Box::new(|v| v["effects"]["shadows"] = true.into()), "not supported yet"),
+                (
+                    "point_shadow.json",
+                    Box::new(|v| {
+                        v["effects"]["shadows"] = true.into();
+                        v["lights"] = serde_json::json!([{ "point": { "position": [0, 3, 0] } }]);
+                    }),
+                    "not supported yet",
+                ),
+                (
+                    "layers.json",
+                    Box::new(|v| {
+                        v["effects"] =
+                            serde_json::json!({ "shadows": true, "shadow_layers": [0.3, 0.2, 0.1] });
+                    }),
+                    "effects.shadow_layers",
+                ),
                 ("volume.json", Box::new(|v| v["effects"]["volume_lod"] = true.into()), "not supported yet"),
                 (
                     "style.json",

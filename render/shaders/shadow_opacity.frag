@@ -1,0 +1,22 @@
+#version 460
+// Deep opacity map, opacity pass: every hair fragment adds its opacity to each layer whose end
+// lies beyond it, measured from the nearest hair depth of its texel (additive blending into an
+// RGBA32F target: x, y, z = cumulative opacity up to the end of layers 1, 2, 3).
+layout(location = 2) in vec4 v_coverage_side;
+layout(location = 0) out vec4 out_opacity;
+
+layout(push_constant) uniform Layers {
+    layout(offset = 16) vec4 ends;   // xyz: layer ends in light depth units; w: map size
+} layers;
+
+layout(std430, set = 0, binding = 15) readonly buffer ShadowDepth { float shadow_depth[]; };
+
+// Opacity of one strand fragment before coverage.
+const float STRAND_OPACITY = 0.5;
+
+void main() {
+    uint index = uint(gl_FragCoord.y) * uint(layers.ends.w) + uint(gl_FragCoord.x);
+    float d = gl_FragCoord.z - shadow_depth[index];
+    float a = clamp(v_coverage_side.x, 0.0, 1.0) * STRAND_OPACITY;
+    out_opacity = vec4(d <= layers.ends.x ? a : 0.0, d <= layers.ends.y ? a : 0.0, d <= layers.ends.z ? a : 0.0, 0.0);
+}
