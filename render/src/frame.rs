@@ -144,6 +144,8 @@ pub struct RenderedFrame {
     pub oit_pool: Option<u64>,
     /// Shadow maps were reused from an earlier frame.
     pub shadow_cached: bool,
+    /// GPU time of the shadow maps when this frame computed them.
+    pub shadow_ms: Option<f64>,
 }
 
 impl SceneRenderer {
@@ -471,13 +473,16 @@ impl SceneRenderer {
         let mut recorded = Vec::new();
         // Shadow maps: computed on the first frame, then reused (static characters and light).
         let mut shadow_cached = false;
+        let mut shadow_ms = None;
         let mut shadow_guard = match &self.shadow {
             Some((pipes, cache)) => {
                 let mut guard = cache.lock().unwrap_or_else(|e| e.into_inner());
                 if guard.is_some() {
                     shadow_cached = true;
                 } else {
-                    *guard = Some(self.render_shadow_maps(ctx, pipes)?);
+                    let maps = self.render_shadow_maps(ctx, pipes)?;
+                    shadow_ms = maps.timings.pass_ms("shadow maps");
+                    *guard = Some(maps);
                     recorded.extend(
                         ["shadow: generate in the light's view", "shadow depth", "shadow opacity"]
                             .map(String::from),
@@ -660,6 +665,7 @@ impl SceneRenderer {
             oit_overflow,
             oit_pool,
             shadow_cached,
+            shadow_ms,
         })
     }
 }

@@ -70,7 +70,7 @@ fn main() -> ExitCode {
             let report = std::fs::read_to_string(dir.path().join("benchmarks.md"))?;
             ensure!(report.contains(&ctx.capabilities().device_name), "the report names the device");
             for (file, skip, min_rows) in
-                [("bench-generation.csv", 2, 2), ("bench-stored.csv", 0, 2), ("bench-accuracy.csv", 1, 7)]
+                [("bench-generation.csv", 2, 2), ("bench-stored.csv", 0, 2), ("bench-accuracy.csv", 1, 7), ("bench-effects.csv", 1, 3)]
             {
                 let csv = std::fs::read_to_string(dir.path().join(file))?;
                 let rows: Vec<&str> = csv.lines().skip(1).collect();
@@ -82,7 +82,7 @@ fn main() -> ExitCode {
                     }
                 }
             }
-            for section in ["On-the-fly vs stored", "Accuracy vs time", "GPU memory"] {
+            for section in ["On-the-fly vs stored", "Accuracy vs time", "GPU memory", "Render passes"] {
                 ensure!(report.contains(section), "`{section}` missing");
             }
             // A second run replaces its own section and keeps the rest of the file.
