@@ -275,10 +275,14 @@ impl SceneRenderer {
     }
 
     fn view(&self) -> CrowdView {
+        self.view_from(Vec3::from_array(self.scene.scene.camera.eye))
+    }
+
+    fn view_from(&self, eye: Vec3) -> CrowdView {
         let s = &self.scene.scene;
         CrowdView {
             camera: Camera {
-                eye: Vec3::from_array(s.camera.eye),
+                eye,
                 target: Vec3::from_array(s.camera.target),
                 fov_y: s.camera.fov_y_degrees.to_radians(),
             },
@@ -365,10 +369,15 @@ impl SceneRenderer {
         FrameGraph { passes }
     }
 
-    fn shading(&self, c: &SceneCharacter, maps: Option<&crate::shadow::ShadowMaps>) -> Shading {
+    fn shading(
+        &self,
+        c: &SceneCharacter,
+        maps: Option<&crate::shadow::ShadowMaps>,
+        world_eye: Vec3,
+    ) -> Shading {
         let s = &self.scene.scene;
         let to_object = c.transform.inverse();
-        let eye = to_object.transform_point3(Vec3::from_array(s.camera.eye));
+        let eye = to_object.transform_point3(world_eye);
         let default_light = [Light::Directional { direction: [0.4, 0.8, 0.5], color: [1.0, 1.0, 1.0] }];
         let lights: &[Light] = if s.lights.is_empty() { &default_light } else { &s.lights };
         let mut light_vector = [[0.0; 4]; 2];
@@ -458,9 +467,10 @@ impl SceneRenderer {
         params: &[Buffer],
         extra: &[(u32, &Buffer)],
         maps: Option<&crate::shadow::ShadowMaps>,
+        eye: Vec3,
     ) {
         for (c, params) in self.stored_characters.iter().zip(params) {
-            let shading = self.shading(c, maps);
+            let shading = self.shading(c, maps, eye);
             let extras = DrawExtras { fragment_constants: bytemuck::bytes_of(&shading), buffers: extra };
             generator.record_draw_stored(rec, &self.stored[c.hair], params, extras);
         }
@@ -468,7 +478,13 @@ impl SceneRenderer {
 
     /// Renders one frame.
     pub fn render(&self, ctx: &Context) -> Result<RenderedFrame, RenderError> {
-        let view = self.view();
+        self.render_from(ctx, Vec3::from_array(self.scene.scene.camera.eye))
+    }
+
+    /// Renders one frame with the camera at `eye` (looking at the scene's target). Shadow maps
+    /// do not depend on the camera and stay cached.
+    pub fn render_from(&self, ctx: &Context, eye: Vec3) -> Result<RenderedFrame, RenderError> {
+        let view = self.view_from(eye);
         let graph = self.graph();
         let mut recorded = Vec::new();
         // Shadow maps: computed on the first frame, then reused (static characters and light).
@@ -573,7 +589,7 @@ impl SceneRenderer {
                     let extra = [(12, heads), (13, nodes), (14, counters), shadow_extra[0], shadow_extra[1]];
                     let drawn = rec.pass(&fill, |rec| {
                         self.characters.iter().zip(&frames).try_for_each(|(c, frame)| {
-                            let shading = self.shading(c, maps);
+                            let shading = self.shading(c, maps, view.camera.eye);
                             let extras = DrawExtras {
                                 fragment_constants: bytemuck::bytes_of(&shading),
                                 buffers: &extra,
@@ -587,7 +603,7 @@ impl SceneRenderer {
                                 extras,
                             )
                         })?;
-                        self.draw_stored(rec, &oit.fill, &stored_params, &extra, maps);
+                        self.draw_stored(rec, &oit.fill, &stored_params, &extra, maps, view.camera.eye);
                         Ok(())
                     });
                     recorded.push(fill);
@@ -612,7 +628,7 @@ impl SceneRenderer {
                     let raster = format!("raster hair ({}, opaque)", self.path);
                     let drawn = rec.pass(&raster, |rec| {
                         self.characters.iter().zip(&frames).try_for_each(|(c, frame)| {
-                            let shading = self.shading(c, maps);
+                            let shading = self.shading(c, maps, view.camera.eye);
                             let extras = DrawExtras {
                                 fragment_constants: bytemuck::bytes_of(&shading),
                                 buffers: &shadow_extra,
@@ -626,7 +642,14 @@ impl SceneRenderer {
                                 extras,
                             )
                         })?;
-                        self.draw_stored(rec, &self.generator, &stored_params, &shadow_extra, maps);
+                        self.draw_stored(
+                            rec,
+                            &self.generator,
+                            &stored_params,
+                            &shadow_extra,
+                            maps,
+                            view.camera.eye,
+                        );
                         Ok(())
                     });
                     recorded.push(raster);

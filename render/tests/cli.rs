@@ -69,9 +69,12 @@ fn main() -> ExitCode {
             ensure!(out.status.success(), "hair-bench failed: {}", String::from_utf8_lossy(&out.stderr));
             let report = std::fs::read_to_string(dir.path().join("benchmarks.md"))?;
             ensure!(report.contains(&ctx.capabilities().device_name), "the report names the device");
-            for (file, skip, min_rows) in
-                [("bench-generation.csv", 2, 2), ("bench-stored.csv", 0, 2), ("bench-accuracy.csv", 1, 7), ("bench-effects.csv", 1, 3)]
-            {
+            for (file, skip, min_rows) in [
+                ("bench-generation.csv", 2, 2),
+                ("bench-stored.csv", 0, 2),
+                ("bench-accuracy.csv", 1, 7),
+                ("bench-effects.csv", 1, 3),
+            ] {
                 let csv = std::fs::read_to_string(dir.path().join(file))?;
                 let rows: Vec<&str> = csv.lines().skip(1).collect();
                 ensure!(rows.len() >= min_rows, "{file}: {csv}");

@@ -350,6 +350,19 @@ fn main() -> ExitCode {
             ensure!(!stderr.contains("vulkan validation"), "{stderr}");
             let image = render::output::read_png(&out)?;
             ensure!((image.width, image.height) == (96, 64));
+            // An orbit writes numbered frames.
+            let orbit = dir.path().join("orbit.png");
+            let (ok, stderr) = hair_render(&[
+                scene.to_str().context("utf-8")?,
+                "-o",
+                orbit.to_str().context("utf-8")?,
+                "--frames",
+                "3",
+            ]);
+            ensure!(ok, "{stderr}");
+            let frames: Vec<_> = (0..3).map(|i| dir.path().join(format!("orbit-{i:04}.png"))).collect();
+            ensure!(frames.iter().all(|f| f.is_file()) && !orbit.exists(), "{frames:?}");
+            ensure!(std::fs::read(&frames[0])? != std::fs::read(&frames[1])?, "the camera moves");
             let json: serde_json::Value = serde_json::from_slice(&std::fs::read(&stats)?)?;
             ensure!(json["passes"].as_array().is_some_and(|p| p.len() >= 4), "{json}");
             ensure!(json["strands"].as_u64().is_some_and(|s| s > 0), "{json}");

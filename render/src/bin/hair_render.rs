@@ -38,6 +38,17 @@ struct Cli {
     /// Enable the Khronos validation layer (also HAIRKIT_VALIDATION=1).
     #[arg(long)]
     validation: bool,
+    /// Render N frames orbiting the camera once around its target; files are numbered
+    /// (`out.png` → `out-0000.png`, `out-0001.png`, …).
+    #[arg(long, default_value_t = 1, value_parser = clap::value_parser!(u32).range(1..=10000))]
+    frames: u32,
+}
+
+/// `dir/name.png` → `dir/name-0007.png`.
+fn numbered(path: &std::path::Path, index: u32) -> PathBuf {
+    let stem = path.file_stem().map(|s| s.to_string_lossy().into_owned()).unwrap_or_default();
+    let ext = path.extension().map(|e| format!(".{}", e.to_string_lossy())).unwrap_or_default();
+    path.with_file_name(format!("{stem}-{index:04}{ext}"))
 }
 
 fn main() -> std::process::ExitCode {
@@ -67,9 +78,26 @@ fn run(cli: &Cli) -> Result<()> {
         print!("{}", renderer.graph());
     }
     let Some(out) = &cli.out else { return Ok(()) };
-    let frame = renderer.render(&ctx)?;
-    render::output::write_png(out, &frame.image)?;
-    println!("{} ({}x{}, {} path)", out.display(), frame.image.width, frame.image.height, ctx.path());
+    let camera = scene.scene.camera;
+    let (eye, target) = (glam::Vec3::from_array(camera.eye), glam::Vec3::from_array(camera.target));
+    let mut last = None;
+    for i in 0..cli.frames {
+        let angle = std::f32::consts::TAU * i as f32 / cli.frames as f32;
+        let orbit_eye = target + glam::Quat::from_rotation_y(angle) * (eye - target);
+        let frame = renderer.render_from(&ctx, orbit_eye)?;
+        let file = if cli.frames > 1 { numbered(out, i) } else { out.clone() };
+        render::output::write_png(&file, &frame.image)?;
+        println!(
+            "{} ({}x{}, {} path, {:.0} ms)",
+            file.display(),
+            frame.image.width,
+            frame.image.height,
+            ctx.path(),
+            frame.timings.cpu_wait_ms
+        );
+        last = Some(frame);
+    }
+    let Some(frame) = last else { return Ok(()) };
     if cli.stats {
         println!("{}", frame.timings);
         println!(
