@@ -307,17 +307,22 @@ impl<'a> Recorder<'a> {
         if let Some(d) = &depth_att {
             info = info.depth_attachment(d);
         }
+        self.begin_rendering_with(&info, area);
+    }
+
+    /// Begins rendering and sets viewport and scissor to `area`.
+    fn begin_rendering_with(&self, info: &vk::RenderingInfo<'_>, area: vk::Rect2D) {
         let viewport = vk::Viewport {
             x: 0.0,
             y: 0.0,
-            width: extent.width as f32,
-            height: extent.height as f32,
+            width: area.extent.width as f32,
+            height: area.extent.height as f32,
             min_depth: 0.0,
             max_depth: 1.0,
         };
-        // SAFETY: recording; attachments are live and in the stated layouts.
+        // SAFETY: recording; the caller's attachments are live and in the stated layouts.
         unsafe {
-            self.device().cmd_begin_rendering(self.cmd, &info);
+            self.device().cmd_begin_rendering(self.cmd, info);
             self.device().cmd_set_viewport(self.cmd, 0, &[viewport]);
             self.device().cmd_set_scissor(self.cmd, 0, &[area]);
         }
@@ -334,20 +339,7 @@ impl<'a> Recorder<'a> {
         let area = vk::Rect2D { offset: vk::Offset2D::default(), extent };
         let info =
             vk::RenderingInfo::default().render_area(area).layer_count(1).color_attachments(&color_att);
-        let viewport = vk::Viewport {
-            x: 0.0,
-            y: 0.0,
-            width: extent.width as f32,
-            height: extent.height as f32,
-            min_depth: 0.0,
-            max_depth: 1.0,
-        };
-        // SAFETY: recording; the colour image is live and in COLOR_ATTACHMENT_OPTIMAL.
-        unsafe {
-            self.device().cmd_begin_rendering(self.cmd, &info);
-            self.device().cmd_set_viewport(self.cmd, 0, &[viewport]);
-            self.device().cmd_set_scissor(self.cmd, 0, &[area]);
-        }
+        self.begin_rendering_with(&info, area);
     }
 
     /// Fills a whole buffer with a repeated 32-bit value.

@@ -459,6 +459,30 @@ impl SceneRenderer {
         Ok(crate::shadow::render_shadow_maps(ctx, pipes, &casters, toward_light, (lo, hi), settings)?)
     }
 
+    /// Draws every character (generated, then stored) with `generator`'s fragment stage.
+    #[expect(
+        clippy::too_many_arguments,
+        reason = "one frame's per-draw inputs; bundling them adds a type used once"
+    )]
+    fn draw_characters(
+        &self,
+        rec: &mut gen_gpu::Recorder<'_>,
+        generator: &Generator,
+        frames: &[gen_gpu::FrameBuffers],
+        stored_params: &[Buffer],
+        extra: &[(u32, &Buffer)],
+        maps: Option<&crate::shadow::ShadowMaps>,
+        eye: Vec3,
+    ) -> gen_gpu::Result<()> {
+        for (c, frame) in self.characters.iter().zip(frames) {
+            let shading = self.shading(c, maps, eye);
+            let extras = DrawExtras { fragment_constants: bytemuck::bytes_of(&shading), buffers: extra };
+            generator.record_draw_with(rec, &self.hairs[c.hair], frame, self.path, false, extras)?;
+        }
+        self.draw_stored(rec, generator, stored_params, extra, maps, eye);
+        Ok(())
+    }
+
     /// Draws the explicit-strand characters with `generator`'s fragment stage.
     fn draw_stored(
         &self,
@@ -588,23 +612,15 @@ impl SceneRenderer {
                     let fill = format!("raster hair ({}, OIT fill)", self.path);
                     let extra = [(12, heads), (13, nodes), (14, counters), shadow_extra[0], shadow_extra[1]];
                     let drawn = rec.pass(&fill, |rec| {
-                        self.characters.iter().zip(&frames).try_for_each(|(c, frame)| {
-                            let shading = self.shading(c, maps, view.camera.eye);
-                            let extras = DrawExtras {
-                                fragment_constants: bytemuck::bytes_of(&shading),
-                                buffers: &extra,
-                            };
-                            oit.fill.record_draw_with(
-                                rec,
-                                &self.hairs[c.hair],
-                                frame,
-                                self.path,
-                                false,
-                                extras,
-                            )
-                        })?;
-                        self.draw_stored(rec, &oit.fill, &stored_params, &extra, maps, view.camera.eye);
-                        Ok(())
+                        self.draw_characters(
+                            rec,
+                            &oit.fill,
+                            &frames,
+                            &stored_params,
+                            &extra,
+                            maps,
+                            view.camera.eye,
+                        )
                     });
                     recorded.push(fill);
                     rec.end_rendering();
@@ -627,30 +643,15 @@ impl SceneRenderer {
                     target.begin(rec);
                     let raster = format!("raster hair ({}, opaque)", self.path);
                     let drawn = rec.pass(&raster, |rec| {
-                        self.characters.iter().zip(&frames).try_for_each(|(c, frame)| {
-                            let shading = self.shading(c, maps, view.camera.eye);
-                            let extras = DrawExtras {
-                                fragment_constants: bytemuck::bytes_of(&shading),
-                                buffers: &shadow_extra,
-                            };
-                            self.generator.record_draw_with(
-                                rec,
-                                &self.hairs[c.hair],
-                                frame,
-                                self.path,
-                                false,
-                                extras,
-                            )
-                        })?;
-                        self.draw_stored(
+                        self.draw_characters(
                             rec,
                             &self.generator,
+                            &frames,
                             &stored_params,
                             &shadow_extra,
                             maps,
                             view.camera.eye,
-                        );
-                        Ok(())
+                        )
                     });
                     recorded.push(raster);
                     rec.end_rendering();
