@@ -50,9 +50,16 @@ fn main() -> ExitCode {
             ensure!((image.width, image.height) == (128, 96));
             let hair_pixels = image.pixels.chunks_exact(4).filter(|p| p[0] > 20).count();
             ensure!(hair_pixels > 100, "only {hair_pixels} hair pixels");
-            for expected in
-                ["== convert", "import:", "generate (compute)", "raster (compute)", "strands", "ms"]
-            {
+            for expected in [
+                "== convert",
+                "import:",
+                "generate character",
+                "raster hair",
+                "OIT resolve",
+                "shadow maps",
+                "strands",
+                "ms",
+            ] {
                 ensure!(stdout.contains(expected), "`{expected}` missing from:\n{stdout}");
             }
             if ctx.capabilities().mesh_shader.is_some() {

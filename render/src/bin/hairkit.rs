@@ -11,7 +11,6 @@ use std::time::Instant;
 use anyhow::{Context as _, Result, bail};
 use clap::{Args, Parser, Subcommand};
 use gen_gpu::{Context, ContextDesc, GenerationPath, PathChoice, Validation};
-use glam::{Mat4, Vec3};
 
 #[derive(Parser, Debug)]
 #[command(name = "hairkit", version, about = "hairkit: hair meshes rendered as strands generated on the GPU")]
@@ -144,7 +143,6 @@ fn demo(o: &DemoOptions, device: &DeviceArgs) -> Result<()> {
     use hairmesh::asset::{AssetParams, HairAsset, StrandCount};
     use hairmesh::hair_mesh::{ExtrudeParams, HairMesh};
     use hairmesh::style::{Clump, Curl, Style, Wave};
-    use render::crowd::{Camera, Character, CrowdView, render_crowd};
 
     if o.characters == 0 || o.characters > 400 {
         bail!("--characters {} (expected 1..=400)", o.characters);
@@ -220,28 +218,56 @@ fn demo(o: &DemoOptions, device: &DeviceArgs) -> Result<()> {
             stored as f64 / h.bytes.total() as f64
         );
     }
-    let generator = timed("pipelines", || Ok(gen_gpu::Generator::new(&ctx, gen_gpu::Filtering::Hardware)?))?;
-
-    // A loose grid of characters facing the camera, turned a little each.
+    // The converted assets as asset folders, and a scene of a loose grid of characters facing
+    // the camera, each turned a little, with OIT and self-shadowing.
+    let asset_dirs: Vec<PathBuf> =
+        (0..assets.len()).map(|i| o.out.join(format!("assets/style{i}"))).collect();
+    timed("write asset folders", || {
+        for (asset, dir) in assets.iter().zip(&asset_dirs) {
+            hairmesh::asset_io::write_asset(
+                dir,
+                asset,
+                hairmesh::asset_io::Precision::F32,
+                "metres",
+                o.scalp.to_str(),
+            )?;
+        }
+        Ok(())
+    })?;
     let columns = (f64::from(o.characters).sqrt().ceil() as u32).max(1);
-    let characters: Vec<Character> = (0..o.characters)
+    let rows = o.characters.div_ceil(columns);
+    let colors =
+        [[0.08, 0.05, 0.03], [0.55, 0.33, 0.12], [0.6, 0.24, 0.07], [0.7, 0.55, 0.3], [0.25, 0.13, 0.06]];
+    let characters: Vec<serde_json::Value> = (0..o.characters)
         .map(|i| {
             let (col, row) = (i % columns, i / columns);
             let x = (col as f32 - (columns - 1) as f32 / 2.0) * 0.45;
             let z = -(row as f32) * 0.5;
-            let turn = (i as f32 * 2.4).sin() * 0.6;
-            Character {
-                hair: i as usize % hairs.len(),
-                transform: Mat4::from_translation(Vec3::new(x, 0.0, z)) * Mat4::from_rotation_y(turn),
-            }
+            let turn = (i as f32 * 2.4).sin() * 35.0;
+            serde_json::json!({
+                // Relative to the scene file, which is written into the same output folder.
+                "hair": format!("assets/style{}", i as usize % asset_dirs.len()),
+                "transform": { "translation": [x, 0.0, z], "rotation_y_degrees": turn },
+                "color": colors[i as usize % colors.len()],
+            })
         })
         .collect();
-    let rows = o.characters.div_ceil(columns);
-    let camera = Camera {
-        eye: Vec3::new(0.0, 2.3, 0.7 + 0.3 * columns as f32),
-        target: Vec3::new(0.0, 1.5, -0.25 * rows as f32),
-        fov_y: 50f32.to_radians(),
-    };
+    let (width, height) = o.size;
+    let scene_json = serde_json::json!({
+        "output": { "width": width, "height": height },
+        "camera": { "eye": [0.0, 2.3, 0.7 + 0.3 * columns as f32], "target": [0.0, 1.5, -0.25 * rows as f32], "fov_y_degrees": 50 },
+        "lights": [
+            { "directional": { "direction": [0.4, 0.8, 0.5], "color": [1.0, 0.97, 0.92] } },
+            { "directional": { "direction": [-0.6, 0.3, -0.5], "color": [0.2, 0.25, 0.35] } }
+        ],
+        "characters": characters,
+        "effects": { "transparency": "oit", "shadows": true }
+    });
+    let scene_path = o.out.join("crowd.json");
+    std::fs::create_dir_all(&o.out).with_context(|| format!("creating {}", o.out.display()))?;
+    std::fs::write(&scene_path, serde_json::to_vec_pretty(&scene_json)?)
+        .with_context(|| format!("writing {}", scene_path.display()))?;
+    let scene = render::scene::load_scene(&scene_path)?;
     let mut paths = vec![GenerationPath::Compute];
     if caps.mesh_shader.is_some() {
         paths.push(GenerationPath::Mesh);
@@ -249,24 +275,35 @@ fn demo(o: &DemoOptions, device: &DeviceArgs) -> Result<()> {
     if device.path != PathChoice::Auto {
         paths.retain(|p| *p == ctx.path());
     }
-    let (width, height) = o.size;
-    println!("\n== crowd: {} characters, {width}x{height}", characters.len());
+    println!(
+        "\n== crowd: {} characters, {width}x{height}, OIT + deep-opacity shadows ({})",
+        o.characters,
+        scene_path.display()
+    );
     for path in paths {
-        let view = CrowdView { camera, width, height, path, lod: hairmesh::reference::LodParams::default() };
-        let first = render_crowd(&ctx, &generator, &hairs, &characters, &view)?;
-        let frame = render_crowd(&ctx, &generator, &hairs, &characters, &view)?;
+        let renderer = timed(&format!("{path} path: upload + pipelines"), || {
+            Ok(render::frame::SceneRenderer::new(&ctx, &scene, path)?)
+        })?;
+        if path == GenerationPath::Compute {
+            println!("frame graph:\n{}", renderer.graph());
+        }
+        let first = renderer.render(&ctx)?;
+        let frame = renderer.render(&ctx)?;
         let file = o.out.join(format!("crowd-{path}.png"));
         render::output::write_png(&file, &frame.image)?;
         println!("{path} path -> {}", file.display());
-        println!("  first frame (includes shader compilation): {:.1} ms wall", first.timings.cpu_wait_ms);
         println!(
-            "  strands {} of {} ({} of {} bundles culled), vertices {}",
+            "  first frame: {:.1} ms wall (shader compilation) + {:.1} ms GPU for the shadow maps, computed once",
+            first.timings.cpu_wait_ms,
+            first.shadow_ms.unwrap_or(0.0)
+        );
+        println!(
+            "  strands {} ({} of {} bundles culled), vertices {}, OIT fragments dropped {}",
             frame.stats.strands,
-            hairs.iter().map(|h| h.total_strands()).sum::<u64>() * characters.len() as u64
-                / hairs.len() as u64,
             frame.stats.bundles_culled,
             frame.stats.bundles,
-            frame.stats.vertices
+            frame.stats.vertices,
+            frame.oit_overflow.unwrap_or(0)
         );
         println!("{}", frame.timings);
     }
