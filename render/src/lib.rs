@@ -1,6 +1,9 @@
-//! hairkit's renderer. Today: crowds of characters with generated hair drawn into one image,
-//! image output and the `hairkit` command (`info`, `demo`). The strand rasterizer's shading,
-//! transparency, shadows, scenes and the volume path build on this.
+//! hairkit's renderer: scenes ([`scene`]) of characters whose hair is generated on the fly
+//! (or explicit strands), rendered by [`frame::SceneRenderer`] with the passes their effects
+//! ask for: hair shading with coverage AA, order-independent transparency, deep-opacity-map
+//! self-shadowing ([`shadow`]). Also image output ([`output`]), a plain crowd renderer with
+//! gen-gpu's placeholder shading for benchmarks ([`crowd`]), and the `hairkit`, `hair-render`
+//! and `hair-bench` commands.
 
 pub mod crowd;
 pub mod frame;
