@@ -375,20 +375,9 @@ impl Generator {
         })
     }
 
-    /// Binds everything, with chunk `chunk`'s windows of the strand buffers.
+    /// Binds everything, with chunk `chunk`'s windows of the strand buffers and the fragment
+    /// stage's own buffers.
     fn push_all(
-        &self,
-        rec: &Recorder<'_>,
-        pipeline: &Pipeline,
-        hair: &GpuHair,
-        frame: &FrameBuffers,
-        chunk: u64,
-    ) {
-        self.push_all_with(rec, pipeline, hair, frame, chunk, &[]);
-    }
-
-    /// [`Self::push_all`] plus the fragment stage's own buffers.
-    fn push_all_with(
         &self,
         rec: &Recorder<'_>,
         pipeline: &Pipeline,
@@ -429,13 +418,13 @@ impl Generator {
         let read = vk::AccessFlags2::SHADER_STORAGE_READ | vk::AccessFlags2::SHADER_STORAGE_WRITE;
         rec.pass("LOD + cull", |rec| {
             rec.bind_pipeline(&self.lod);
-            self.push_all(rec, &self.lod, hair, frame, 0);
+            self.push_all(rec, &self.lod, hair, frame, 0, &[]);
             rec.dispatch(hair.bundle_count.div_ceil(shaders::LOD_COMP.workgroup_size[0]), 1, 1);
         });
         rec.memory_barrier(compute, (vk::PipelineStageFlags2::COMPUTE_SHADER, read));
         rec.pass("prefix sum", |rec| {
             rec.bind_pipeline(&self.scan);
-            self.push_all(rec, &self.scan, hair, frame, 0);
+            self.push_all(rec, &self.scan, hair, frame, 0, &[]);
             rec.dispatch(1, 1, 1);
         });
         rec.memory_barrier(
@@ -456,7 +445,7 @@ impl Generator {
         rec.pass("generate (compute)", |rec| {
             rec.bind_pipeline(&self.generate);
             for chunk in 0..frame.chunks {
-                self.push_all(rec, &self.generate, hair, frame, chunk);
+                self.push_all(rec, &self.generate, hair, frame, chunk, &[]);
                 rec.push_constants(&self.generate, &(chunk as u32));
                 rec.dispatch_indirect(&frame.offsets, DISPATCH_ARGS_OFFSET + 12 * chunk);
             }
@@ -505,7 +494,7 @@ impl Generator {
             GenerationPath::Compute => {
                 rec.bind_pipeline(&self.pull);
                 for chunk in 0..frame.chunks {
-                    self.push_all_with(rec, &self.pull, hair, frame, chunk, extras.buffers);
+                    self.push_all(rec, &self.pull, hair, frame, chunk, extras.buffers);
                     rec.push_constants(&self.pull, &(chunk as u32));
                     rec.push_constant_bytes(&self.pull, FRAGMENT_PUSH_OFFSET, fragment_constants);
                     rec.draw_indirect(&frame.offsets, DRAW_ARGS_OFFSET + 16 * chunk);
@@ -547,7 +536,7 @@ impl Generator {
                     });
                 }
                 rec.bind_pipeline(pipeline);
-                self.push_all_with(rec, pipeline, hair, frame, 0, extras.buffers);
+                self.push_all(rec, pipeline, hair, frame, 0, extras.buffers);
                 rec.push_constants(pipeline, &per_row);
                 rec.push_constant_bytes(pipeline, FRAGMENT_PUSH_OFFSET, fragment_constants);
                 rec.draw_mesh_tasks(per_row, rows, 1)

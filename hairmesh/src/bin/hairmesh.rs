@@ -30,48 +30,68 @@ struct Cli {
     command: Command,
 }
 
+#[derive(clap::Args, Debug)]
+struct ConvertArgs {
+    input: PathBuf,
+    /// Output asset folder (replaced atomically if it exists).
+    #[arg(short, long)]
+    out: PathBuf,
+    /// Layers above the scalp (1..=64).
+    #[arg(long, default_value_t = 4)]
+    layers: u32,
+    /// Hair length along the normal, in the file's units [default: 0.6 × the scalp's size].
+    #[arg(long)]
+    length: Option<f64>,
+    /// Downward pull at the tip as a fraction of the length.
+    #[arg(long, default_value_t = 0.3)]
+    droop: f64,
+    /// Strands per unit² of scalp area.
+    #[arg(long, conflicts_with = "strands")]
+    density: Option<f64>,
+    /// Total strands, shared by area [default: 20000].
+    #[arg(long)]
+    strands: Option<u64>,
+    /// Which faces are scalp: all, name:NAME, above:NX,NY,NZ,OFFSET, sphere:CX,CY,CZ,R.
+    #[arg(long, default_value = "all")]
+    scalp: String,
+    /// Take the layers from the file's morph targets (one per layer) instead of extruding.
+    #[arg(long)]
+    morph_layers: bool,
+    /// Style as JSON (fields of hairmesh::style::Style; unknown fields are errors).
+    #[arg(long)]
+    style: Option<PathBuf>,
+    /// Seed of the root sample sets.
+    #[arg(long, default_value_t = 1)]
+    seed: u64,
+    /// Root sample sets per domain.
+    #[arg(long, default_value_t = 4)]
+    sample_sets: u32,
+    /// Store textures as half floats.
+    #[arg(long)]
+    f16: bool,
+}
+
+impl ConvertArgs {
+    fn strand_count(&self) -> StrandCount {
+        match (self.density, self.strands) {
+            (Some(d), _) => StrandCount::Density(d),
+            (None, Some(n)) => StrandCount::Total(n),
+            (None, None) => StrandCount::Total(20_000),
+        }
+    }
+
+    fn style(&self) -> Result<Style> {
+        let Some(path) = &self.style else { return Ok(Style::default()) };
+        let text = std::fs::read_to_string(path).with_context(|| format!("reading {}", path.display()))?;
+        serde_json::from_str::<Style>(&text)
+            .map_err(|e| anyhow::anyhow!("{}: line {}, column {}: {e}", path.display(), e.line(), e.column()))
+    }
+}
+
 #[derive(Subcommand, Debug)]
 enum Command {
     /// Convert a scalp mesh (.gltf, .glb, .obj) into a hair asset folder.
-    Convert {
-        input: PathBuf,
-        /// Output asset folder (replaced atomically if it exists).
-        #[arg(short, long)]
-        out: PathBuf,
-        /// Layers above the scalp (1..=64).
-        #[arg(long, default_value_t = 4)]
-        layers: u32,
-        /// Hair length along the normal, in the file's units [default: 0.6 × the scalp's size].
-        #[arg(long)]
-        length: Option<f64>,
-        /// Downward pull at the tip as a fraction of the length.
-        #[arg(long, default_value_t = 0.3)]
-        droop: f64,
-        /// Strands per unit² of scalp area.
-        #[arg(long, conflicts_with = "strands")]
-        density: Option<f64>,
-        /// Total strands, shared by area [default: 20000].
-        #[arg(long)]
-        strands: Option<u64>,
-        /// Which faces are scalp: all, name:NAME, above:NX,NY,NZ,OFFSET, sphere:CX,CY,CZ,R.
-        #[arg(long, default_value = "all")]
-        scalp: String,
-        /// Take the layers from the file's morph targets (one per layer) instead of extruding.
-        #[arg(long)]
-        morph_layers: bool,
-        /// Style as JSON (fields of hairmesh::style::Style; unknown fields are errors).
-        #[arg(long)]
-        style: Option<PathBuf>,
-        /// Seed of the root sample sets.
-        #[arg(long, default_value_t = 1)]
-        seed: u64,
-        /// Root sample sets per domain.
-        #[arg(long, default_value_t = 4)]
-        sample_sets: u32,
-        /// Store textures as half floats.
-        #[arg(long)]
-        f16: bool,
-    },
+    Convert(ConvertArgs),
     /// Describe an asset or a strand file.
     Info { path: PathBuf },
     /// Write the project's procedural head cap (the demo's scalp) as glTF.
@@ -93,53 +113,7 @@ fn main() -> std::process::ExitCode {
 
 fn run(cli: Cli) -> Result<()> {
     match cli.command {
-        Command::Convert {
-            input,
-            out,
-            layers,
-            length,
-            droop,
-            density,
-            strands,
-            scalp,
-            morph_layers,
-            style,
-            seed,
-            sample_sets,
-            f16,
-        } => {
-            let strand_count = match (density, strands) {
-                (Some(d), _) => StrandCount::Density(d),
-                (None, Some(n)) => StrandCount::Total(n),
-                (None, None) => StrandCount::Total(20_000),
-            };
-            let style = match style {
-                Some(path) => {
-                    let text = std::fs::read_to_string(&path)
-                        .with_context(|| format!("reading {}", path.display()))?;
-                    serde_json::from_str::<Style>(&text).map_err(|e| {
-                        anyhow::anyhow!("{}: line {}, column {}: {e}", path.display(), e.line(), e.column())
-                    })?
-                }
-                None => Style::default(),
-            };
-            convert(
-                &input,
-                &out,
-                &ConvertOptions {
-                    layers,
-                    length,
-                    droop,
-                    strand_count,
-                    scalp,
-                    morph_layers,
-                    style,
-                    seed,
-                    sample_sets,
-                    f16,
-                },
-            )
-        }
+        Command::Convert(args) => convert(&args),
         Command::Info { path } => info(&path),
         Command::HeadCap { out } => {
             hairmesh::procedural::write_gltf(&out, &hairmesh::procedural::head_cap(8, 32), "head cap")
@@ -150,19 +124,6 @@ fn run(cli: Cli) -> Result<()> {
     }
 }
 
-struct ConvertOptions {
-    layers: u32,
-    length: Option<f64>,
-    droop: f64,
-    strand_count: StrandCount,
-    scalp: String,
-    morph_layers: bool,
-    style: Style,
-    seed: u64,
-    sample_sets: u32,
-    f16: bool,
-}
-
 fn step<T>(what: &str, f: impl FnOnce() -> Result<T>) -> Result<T> {
     eprint!("{what}… ");
     let start = Instant::now();
@@ -171,7 +132,9 @@ fn step<T>(what: &str, f: impl FnOnce() -> Result<T>) -> Result<T> {
     Ok(value)
 }
 
-fn convert(input: &Path, out: &Path, o: &ConvertOptions) -> Result<()> {
+fn convert(o: &ConvertArgs) -> Result<()> {
+    let (input, out) = (o.input.as_path(), o.out.as_path());
+    let style = o.style()?;
     let selector = ScalpSelector::parse(&o.scalp)?;
     let scalp = step(&format!("importing {}", input.display()), || Ok(load_scalp(input, &selector)?))?;
     for w in &scalp.warnings {
@@ -189,8 +152,8 @@ fn convert(input: &Path, out: &Path, o: &ConvertOptions) -> Result<()> {
             )?
         })
     })?;
-    let params = AssetParams { strands: o.strand_count, sample_sets: o.sample_sets, seed: o.seed };
-    let asset = step("textures and blue-noise root sets", || Ok(HairAsset::build(&hm, &params, o.style)?))?;
+    let params = AssetParams { strands: o.strand_count(), sample_sets: o.sample_sets, seed: o.seed };
+    let asset = step("textures and blue-noise root sets", || Ok(HairAsset::build(&hm, &params, style)?))?;
     let units = if matches!(input.extension().and_then(|e| e.to_str()), Some("gltf" | "glb")) {
         "metres"
     } else {
