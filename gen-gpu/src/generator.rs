@@ -144,9 +144,22 @@ pub const VERTEX_BYTES: u64 = 32;
 /// Chunks of strand slots (`MAX_CHUNKS` in `hair_outputs.glsl`).
 pub const MAX_CHUNKS: u64 = 16;
 const DISPATCH_ARGS_OFFSET: u64 = 16;
-const DRAW_ARGS_OFFSET: u64 = DISPATCH_ARGS_OFFSET + MAX_CHUNKS * 12;
+pub(crate) const DRAW_ARGS_OFFSET: u64 = DISPATCH_ARGS_OFFSET + MAX_CHUNKS * 12;
 const OFFSETS_HEADER: u64 = DRAW_ARGS_OFFSET + MAX_CHUNKS * 16;
-const SLOT_BYTES: u64 = MAX_VERTICES * VERTEX_BYTES;
+pub(crate) const SLOT_BYTES: u64 = MAX_VERTICES * VERTEX_BYTES;
+
+/// Strand slots per chunk: as many as one storage-buffer window holds (capped by `limit`),
+/// rounded so that chunk windows of the vertex (SLOT_BYTES) and info (16 B) buffers start at
+/// multiples of the device's storage-buffer offset alignment.
+pub(crate) fn chunk_slots(caps: &crate::Capabilities, limit: Option<u64>) -> u64 {
+    let align = caps.min_storage_buffer_offset_alignment.max(1);
+    let step = (1..=256u64)
+        .find(|n| (n * SLOT_BYTES).is_multiple_of(align) && (n * 16).is_multiple_of(align))
+        .unwrap_or(256);
+    let range_slots = u64::from(caps.max_storage_buffer_range) / SLOT_BYTES;
+    let wanted = limit.map_or(range_slots, |m| m.min(range_slots));
+    (wanted / step * step).max(step)
+}
 
 /// One generated strand read back from the GPU.
 #[derive(Clone, Debug, PartialEq)]
@@ -333,14 +346,7 @@ impl Generator {
     pub fn prepare(&self, ctx: &Context, hair: &GpuHair, inputs: &FrameInputs) -> Result<FrameBuffers> {
         let capacity = Self::capacity(hair, inputs);
         let caps = ctx.capabilities();
-        // Chunk windows start at multiples of the storage-buffer offset alignment.
-        let align = caps.min_storage_buffer_offset_alignment.max(1);
-        let step = (1..=256u64)
-            .find(|n| (n * SLOT_BYTES).is_multiple_of(align) && (n * 16).is_multiple_of(align))
-            .unwrap_or(256);
-        let range_slots = u64::from(caps.max_storage_buffer_range) / SLOT_BYTES;
-        let wanted = self.options.max_chunk_slots.map_or(range_slots, |m| m.min(range_slots));
-        let chunk_slots = (wanted / step * step).max(step);
+        let chunk_slots = chunk_slots(caps, self.options.max_chunk_slots);
         let chunks = capacity.div_ceil(chunk_slots);
         let vertex_bytes = capacity * SLOT_BYTES;
         if chunks > MAX_CHUNKS || vertex_bytes > 1 << 31 {

@@ -4,13 +4,10 @@
 
 use glam::Vec3;
 
-use crate::generator::{FRAGMENT_PUSH_OFFSET, MAX_VERTICES, VERTEX_BYTES};
+use crate::generator::{
+    DRAW_ARGS_OFFSET, FRAGMENT_PUSH_OFFSET, MAX_CHUNKS, MAX_VERTICES, SLOT_BYTES, chunk_slots,
+};
 use crate::{Buffer, BufferDesc, Context, DrawExtras, FrameInputs, GpuError, Recorder, Result};
-
-const SLOT_BYTES: u64 = MAX_VERTICES * VERTEX_BYTES;
-/// Header of the offsets buffer: 16 bytes, 16 dispatch records (12 B), then draw records.
-const DRAW_ARGS_OFFSET: u64 = 16 + 16 * 12;
-const MAX_CHUNKS: u64 = 16;
 
 /// Strands uploaded once, in the generator's strand-buffer layout.
 #[derive(Debug)]
@@ -26,23 +23,6 @@ pub struct StoredStrands {
     pub bounds: (Vec3, Vec3),
     /// Bytes on the GPU.
     pub bytes: u64,
-}
-
-/// Eq. 5–6 tangents of a polyline (f32 port of `hairmesh::reference::tangents`).
-fn tangents(points: &[Vec3]) -> Vec<Vec3> {
-    let n = points.len();
-    let dir = |a: Vec3, b: Vec3, f: Vec3| (b - a).try_normalize().unwrap_or(f);
-    let first = dir(points[0], points[1], Vec3::Y);
-    if n == 2 {
-        return vec![first, first];
-    }
-    let last = dir(points[n - 2], points[n - 1], first);
-    let mut t: Vec<Vec3> = (0..n)
-        .map(|k| if k == 0 || k == n - 1 { Vec3::ZERO } else { dir(points[k - 1], points[k + 1], first) })
-        .collect();
-    t[0] = (2.0 * first * t[1].dot(first) - t[1]).try_normalize().unwrap_or(first);
-    t[n - 1] = (2.0 * last * t[n - 2].dot(last) - t[n - 2]).try_normalize().unwrap_or(last);
-    t
 }
 
 impl StoredStrands {
@@ -72,7 +52,9 @@ impl StoredStrands {
             }
             let keep = n.min(MAX_VERTICES as usize);
             let resampled: Vec<Vec3> = (0..keep).map(|k| strand[k * (n - 1) / (keep - 1)]).collect();
-            let t = tangents(&resampled);
+            // The reference generator's Eq. 5–6, so stored and generated strands agree.
+            let as_f64: Vec<glam::DVec3> = resampled.iter().map(|p| p.as_dvec3()).collect();
+            let t: Vec<Vec3> = hairmesh::reference::tangents(&as_f64).iter().map(|t| t.as_vec3()).collect();
             let slot = info.len() as u32;
             for k in 0..MAX_VERTICES as usize {
                 let v = if k < keep {
@@ -92,12 +74,7 @@ impl StoredStrands {
         if strands == 0 {
             return Err(GpuError::Mismatch("no strand has two or more points".into()));
         }
-        let caps = ctx.capabilities();
-        let align = caps.min_storage_buffer_offset_alignment.max(1);
-        let step = (1..=256u64)
-            .find(|n| (n * SLOT_BYTES).is_multiple_of(align) && (n * 16).is_multiple_of(align))
-            .unwrap_or(256);
-        let chunk_slots = (u64::from(caps.max_storage_buffer_range) / SLOT_BYTES / step * step).max(step);
+        let chunk_slots = chunk_slots(ctx.capabilities(), None);
         let chunks = strands.div_ceil(chunk_slots);
         if chunks > MAX_CHUNKS || strands * SLOT_BYTES > 1 << 31 {
             return Err(GpuError::OverBudget {
