@@ -188,6 +188,16 @@ pub struct GenerationStats {
     pub vertices: u64,
 }
 
+impl std::ops::AddAssign for GenerationStats {
+    /// Totals over several characters.
+    fn add_assign(&mut self, other: Self) {
+        self.bundles += other.bundles;
+        self.bundles_culled += other.bundles_culled;
+        self.strands += other.strands;
+        self.vertices += other.vertices;
+    }
+}
+
 /// Per-frame buffers, sized from the LOD result.
 #[derive(Debug)]
 pub struct FrameBuffers {

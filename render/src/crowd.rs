@@ -142,10 +142,7 @@ pub fn render_prepared(
     let mut stats = GenerationStats::default();
     for (c, frame) in characters.iter().zip(frames) {
         let s = generator.stats(ctx, &hairs[c.hair], frame)?;
-        stats.bundles += s.bundles;
-        stats.bundles_culled += s.bundles_culled;
-        stats.strands += s.strands;
-        stats.vertices += s.vertices;
+        stats += s;
     }
     Ok(CrowdFrame { image: target.read(ctx)?, timings, stats })
 }

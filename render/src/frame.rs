@@ -669,10 +669,7 @@ impl SceneRenderer {
         stats.strands += self.stored_characters.iter().map(|c| self.stored[c.hair].strands).sum::<u64>();
         for (c, frame) in characters.iter().zip(&frames) {
             let s = self.generator.stats(ctx, &self.hairs[c.hair], frame)?;
-            stats.bundles += s.bundles;
-            stats.bundles_culled += s.bundles_culled;
-            stats.strands += s.strands;
-            stats.vertices += s.vertices;
+            stats += s;
         }
         let (oit_overflow, oit_pool) = match &oit_buffers {
             Some((_, _, counters, pool)) => {
