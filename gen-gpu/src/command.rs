@@ -284,26 +284,63 @@ impl<'a> Recorder<'a> {
     /// Begins dynamic rendering into `color` (cleared) and an optional depth image (cleared to
     /// 1), both already in attachment layouts; sets viewport and scissor to the full image.
     pub fn begin_rendering(&self, color: &Image, clear: [f32; 4], depth: Option<&Image>) {
+        self.begin_rendering_to(&Attachments {
+            color,
+            color_resolve: None,
+            clear: Some(clear),
+            depth,
+            depth_resolve: None,
+            clear_depth: true,
+        });
+    }
+
+    /// Begins dynamic rendering into `targets` (all already in attachment layouts); sets
+    /// viewport and scissor to the full colour image. Depth is stored, so a later pass can
+    /// load it or copy it out.
+    pub fn begin_rendering_to(&self, targets: &Attachments<'_>) {
+        let color = targets.color;
         let extent = vk::Extent2D { width: color.desc.extent.width, height: color.desc.extent.height };
-        let color_att = [vk::RenderingAttachmentInfo::default()
+        let mut color_att = vk::RenderingAttachmentInfo::default()
             .image_view(color.view)
             .image_layout(vk::ImageLayout::COLOR_ATTACHMENT_OPTIMAL)
-            .load_op(vk::AttachmentLoadOp::CLEAR)
-            .store_op(vk::AttachmentStoreOp::STORE)
-            .clear_value(vk::ClearValue { color: vk::ClearColorValue { float32: clear } })];
-        let depth_att = depth.map(|d| {
-            vk::RenderingAttachmentInfo::default()
+            .store_op(vk::AttachmentStoreOp::STORE);
+        color_att = match targets.clear {
+            Some(clear) => color_att
+                .load_op(vk::AttachmentLoadOp::CLEAR)
+                .clear_value(vk::ClearValue { color: vk::ClearColorValue { float32: clear } }),
+            None => color_att.load_op(vk::AttachmentLoadOp::LOAD),
+        };
+        if let Some(resolve) = targets.color_resolve {
+            color_att = color_att
+                .resolve_mode(vk::ResolveModeFlags::AVERAGE)
+                .resolve_image_view(resolve.view)
+                .resolve_image_layout(vk::ImageLayout::COLOR_ATTACHMENT_OPTIMAL);
+        }
+        let color_atts = [color_att];
+        let depth_att = targets.depth.map(|d| {
+            let mut att = vk::RenderingAttachmentInfo::default()
                 .image_view(d.view)
                 .image_layout(vk::ImageLayout::DEPTH_ATTACHMENT_OPTIMAL)
-                .load_op(vk::AttachmentLoadOp::CLEAR)
-                .store_op(vk::AttachmentStoreOp::DONT_CARE)
-                .clear_value(vk::ClearValue {
+                .store_op(vk::AttachmentStoreOp::STORE);
+            att = if targets.clear_depth {
+                att.load_op(vk::AttachmentLoadOp::CLEAR).clear_value(vk::ClearValue {
                     depth_stencil: vk::ClearDepthStencilValue { depth: 1.0, stencil: 0 },
                 })
+            } else {
+                att.load_op(vk::AttachmentLoadOp::LOAD)
+            };
+            if let Some(resolve) = targets.depth_resolve {
+                // SAMPLE_ZERO is the one depth resolve mode every device supports.
+                att = att
+                    .resolve_mode(vk::ResolveModeFlags::SAMPLE_ZERO)
+                    .resolve_image_view(resolve.view)
+                    .resolve_image_layout(vk::ImageLayout::DEPTH_ATTACHMENT_OPTIMAL);
+            }
+            att
         });
         let area = vk::Rect2D { offset: vk::Offset2D::default(), extent };
         let mut info =
-            vk::RenderingInfo::default().render_area(area).layer_count(1).color_attachments(&color_att);
+            vk::RenderingInfo::default().render_area(area).layer_count(1).color_attachments(&color_atts);
         if let Some(d) = &depth_att {
             info = info.depth_attachment(d);
         }
@@ -391,8 +428,16 @@ impl<'a> Recorder<'a> {
 
     /// Copies a whole image in TRANSFER_SRC layout into a tightly packed buffer.
     pub fn copy_image_to_buffer(&self, src: &Image, dst: &Buffer) {
-        let region =
-            vk::BufferImageCopy::default().image_subresource(src.layers()).image_extent(src.desc.extent);
+        self.copy_image_to_buffer_at(src, dst, 0);
+    }
+
+    /// Copies a whole image in TRANSFER_SRC layout into a tightly packed buffer from byte
+    /// `offset` on (a multiple of the texel size).
+    pub fn copy_image_to_buffer_at(&self, src: &Image, dst: &Buffer, offset: u64) {
+        let region = vk::BufferImageCopy::default()
+            .buffer_offset(offset)
+            .image_subresource(src.layers())
+            .image_extent(src.desc.extent);
         // SAFETY: recording; the image is in TRANSFER_SRC_OPTIMAL and the buffer large enough.
         unsafe {
             self.device().cmd_copy_image_to_buffer(
@@ -404,6 +449,21 @@ impl<'a> Recorder<'a> {
             );
         }
     }
+}
+
+/// The attachments of [`Recorder::begin_rendering_to`].
+#[derive(Clone, Copy, Debug)]
+pub struct Attachments<'a> {
+    pub color: &'a Image,
+    /// A single-sample image the multisampled `color` resolves into (average).
+    pub color_resolve: Option<&'a Image>,
+    /// `Some(colour)` clears the colour image, `None` keeps its contents.
+    pub clear: Option<[f32; 4]>,
+    pub depth: Option<&'a Image>,
+    /// A single-sample image the multisampled `depth` resolves into (sample 0).
+    pub depth_resolve: Option<&'a Image>,
+    /// Clear depth to 1 (else keep it).
+    pub clear_depth: bool,
 }
 
 /// Owns the per-submission objects and frees them whatever happens.

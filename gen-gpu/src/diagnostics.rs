@@ -133,6 +133,8 @@ pub fn draw_test_strips(
                 blend: crate::Blend::Replace,
                 depth_write: true,
                 color_write: true,
+                samples: 1,
+                depth_compare: vk::CompareOp::LESS,
             },
         )
     };

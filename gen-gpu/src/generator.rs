@@ -73,6 +73,8 @@ pub struct GeneratorOptions {
     pub fragment: Option<FragmentStage>,
     /// Colour attachment format of the draws [default: [`COLOR_FORMAT`]].
     pub color_format: Option<vk::Format>,
+    /// Rasterization samples of the draws (0 or 1 = no MSAA).
+    pub samples: u32,
 }
 
 /// What one frame generates for.
@@ -301,6 +303,8 @@ impl Generator {
                     blend: fragment.blend,
                     depth_write: fragment.depth_write,
                     color_write: fragment.color_write,
+                    samples: options.samples,
+                    depth_compare: vk::CompareOp::LESS,
                 },
             )
         };

@@ -23,7 +23,7 @@ mod stored;
 
 pub use ash::vk;
 pub use caps::{Capabilities, MeshShaderLimits};
-pub use command::{FrameTimings, PassTiming, Recorder};
+pub use command::{Attachments, FrameTimings, PassTiming, Recorder};
 pub use context::{Context, ContextDesc, Validation, ValidationMessage};
 pub use error::{GpuError, Result};
 pub use generator::{
@@ -38,7 +38,7 @@ pub use pipeline::{
     Binding, Blend, ComputePipeline, ComputePipelineDesc, GraphicsPipeline, GraphicsPipelineDesc,
     GraphicsStages, Pipeline,
 };
-pub use resource::{Buffer, BufferDesc, Image, ImageDesc, Sampler};
+pub use resource::{Buffer, BufferDesc, Image, ImageDesc, Sampler, sample_count};
 pub use stored::StoredStrands;
 
 /// The SPIR-V modules of this crate, compiled from `gen-gpu/shaders` at build time.

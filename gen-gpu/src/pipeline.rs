@@ -69,6 +69,11 @@ pub struct GraphicsPipelineDesc<'a> {
     pub depth_write: bool,
     /// Colour writes (off for passes that only store into buffers).
     pub color_write: bool,
+    /// Rasterization samples (1 = no MSAA); must match the attachments'.
+    pub samples: u32,
+    /// Depth test [`vk::CompareOp::LESS`] unless a pass needs another (e.g. a resolve writing
+    /// `gl_FragDepth`).
+    pub depth_compare: vk::CompareOp,
 }
 
 /// A pipeline with its layout and push-descriptor set layout; all destroyed on drop.
@@ -290,11 +295,11 @@ impl Pipeline {
             .cull_mode(vk::CullModeFlags::NONE)
             .line_width(1.0);
         let multisample = vk::PipelineMultisampleStateCreateInfo::default()
-            .rasterization_samples(vk::SampleCountFlags::TYPE_1);
+            .rasterization_samples(crate::resource::sample_count(desc.samples));
         let depth = vk::PipelineDepthStencilStateCreateInfo::default()
             .depth_test_enable(desc.depth_format.is_some())
             .depth_write_enable(desc.depth_format.is_some() && desc.depth_write)
-            .depth_compare_op(vk::CompareOp::LESS);
+            .depth_compare_op(desc.depth_compare);
         let write_mask =
             if desc.color_write { vk::ColorComponentFlags::RGBA } else { vk::ColorComponentFlags::empty() };
         let blended = |dst| {

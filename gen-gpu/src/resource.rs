@@ -137,6 +137,8 @@ pub struct ImageDesc {
     pub format: vk::Format,
     pub usage: vk::ImageUsageFlags,
     pub image_type: vk::ImageType,
+    /// Samples per texel (multisampled colour and depth targets).
+    pub samples: vk::SampleCountFlags,
 }
 
 impl ImageDesc {
@@ -146,11 +148,24 @@ impl ImageDesc {
             format,
             usage,
             image_type: vk::ImageType::TYPE_2D,
+            samples: vk::SampleCountFlags::TYPE_1,
         }
     }
 
     pub fn d3(extent: vk::Extent3D, format: vk::Format, usage: vk::ImageUsageFlags) -> Self {
-        Self { extent, format, usage, image_type: vk::ImageType::TYPE_3D }
+        Self {
+            extent,
+            format,
+            usage,
+            image_type: vk::ImageType::TYPE_3D,
+            samples: vk::SampleCountFlags::TYPE_1,
+        }
+    }
+
+    /// A multisampled image with `samples` samples per texel (1, 2, 4 or 8).
+    pub fn with_samples(mut self, samples: u32) -> Self {
+        self.samples = sample_count(samples);
+        self
     }
 
     pub fn with_usage(mut self, usage: vk::ImageUsageFlags) -> Self {
@@ -204,7 +219,7 @@ impl Image {
             .extent(desc.extent)
             .mip_levels(1)
             .array_layers(1)
-            .samples(vk::SampleCountFlags::TYPE_1)
+            .samples(desc.samples)
             .tiling(vk::ImageTiling::OPTIMAL)
             .usage(desc.usage)
             .sharing_mode(vk::SharingMode::EXCLUSIVE)
@@ -327,5 +342,15 @@ impl Drop for Sampler {
     fn drop(&mut self) {
         // SAFETY: submissions are synchronous, so the sampler is idle.
         unsafe { self.shared.device.destroy_sampler(self.raw, None) };
+    }
+}
+
+/// The sample-count flag of `samples` (1, 2, 4, 8; other values round down to one of those).
+pub fn sample_count(samples: u32) -> vk::SampleCountFlags {
+    match samples {
+        0 | 1 => vk::SampleCountFlags::TYPE_1,
+        2 | 3 => vk::SampleCountFlags::TYPE_2,
+        4..=7 => vk::SampleCountFlags::TYPE_4,
+        _ => vk::SampleCountFlags::TYPE_8,
     }
 }

@@ -19,6 +19,7 @@ void main() {
     }
     uint pixel = uint(gl_FragCoord.y) * oit_counters.w + uint(gl_FragCoord.x);
     oit_nodes[index].depth = floatBitsToUint(gl_FragCoord.z);
-    oit_nodes[index].color = packUnorm4x8(color);
+    oit_nodes[index].color_rg = packHalf2x16(color.rg);
+    oit_nodes[index].color_ba = packHalf2x16(color.ba);
     oit_nodes[index].next = atomicExchange(oit_heads[pixel], index);
 }

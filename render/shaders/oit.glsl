@@ -10,8 +10,8 @@ const uint OIT_MAX_WALK = 4096u;
 struct OitNode {
     uint next;
     uint depth;   // float bits
-    uint color;   // premultiplied RGBA8
-    uint pad;
+    uint color_rg;   // premultiplied linear colour, two halves per word (8 bits would band in the darks)
+    uint color_ba;
 };
 
 layout(std430, set = 0, binding = 12) coherent buffer OitHeads { uint oit_heads[]; };

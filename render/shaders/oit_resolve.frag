@@ -2,7 +2,7 @@
 // OIT resolve: walk the pixel's list, keep the K nearest fragments sorted (k-buffer), blend
 // the others order-independently (their premultiplied average weighted by their combined
 // coverage), then composite front to back; the output is premultiplied and blended over the
-// opaque image.
+// opaque image, and the nearest fragment's depth goes to the depth buffer (depth output).
 #extension GL_GOOGLE_include_directive : require
 #include "oit.glsl"
 
@@ -23,7 +23,7 @@ void main() {
     uint node = oit_heads[pixel];
     for (uint walked = 0u; node != OIT_END && walked < OIT_MAX_WALK && node < oit_counters.y; ++walked) {
         float depth = uintBitsToFloat(oit_nodes[node].depth);
-        vec4 color = unpackUnorm4x8(oit_nodes[node].color);
+        vec4 color = vec4(unpackHalf2x16(oit_nodes[node].color_rg), unpackHalf2x16(oit_nodes[node].color_ba));
         node = oit_nodes[node].next;
         if (count == k) {
             if (depth >= depths[k - 1u]) {
@@ -58,4 +58,7 @@ void main() {
         transmittance *= tail_transmittance;
     }
     out_color = vec4(result, 1.0 - transmittance);
+    // The nearest hair becomes the pixel's depth (the depth test keeps a nearer occluder's);
+    // an empty list writes the far plane, which never passes.
+    gl_FragDepth = count > 0u ? depths[0] : 1.0;
 }

@@ -7,6 +7,7 @@ layout(location = 0) out vec4 out_opacity;
 
 layout(push_constant) uniform Layers {
     layout(offset = 16) vec4 ends;   // xyz: layer ends in light depth units; w: map size
+    uvec4 map;                       // x: first texel of this light's maps in the depth buffer
 } layers;
 
 layout(std430, set = 0, binding = 15) readonly buffer ShadowDepth { float shadow_depth[]; };
@@ -15,7 +16,7 @@ layout(std430, set = 0, binding = 15) readonly buffer ShadowDepth { float shadow
 const float STRAND_OPACITY = 0.5;
 
 void main() {
-    uint index = uint(gl_FragCoord.y) * uint(layers.ends.w) + uint(gl_FragCoord.x);
+    uint index = layers.map.x + uint(gl_FragCoord.y) * uint(layers.ends.w) + uint(gl_FragCoord.x);
     float d = gl_FragCoord.z - shadow_depth[index];
     float a = clamp(v_coverage_side.x, 0.0, 1.0) * STRAND_OPACITY;
     out_opacity = vec4(d <= layers.ends.x ? a : 0.0, d <= layers.ends.y ? a : 0.0, d <= layers.ends.z ? a : 0.0, 0.0);

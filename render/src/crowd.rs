@@ -33,6 +33,19 @@ pub struct CrowdFrame {
     pub stats: GenerationStats,
 }
 
+/// Near and far planes of every perspective camera (world units). Depth output is linearized
+/// with them.
+pub const NEAR: f32 = 0.01;
+pub const FAR: f32 = 1000.0;
+
+/// World space → Vulkan clip space (y down, depth in [0, 1]) of `camera`.
+pub fn view_proj(camera: &Camera, width: u32, height: u32) -> Mat4 {
+    let aspect = width as f32 / height.max(1) as f32;
+    let proj = Mat4::perspective_rh(camera.fov_y, aspect, NEAR, FAR);
+    let flip = Mat4::from_scale(Vec3::new(1.0, -1.0, 1.0));
+    flip * proj * Mat4::look_at_rh(camera.eye, camera.target, Vec3::Y)
+}
+
 /// The per-character generation inputs: the camera moved into the character's object space.
 pub fn character_inputs(
     camera: &Camera,
@@ -41,14 +54,10 @@ pub fn character_inputs(
     height: u32,
     lod: LodParams,
 ) -> FrameInputs {
-    let aspect = width as f32 / height.max(1) as f32;
-    let proj = Mat4::perspective_rh(camera.fov_y, aspect, 0.01, 200.0);
-    let flip = Mat4::from_scale(Vec3::new(1.0, -1.0, 1.0));
-    let view = Mat4::look_at_rh(camera.eye, camera.target, Vec3::Y);
     let object_eye = character.transform.inverse().transform_point3(camera.eye);
     // LOD distances are measured in object space; a uniformly scaled character scales them.
     FrameInputs {
-        view_proj: flip * proj * view * character.transform,
+        view_proj: view_proj(camera, width, height) * character.transform,
         view: ViewParams {
             eye: object_eye.as_dvec3(),
             vertical_resolution: f64::from(height),

@@ -1,10 +1,10 @@
 //! Rendering a scene: the frame graph built from the scene's effects, hair uploaded once per
-//! asset and style, strands generated on the fly every frame, shaded by `hair.frag`.
+//! asset and style, strands generated on the fly every frame, shaded by `hair.frag` into a
+//! linear RGBA16F target (MSAA in opaque mode when asked), occluder meshes drawn first.
 
 use std::collections::HashMap;
 use std::fmt;
 
-use gen_gpu::diagnostics::RenderTarget;
 use gen_gpu::{
     Binding, Buffer, BufferDesc, Context, DrawExtras, FragmentStage, FrameTimings, GenerationPath,
     GenerationStats, Generator, GeneratorOptions, GpuHair, GraphicsPipelineDesc, GraphicsStages, Pipeline,
@@ -15,7 +15,10 @@ use hairmesh::reference::LodParams;
 
 use crate::RgbaImage;
 use crate::crowd::{Camera, Character, CrowdView, character_inputs};
+use crate::occluder::{LIGHTING_BINDINGS, OccluderMesh, OccluderPipelines, occluder_push};
 use crate::scene::{Light, LoadedScene, SceneError, Transparency, merged_style};
+use crate::shadow::{ShadowAtlas, ShadowPipelines};
+use crate::target::{LinearFrame, SCENE_COLOR_FORMAT, SceneTarget};
 
 /// The SPIR-V of this crate's shaders.
 pub mod shaders {
@@ -71,21 +74,28 @@ impl fmt::Display for FrameGraph {
 #[repr(C)]
 #[derive(Clone, Copy, Debug, bytemuck::Pod, bytemuck::Zeroable)]
 struct Shading {
+    model: [f32; 16],
     eye: [f32; 4],
-    light_vector: [[f32; 4]; 2],
-    light_color: [[f32; 4]; 2],
     hair_color: [f32; 4],
     specular_shift: [f32; 4],
     specular_strength: [f32; 4],
     hair_opacity: [f32; 4],
-    light_view_proj: [f32; 16],
-    shadow: [f32; 4],
 }
 
-/// Bindings of the OIT buffers (`oit.glsl`).
-const OIT_BINDINGS: [u32; 5] = [12, 13, 14, 15, 16];
-/// Bindings of the shadow maps (`hair_shading.glsl`).
-const SHADOW_BINDINGS: [u32; 2] = [15, 16];
+/// `SceneLight` of `lighting.glsl` (std430).
+#[repr(C)]
+#[derive(Clone, Copy, Debug, bytemuck::Pod, bytemuck::Zeroable)]
+struct GpuLight {
+    vector: [f32; 4],
+    color: [f32; 4],
+    view_proj: [f32; 16],
+    layer_ends: [f32; 4],
+    map: [f32; 4],
+}
+
+/// Bindings of the OIT buffers (`oit.glsl`) and the lighting (`lighting.glsl`).
+const OIT_FILL_BINDINGS: [u32; 7] = [12, 13, 14, 15, 16, 17, 18];
+const OIT_BINDINGS: [u32; 3] = [12, 13, 14];
 const OIT_NODE_BYTES: u64 = 16;
 
 /// Order-independent transparency: the fill generator (hair_oit.frag) and the resolve pass.
@@ -103,14 +113,25 @@ struct SceneCharacter {
     variation: f32,
 }
 
+/// An occluder mesh placed in the world.
+struct SceneOccluder {
+    mesh: usize,
+    transform: Mat4,
+    color: [f32; 3],
+}
+
 /// Everything a scene needs on the GPU, built once and rendered many times.
 pub struct SceneRenderer {
     generator: Generator,
     oit: Option<Oit>,
     /// Shadow pipelines and the maps of the first frame (the scene is static).
-    shadow: Option<(crate::shadow::ShadowPipelines, std::sync::Mutex<Option<crate::shadow::ShadowMaps>>)>,
-    /// Bound at 15 and 16 when the scene has no shadows.
-    no_shadow: (Buffer, Buffer),
+    shadow: Option<(ShadowPipelines, std::sync::Mutex<Option<ShadowAtlas>>)>,
+    /// Bound at 15, 16 and 18 when the scene has no shadows (never read then).
+    no_shadow: [Buffer; 3],
+    /// Occluder pipelines (only when some character has an occluder), meshes and placements.
+    occluder_pipes: Option<OccluderPipelines>,
+    meshes: Vec<OccluderMesh>,
+    occluders: Vec<SceneOccluder>,
     hairs: Vec<GpuHair>,
     /// Characters whose hair is generated.
     characters: Vec<SceneCharacter>,
@@ -133,7 +154,10 @@ impl fmt::Debug for SceneRenderer {
 /// A rendered frame.
 #[derive(Debug)]
 pub struct RenderedFrame {
+    /// 8-bit sRGB (what PNG output writes).
     pub image: RgbaImage,
+    /// Linear colour, coverage and depth (what EXR output writes).
+    pub linear: LinearFrame,
     pub timings: FrameTimings,
     pub stats: GenerationStats,
     /// The passes recorded, by name, in order.
@@ -150,6 +174,7 @@ pub struct RenderedFrame {
 
 impl SceneRenderer {
     pub fn new(ctx: &Context, scene: &LoadedScene, path: GenerationPath) -> Result<Self, RenderError> {
+        let effects = scene.scene.effects;
         let generator = Generator::with_options(
             ctx,
             GeneratorOptions {
@@ -159,12 +184,13 @@ impl SceneRenderer {
                     blend: gen_gpu::Blend::Over,
                     depth_write: true,
                     color_write: true,
-                    extra_bindings: &SHADOW_BINDINGS,
+                    extra_bindings: &LIGHTING_BINDINGS,
                 }),
+                color_format: Some(SCENE_COLOR_FORMAT),
+                samples: effects.msaa,
                 ..GeneratorOptions::default()
             },
         )?;
-        let effects = scene.scene.effects;
         let oit = if effects.transparency == Transparency::Oit {
             let fill = Generator::with_options(
                 ctx,
@@ -175,8 +201,9 @@ impl SceneRenderer {
                         blend: gen_gpu::Blend::Replace,
                         depth_write: false,
                         color_write: false,
-                        extra_bindings: &OIT_BINDINGS,
+                        extra_bindings: &OIT_FILL_BINDINGS,
                     }),
+                    color_format: Some(SCENE_COLOR_FORMAT),
                     ..GeneratorOptions::default()
                 },
             )?;
@@ -193,11 +220,14 @@ impl SceneRenderer {
                     bindings: &bindings,
                     push_constant_size: 4,
                     specialization: &[],
-                    color_format: gen_gpu::COLOR_FORMAT,
-                    depth_format: None,
+                    color_format: SCENE_COLOR_FORMAT,
+                    // The nearest hair's depth is written (gl_FragDepth) for depth output.
+                    depth_format: Some(gen_gpu::DEPTH_FORMAT),
                     blend: gen_gpu::Blend::Over,
-                    depth_write: false,
+                    depth_write: true,
                     color_write: true,
+                    samples: 1,
+                    depth_compare: vk::CompareOp::LESS,
                 },
             )?;
             Some(Oit { fill, resolve, k: effects.oit_k, nodes_per_pixel: effects.oit_nodes_per_pixel })
@@ -210,7 +240,26 @@ impl SceneRenderer {
         let mut characters = Vec::new();
         let mut stored = Vec::new();
         let mut stored_characters = Vec::new();
+        let mut mesh_keys: HashMap<std::path::PathBuf, usize> = HashMap::new();
+        let mut meshes = Vec::new();
+        let mut occluders = Vec::new();
         for (i, c) in scene.scene.characters.iter().enumerate() {
+            if let Some(o) = &c.occluder {
+                let mesh_path = scene.resolve(&o.mesh);
+                let mesh = match mesh_keys.get(&mesh_path) {
+                    Some(&m) => m,
+                    None => {
+                        meshes.push(OccluderMesh::load(ctx, &mesh_path)?);
+                        mesh_keys.insert(mesh_path, meshes.len() - 1);
+                        meshes.len() - 1
+                    }
+                };
+                occluders.push(SceneOccluder {
+                    mesh,
+                    transform: c.transform.matrix() * o.transform.matrix(),
+                    color: o.color,
+                });
+            }
             let path = scene.hair_path(c);
             if matches!(path.extension().and_then(|e| e.to_str()), Some("tfx" | "hair")) {
                 let set = hairmesh::strands::load_strands(&path)
@@ -251,20 +300,29 @@ impl SceneRenderer {
                 variation: c.color_variation,
             });
         }
-        let shadow = if effects.shadows {
-            Some((crate::shadow::ShadowPipelines::new(ctx)?, std::sync::Mutex::new(None)))
-        } else {
+        let shadow = if scene.shadow_lights().is_empty() {
             None
+        } else {
+            Some((ShadowPipelines::new(ctx)?, std::sync::Mutex::new(None)))
         };
-        let no_shadow = (
+        let no_shadow = [
             Buffer::new(ctx, "no shadow depth", BufferDesc::storage(16))?,
             Buffer::new(ctx, "no shadow opacity", BufferDesc::storage(16))?,
-        );
+            Buffer::new(ctx, "no occluder depth", BufferDesc::storage(16))?,
+        ];
+        let occluder_pipes = if meshes.is_empty() {
+            None
+        } else {
+            Some(OccluderPipelines::new(ctx, SCENE_COLOR_FORMAT, effects.msaa)?)
+        };
         Ok(Self {
             generator,
             oit,
             shadow,
             no_shadow,
+            occluder_pipes,
+            meshes,
+            occluders,
             hairs,
             characters,
             stored,
@@ -302,23 +360,30 @@ impl SceneRenderer {
     pub fn graph(&self) -> FrameGraph {
         let mut passes = Vec::new();
         if self.shadow.is_some() {
-            let casters: Vec<String> =
-                (0..self.characters.len()).map(|i| format!("hair {}", self.characters[i].hair)).collect();
-            passes.push(PassNode {
-                name: "shadow: generate in the light's view".into(),
-                reads: casters,
-                writes: vec!["light-view strands".into()],
-            });
-            passes.push(PassNode {
-                name: "shadow depth".into(),
-                reads: vec!["light-view strands".into()],
-                writes: vec!["shadow depth map".into()],
-            });
-            passes.push(PassNode {
-                name: "shadow opacity".into(),
-                reads: vec!["light-view strands".into(), "shadow depth map".into()],
-                writes: vec!["deep opacity map (cached after the first frame)".into()],
-            });
+            let has_occluders = !self.occluders.is_empty();
+            let mut casters: Vec<String> =
+                self.characters.iter().map(|c| format!("hair {}", c.hair)).collect();
+            casters.extend((0..self.stored_characters.len()).map(|i| format!("stored strands {i}")));
+            for (i, light) in self.scene.shadow_lights().into_iter().enumerate() {
+                let names = crate::shadow::light_pass_names(i, has_occluders);
+                let mut names = names.into_iter();
+                let mut node = |reads: Vec<String>, writes: Vec<String>| PassNode {
+                    name: names.next().unwrap_or_default(),
+                    reads,
+                    writes,
+                };
+                let strands = format!("light {light} strands");
+                passes.push(node(casters.clone(), vec![strands.clone()]));
+                if has_occluders {
+                    passes
+                        .push(node(vec!["occluder meshes".into()], vec![format!("occluder depth map {i}")]));
+                }
+                passes.push(node(vec![strands.clone()], vec![format!("hair depth map {i}")]));
+                passes.push(node(
+                    vec![strands, format!("hair depth map {i}")],
+                    vec![format!("deep opacity map {i} (cached after the first frame)")],
+                ));
+            }
         }
         for (i, c) in self.characters.iter().enumerate() {
             passes.push(PassNode {
@@ -341,85 +406,125 @@ impl SceneRenderer {
             .collect();
         reads.extend((0..self.stored_characters.len()).map(|i| format!("stored strands {i}")));
         reads.push("lights".into());
+        if self.shadow.is_some() {
+            reads.push("shadow maps".into());
+        }
+        let target = |msaa: bool| {
+            if msaa {
+                vec![format!("colour ×{}", self.scene.scene.effects.msaa), "depth".into()]
+            } else {
+                vec!["colour".into(), "depth".into()]
+            }
+        };
+        let msaa = self.scene.scene.effects.msaa > 1;
         if self.oit.is_some() {
-            let lists = || vec!["OIT lists".to_owned()];
-            passes.push(PassNode { name: "clear OIT lists".into(), reads: vec![], writes: lists() });
+            passes.push(PassNode {
+                name: "clear OIT lists".into(),
+                reads: vec![],
+                writes: vec!["OIT lists".into()],
+            });
+        }
+        if !self.occluders.is_empty() {
+            let mut occluder_reads = vec!["occluder meshes".to_owned(), "lights".into()];
+            if self.shadow.is_some() {
+                occluder_reads.push("shadow maps".into());
+            }
+            passes.push(PassNode { name: "occluders".into(), reads: occluder_reads, writes: target(msaa) });
+        }
+        if self.oit.is_some() {
+            reads.push("depth".into());
             passes.push(PassNode {
                 name: format!("raster hair ({}, OIT fill)", self.path),
                 reads,
-                writes: lists(),
+                writes: vec!["OIT lists".into()],
             });
             passes.push(PassNode {
                 name: "OIT resolve".into(),
-                reads: lists(),
-                writes: vec!["colour".into()],
+                reads: vec!["OIT lists".into()],
+                writes: target(false),
             });
         } else {
             passes.push(PassNode {
                 name: format!("raster hair ({}, opaque)", self.path),
                 reads,
-                writes: vec!["colour".into(), "depth".into()],
+                writes: target(msaa),
             });
         }
         passes.push(PassNode {
             name: "copy out".into(),
-            reads: vec!["colour".into()],
+            reads: if msaa {
+                vec!["colour (resolved)".into(), "depth (resolved)".into()]
+            } else {
+                target(false)
+            },
             writes: vec!["image".into()],
         });
         FrameGraph { passes }
     }
 
-    fn shading(
-        &self,
-        c: &SceneCharacter,
-        maps: Option<&crate::shadow::ShadowMaps>,
-        world_eye: Vec3,
-    ) -> Shading {
-        let s = &self.scene.scene;
-        let to_object = c.transform.inverse();
-        let eye = to_object.transform_point3(world_eye);
-        let default_light = [Light::Directional { direction: [0.4, 0.8, 0.5], color: [1.0, 1.0, 1.0] }];
-        let lights: &[Light] = if s.lights.is_empty() { &default_light } else { &s.lights };
-        let mut light_vector = [[0.0; 4]; 2];
-        let mut light_color = [[0.0; 4]; 2];
-        for (i, l) in lights.iter().take(2).enumerate() {
-            let (v, color) = match *l {
-                Light::Directional { direction, color } => {
-                    (to_object.transform_vector3(Vec3::from_array(direction)).normalize().extend(0.0), color)
-                }
-                Light::Point { position, color } => {
-                    (to_object.transform_point3(Vec3::from_array(position)).extend(1.0), color)
-                }
-            };
-            light_vector[i] = v.to_array();
-            light_color[i] = Vec3::from_array(color).extend(0.0).to_array();
-        }
+    fn shading(&self, c: &SceneCharacter, eye: Vec3) -> Shading {
         Shading {
-            eye: eye.extend(lights.len().min(2) as f32).to_array(),
-            light_vector,
-            light_color,
+            model: c.transform.to_cols_array(),
+            eye: eye.extend(self.scene.lights().len() as f32).to_array(),
             hair_color: Vec4::new(c.color[0], c.color[1], c.color[2], c.variation).to_array(),
             specular_shift: [-0.08, 0.12, 80.0, 12.0],
             specular_strength: [0.25, 0.35, 0.2, 0.6],
             // Opaque mode draws strands solid (coverage aside); OIT lets a strand transmit.
             hair_opacity: [if self.oit.is_some() { 0.7 } else { 1.0 }, 0.0, 0.0, 0.0],
-            light_view_proj: maps.map_or(Mat4::IDENTITY, |m| m.light_view_proj * c.transform).to_cols_array(),
-            shadow: maps
-                .map_or([0.0; 4], |m| [m.layer_ends[0], m.layer_ends[1], m.layer_ends[2], m.size as f32]),
         }
     }
 
-    /// Deep opacity maps of the first light over every character's world bounds.
-    fn render_shadow_maps(
-        &self,
-        ctx: &Context,
-        pipes: &crate::shadow::ShadowPipelines,
-    ) -> Result<crate::shadow::ShadowMaps, RenderError> {
+    /// The lights buffer of `lighting.glsl`: every light, with its shadow maps' place.
+    fn light_data(&self, atlas: Option<&ShadowAtlas>) -> Vec<GpuLight> {
+        let shadow_lights = self.scene.shadow_lights();
+        self.scene
+            .lights()
+            .iter()
+            .enumerate()
+            .map(|(i, l)| {
+                let vector = match *l {
+                    Light::Directional { direction, .. } => {
+                        Vec3::from_array(direction).normalize().extend(0.0)
+                    }
+                    Light::Point { position, .. } => Vec3::from_array(position).extend(1.0),
+                };
+                let shadow = atlas.and_then(|a| {
+                    shadow_lights.iter().position(|&s| s == i).and_then(|k| a.lights.get(k)).map(|ls| (a, ls))
+                });
+                let (view_proj, layer_ends, map) = match shadow {
+                    Some((a, ls)) => (
+                        ls.light_view_proj,
+                        [ls.layer_ends[0], ls.layer_ends[1], ls.layer_ends[2], 0.0],
+                        [a.size as f32, ls.first_texel as f32, ls.occluder_bias, 0.0],
+                    ),
+                    None => (Mat4::IDENTITY, [0.0; 4], [0.0; 4]),
+                };
+                let [r, g, b] = l.color();
+                GpuLight {
+                    vector: vector.to_array(),
+                    color: [r, g, b, 0.0],
+                    view_proj: view_proj.to_cols_array(),
+                    layer_ends,
+                    map,
+                }
+            })
+            .collect()
+    }
+
+    /// Deep opacity maps of every shadow-casting light over the world bounds of every
+    /// character and occluder.
+    fn render_shadow_maps(&self, ctx: &Context, pipes: &ShadowPipelines) -> Result<ShadowAtlas, RenderError> {
         let s = &self.scene.scene;
-        let toward_light = match s.lights.first() {
-            Some(Light::Directional { direction, .. }) => Vec3::from_array(*direction),
-            _ => Vec3::new(0.4, 0.8, 0.5),
-        };
+        let lights = self.scene.lights();
+        let toward_lights: Vec<Vec3> = self
+            .scene
+            .shadow_lights()
+            .into_iter()
+            .filter_map(|i| match lights[i] {
+                Light::Directional { direction, .. } => Some(Vec3::from_array(direction)),
+                Light::Point { .. } => None,
+            })
+            .collect();
         let mut lo = Vec3::splat(f32::INFINITY);
         let mut hi = Vec3::splat(f32::NEG_INFINITY);
         let mut add_box = |m: Mat4, (a, b): (Vec3, Vec3)| {
@@ -442,28 +547,31 @@ impl SceneRenderer {
         for c in &self.stored_characters {
             add_box(c.transform, self.stored[c.hair].bounds);
         }
+        for o in &self.occluders {
+            add_box(o.transform, self.meshes[o.mesh].bounds);
+        }
         let generated: Vec<(usize, Mat4)> = self.characters.iter().map(|c| (c.hair, c.transform)).collect();
         let stored: Vec<(usize, Mat4)> =
             self.stored_characters.iter().map(|c| (c.hair, c.transform)).collect();
+        let occluders: Vec<(usize, Mat4)> = self.occluders.iter().map(|o| (o.mesh, o.transform)).collect();
         let casters = crate::shadow::ShadowCasters {
             hairs: &self.hairs,
             generated: &generated,
             stored: &self.stored,
             stored_characters: &stored,
+            meshes: &self.meshes,
+            occluders: &occluders,
+            occluder_pipelines: self.occluder_pipes.as_ref(),
         };
         let settings = crate::shadow::ShadowSettings {
             size: s.effects.shadow_map_size,
             layer_fractions: s.effects.shadow_layers,
             lod: self.view().lod,
         };
-        Ok(crate::shadow::render_shadow_maps(ctx, pipes, &casters, toward_light, (lo, hi), settings)?)
+        Ok(crate::shadow::render_shadow_maps(ctx, pipes, &casters, &toward_lights, (lo, hi), settings)?)
     }
 
     /// Draws every character (generated, then stored) with `generator`'s fragment stage.
-    #[expect(
-        clippy::too_many_arguments,
-        reason = "one frame's per-draw inputs; bundling them adds a type used once"
-    )]
     fn draw_characters(
         &self,
         rec: &mut gen_gpu::Recorder<'_>,
@@ -471,15 +579,14 @@ impl SceneRenderer {
         frames: &[gen_gpu::FrameBuffers],
         stored_params: &[Buffer],
         extra: &[(u32, &Buffer)],
-        maps: Option<&crate::shadow::ShadowMaps>,
         eye: Vec3,
     ) -> gen_gpu::Result<()> {
         for (c, frame) in self.characters.iter().zip(frames) {
-            let shading = self.shading(c, maps, eye);
+            let shading = self.shading(c, eye);
             let extras = DrawExtras { fragment_constants: bytemuck::bytes_of(&shading), buffers: extra };
             generator.record_draw_with(rec, &self.hairs[c.hair], frame, self.path, false, extras)?;
         }
-        self.draw_stored(rec, generator, stored_params, extra, maps, eye);
+        self.draw_stored(rec, generator, stored_params, extra, eye);
         Ok(())
     }
 
@@ -490,11 +597,10 @@ impl SceneRenderer {
         generator: &Generator,
         params: &[Buffer],
         extra: &[(u32, &Buffer)],
-        maps: Option<&crate::shadow::ShadowMaps>,
         eye: Vec3,
     ) {
         for (c, params) in self.stored_characters.iter().zip(params) {
-            let shading = self.shading(c, maps, eye);
+            let shading = self.shading(c, eye);
             let extras = DrawExtras { fragment_constants: bytemuck::bytes_of(&shading), buffers: extra };
             generator.record_draw_stored(rec, &self.stored[c.hair], params, extras);
         }
@@ -511,31 +617,39 @@ impl SceneRenderer {
         let view = self.view_from(eye);
         let graph = self.graph();
         let mut recorded = Vec::new();
-        // Shadow maps: computed on the first frame, then reused (static characters and light).
+        // Shadow maps: computed on the first frame, then reused (static characters and lights).
         let mut shadow_cached = false;
         let mut shadow_ms = None;
-        let mut shadow_guard = match &self.shadow {
+        let shadow_guard = match &self.shadow {
             Some((pipes, cache)) => {
                 let mut guard = cache.lock().unwrap_or_else(|e| e.into_inner());
                 if guard.is_some() {
                     shadow_cached = true;
                 } else {
-                    let maps = self.render_shadow_maps(ctx, pipes)?;
-                    shadow_ms = maps.timings.pass_ms("shadow maps");
-                    *guard = Some(maps);
-                    recorded.extend(
-                        ["shadow: generate in the light's view", "shadow depth", "shadow opacity"]
-                            .map(String::from),
-                    );
+                    let atlas = self.render_shadow_maps(ctx, pipes)?;
+                    // The submission is the root scope; its children are the passes.
+                    shadow_ms = atlas.timings.pass_ms("shadow maps");
+                    recorded
+                        .extend(atlas.timings.passes.iter().filter(|p| p.depth == 1).map(|p| p.name.clone()));
+                    *guard = Some(atlas);
                 }
                 Some(guard)
             }
             None => None,
         };
-        let maps = shadow_guard.as_mut().and_then(|g| g.as_ref());
-        let shadow_extra: [(u32, &Buffer); 2] = match maps {
-            Some(m) => [(15, &m.depth), (16, &m.opacity)],
-            None => [(15, &self.no_shadow.0), (16, &self.no_shadow.1)],
+        let atlas = shadow_guard.as_ref().and_then(|g| g.as_ref());
+        let light_data = self.light_data(atlas);
+        let light_bytes: &[u8] = bytemuck::cast_slice(&light_data);
+        let lights = ctx.create_buffer_with_data(
+            "scene lights",
+            BufferDesc::storage(light_bytes.len() as u64),
+            light_bytes,
+        )?;
+        let lighting: [(u32, &Buffer); 4] = match atlas {
+            Some(a) => [(15, &a.depth), (16, &a.opacity), (17, &lights), (18, &a.occluder_depth)],
+            None => {
+                [(15, &self.no_shadow[0]), (16, &self.no_shadow[1]), (17, &lights), (18, &self.no_shadow[2])]
+            }
         };
         let characters: Vec<Character> =
             self.characters.iter().map(|c| Character { hair: c.hair, transform: c.transform }).collect();
@@ -559,7 +673,8 @@ impl SceneRenderer {
                 self.generator.stored_params(ctx, &self.stored[c.hair], &inputs)
             })
             .collect::<gen_gpu::Result<Vec<_>>>()?;
-        let target = RenderTarget::new(ctx, view.width, view.height)?;
+        let samples = if self.oit.is_some() { 1 } else { self.scene.scene.effects.msaa };
+        let target = SceneTarget::new(ctx, view.width, view.height, samples)?;
         // The OIT node pool is bounded by the output size and the storage-buffer range.
         let oit_buffers = match &self.oit {
             Some(oit) => {
@@ -576,6 +691,8 @@ impl SceneRenderer {
             }
             None => None,
         };
+        let view_proj = crate::crowd::view_proj(&view.camera, view.width, view.height);
+        let background = self.scene.scene.output.background;
         let ((), timings) = ctx.submit("scene frame", |rec| {
             for (i, (c, frame)) in characters.iter().zip(&frames).enumerate() {
                 let hair = &self.hairs[c.hair];
@@ -590,37 +707,50 @@ impl SceneRenderer {
                     recorded.push(format!("generate character {i}"));
                 }
             }
+            if let Some((heads, _, counters, pool)) = &oit_buffers {
+                rec.pass("clear OIT lists", |rec| {
+                    rec.fill_buffer(heads, u32::MAX);
+                    let init = [0u32, *pool as u32, 0, view.width];
+                    rec.update_buffer(counters, 0, bytemuck::cast_slice(&init));
+                });
+                recorded.push("clear OIT lists".to_owned());
+                rec.memory_barrier(
+                    (
+                        vk::PipelineStageFlags2::CLEAR | vk::PipelineStageFlags2::COPY,
+                        vk::AccessFlags2::TRANSFER_WRITE,
+                    ),
+                    (
+                        vk::PipelineStageFlags2::FRAGMENT_SHADER,
+                        vk::AccessFlags2::SHADER_STORAGE_READ | vk::AccessFlags2::SHADER_STORAGE_WRITE,
+                    ),
+                );
+            }
+            target.begin(rec, background);
+            if let Some(pipes) = &self.occluder_pipes {
+                rec.pass("occluders", |rec| {
+                    let light_count = self.scene.lights().len();
+                    for o in &self.occluders {
+                        let push =
+                            occluder_push(o.transform, view_proj, view.camera.eye, light_count, o.color);
+                        self.meshes[o.mesh].record_draw(rec, &pipes.shade, &push, &lighting);
+                    }
+                });
+                recorded.push("occluders".to_owned());
+            }
             let drawn = match (&self.oit, &oit_buffers) {
-                (Some(oit), Some((heads, nodes, counters, pool))) => {
-                    rec.pass("clear OIT lists", |rec| {
-                        rec.fill_buffer(heads, u32::MAX);
-                        let init = [0u32, *pool as u32, 0, view.width];
-                        rec.update_buffer(counters, 0, bytemuck::cast_slice(&init));
-                    });
-                    recorded.push("clear OIT lists".to_owned());
-                    rec.memory_barrier(
-                        (
-                            vk::PipelineStageFlags2::CLEAR | vk::PipelineStageFlags2::COPY,
-                            vk::AccessFlags2::TRANSFER_WRITE,
-                        ),
-                        (
-                            vk::PipelineStageFlags2::FRAGMENT_SHADER,
-                            vk::AccessFlags2::SHADER_STORAGE_READ | vk::AccessFlags2::SHADER_STORAGE_WRITE,
-                        ),
-                    );
-                    target.begin(rec);
+                (Some(oit), Some((heads, nodes, counters, _))) => {
                     let fill = format!("raster hair ({}, OIT fill)", self.path);
-                    let extra = [(12, heads), (13, nodes), (14, counters), shadow_extra[0], shadow_extra[1]];
+                    let extra = [
+                        (12, heads),
+                        (13, nodes),
+                        (14, counters),
+                        lighting[0],
+                        lighting[1],
+                        lighting[2],
+                        lighting[3],
+                    ];
                     let drawn = rec.pass(&fill, |rec| {
-                        self.draw_characters(
-                            rec,
-                            &oit.fill,
-                            &frames,
-                            &stored_params,
-                            &extra,
-                            maps,
-                            view.camera.eye,
-                        )
+                        self.draw_characters(rec, &oit.fill, &frames, &stored_params, &extra, view.camera.eye)
                     });
                     recorded.push(fill);
                     rec.end_rendering();
@@ -629,9 +759,9 @@ impl SceneRenderer {
                         (vk::PipelineStageFlags2::FRAGMENT_SHADER, vk::AccessFlags2::SHADER_STORAGE_READ),
                     );
                     rec.pass("OIT resolve", |rec| {
-                        rec.begin_rendering_load(&target.color);
+                        target.begin_load(rec);
                         rec.bind_pipeline(&oit.resolve);
-                        rec.push_storage_buffers(&oit.resolve, &extra);
+                        rec.push_storage_buffers(&oit.resolve, &extra[..3]);
                         rec.push_constants(&oit.resolve, &oit.k);
                         rec.draw(3, 1);
                         rec.end_rendering();
@@ -640,7 +770,6 @@ impl SceneRenderer {
                     drawn
                 }
                 _ => {
-                    target.begin(rec);
                     let raster = format!("raster hair ({}, opaque)", self.path);
                     let drawn = rec.pass(&raster, |rec| {
                         self.draw_characters(
@@ -648,8 +777,7 @@ impl SceneRenderer {
                             &self.generator,
                             &frames,
                             &stored_params,
-                            &shadow_extra,
-                            maps,
+                            &lighting,
                             view.camera.eye,
                         )
                     });
@@ -678,8 +806,10 @@ impl SceneRenderer {
             }
             None => (None, None),
         };
+        let linear = target.read(ctx)?;
         Ok(RenderedFrame {
-            image: target.read(ctx)?,
+            image: linear.to_srgb8(),
+            linear,
             timings,
             stats,
             passes: recorded,

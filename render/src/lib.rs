@@ -7,8 +7,10 @@
 
 pub mod crowd;
 pub mod frame;
+pub mod occluder;
 pub mod output;
 pub mod scene;
 pub mod shadow;
+pub mod target;
 
 pub use gen_gpu::diagnostics::RgbaImage;

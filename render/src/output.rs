@@ -46,6 +46,62 @@ pub fn write_png(path: &Path, image: &RgbaImage) -> Result<(), OutputError> {
     })
 }
 
+/// Which channels an EXR frame carries besides linear RGB.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct ExrChannels {
+    /// `A`: coverage of hair and occluders (0 on the background).
+    pub coverage: bool,
+    /// `Z`: view-space distance (infinity on the background).
+    pub depth: bool,
+}
+
+/// Writes a frame as OpenEXR (half-float RGB, linear; optional `A` coverage and f32 `Z`
+/// depth), atomically. Colour is premultiplied by coverage and includes the scene's
+/// background; render with a black background for a layer to composite.
+pub fn write_exr(
+    path: &Path,
+    frame: &crate::target::LinearFrame,
+    channels: ExrChannels,
+    depth_planes: (f32, f32),
+) -> Result<(), OutputError> {
+    use exr::prelude::*;
+    let pixels = frame.width as usize * frame.height as usize;
+    if frame.rgba.len() != pixels * 4 || frame.depth.len() != pixels || pixels == 0 {
+        return Err(OutputError::BadImage {
+            path: path.to_owned(),
+            width: frame.width,
+            height: frame.height,
+            bytes: frame.rgba.len() * 4,
+            expected: pixels * 16,
+        });
+    }
+    let component =
+        |c: usize| -> Vec<f16> { frame.rgba.iter().skip(c).step_by(4).map(|&v| f16::from_f32(v)).collect() };
+    let mut list = vec![
+        AnyChannel::new("R", FlatSamples::F16(component(0))),
+        AnyChannel::new("G", FlatSamples::F16(component(1))),
+        AnyChannel::new("B", FlatSamples::F16(component(2))),
+    ];
+    if channels.coverage {
+        list.push(AnyChannel::new("A", FlatSamples::F16(component(3))));
+    }
+    if channels.depth {
+        list.push(AnyChannel::new("Z", FlatSamples::F32(frame.linear_depth(depth_planes.0, depth_planes.1))));
+    }
+    let layer = Layer::new(
+        (frame.width as usize, frame.height as usize),
+        LayerAttributes::default(),
+        Encoding::SMALL_LOSSLESS,
+        AnyChannels::sort(list.into()),
+    );
+    let mut bytes = std::io::Cursor::new(Vec::new());
+    Image::from_layer(layer)
+        .write()
+        .to_buffered(&mut bytes)
+        .map_err(|e| OutputError::Io { path: path.to_owned(), message: e.to_string() })?;
+    write_atomic(path, |w| w.write_all(bytes.get_ref()))
+}
+
 /// Largest image [`read_png`] accepts (a 16k × 16k frame), so a hostile header cannot make it
 /// allocate without bound.
 pub const MAX_READ_PIXELS: u64 = 1 << 28;
@@ -91,6 +147,50 @@ mod tests {
         assert_eq!(read_png(&path).expect("read"), image);
         let leftovers: Vec<_> = std::fs::read_dir(dir.path()).expect("list").collect();
         assert_eq!(leftovers.len(), 1, "no temporary files left behind");
+    }
+
+    #[test]
+    fn exr_has_the_asked_channels_and_linear_values() {
+        use exr::prelude::*;
+        let dir = tempfile::tempdir().expect("temp dir");
+        let path = dir.path().join("frame.exr");
+        let frame = crate::target::LinearFrame {
+            width: 2,
+            height: 1,
+            rgba: vec![0.25, 0.5, 2.0, 1.0, 0.0, 0.0, 0.0, 0.0],
+            depth: vec![0.5, 1.0],
+        };
+        let channels = ExrChannels { coverage: true, depth: true };
+        write_exr(&path, &frame, channels, (0.1, 100.0)).expect("write");
+        let image = read_all_flat_layers_from_file(&path).expect("read");
+        let layer = &image.layer_data[0];
+        let names: Vec<String> = layer.channel_data.list.iter().map(|c| c.name.to_string()).collect();
+        assert_eq!(names, ["A", "B", "G", "R", "Z"]);
+        let value = |name: &str, i: usize| {
+            let c = layer.channel_data.list.iter().find(|c| c.name.to_string() == name).expect("channel");
+            c.sample_data.value_by_flat_index(i).to_f32()
+        };
+        // Linear, above 1 kept (no sRGB, no clamp).
+        assert_eq!((value("R", 0), value("B", 0), value("A", 1)), (0.25, 2.0, 0.0));
+        let z = value("Z", 0);
+        let expected = 0.1 * 100.0 / (100.0 - 0.5 * 99.9);
+        assert!((z - expected).abs() < 1e-4, "{z} vs {expected}");
+        assert!(value("Z", 1).is_infinite(), "nothing drawn: infinite depth");
+        // Only RGB without the options.
+        write_exr(&path, &frame, ExrChannels::default(), (0.1, 100.0)).expect("write");
+        let image = read_all_flat_layers_from_file(&path).expect("read");
+        assert_eq!(image.layer_data[0].channel_data.list.len(), 3);
+    }
+
+    #[test]
+    fn srgb_encoding() {
+        use crate::target::linear_to_srgb;
+        assert_eq!(linear_to_srgb(0.0), 0.0);
+        assert!((linear_to_srgb(1.0) - 1.0).abs() < 1e-6);
+        // Middle grey: 18% linear is about 46% sRGB.
+        assert!((linear_to_srgb(0.18) - 0.4614).abs() < 1e-3);
+        assert_eq!(linear_to_srgb(f32::NAN), 0.0);
+        assert!((linear_to_srgb(7.0) - 1.0).abs() < 1e-6, "over-range values clamp to white");
     }
 
     #[test]

@@ -6,7 +6,7 @@
 //!   "camera": { "eye": [0, 1.8, 1.2], "target": [0, 1.55, 0], "fov_y_degrees": 45 },
 //!   "lights": [ { "directional": { "direction": [0.4, 0.8, 0.5], "color": [1, 1, 1] } } ],
 //!   "characters": [ { "hair": "hair/head_cap_long", "transform": { "translation": [0, 0, 0] },
-//!                     "color": [0.3, 0.18, 0.1], "style": { "curl": { "radius": 0.003 } } } ],
+//!                     "color": [0.073, 0.027, 0.01], "style": { "curl": { "radius": 0.003 } } } ],
 //!   "effects": { "transparency": "opaque", "shadows": false },
 //!   "lod": { "enabled": true, "strand_alpha": 1, "vertex_alpha": 1 }
 //! }
@@ -16,9 +16,13 @@
 //! file. Every number is checked (finite, in range) and errors name the file and the field.
 //! `effects.transparency` is `"opaque"` (coverage-scaled strands blended in draw order, depth
 //! tested) or `"oit"` (per-pixel linked lists with a k-buffer resolve, `oit_k` sorted, pool of
-//! `oit_nodes_per_pixel` nodes per pixel on average). `shadows` adds deep opacity maps from the
-//! first (directional) light (`shadow_map_size`, `shadow_layers`). Effects that are not built
-//! yet (`ao`, `volume_lod`, `dynamics`) are refused with a clear "not supported yet".
+//! `oit_nodes_per_pixel` nodes per pixel on average); opaque mode may add MSAA (`msaa`: 2, 4, 8).
+//! `shadows` adds deep opacity maps and occluder depth maps for every directional light with
+//! `cast_shadows` (default true; `shadow_map_size`, `shadow_layers`). A character may carry an
+//! `occluder` mesh (its scalp or body, `{"mesh": "head.obj", "color": [..]}`), drawn opaque with
+//! Lambert shading, casting and receiving shadows. Colours are linear; `output.background` is
+//! the clear colour. Effects that are not built yet (`ao`, `volume_lod`, `dynamics`, point-light
+//! shadows) are refused with a clear "not supported yet".
 
 use std::path::{Path, PathBuf};
 
@@ -29,6 +33,8 @@ use serde::{Deserialize, Serialize};
 pub const MAX_OUTPUT_SIDE: u32 = 8192;
 /// Most characters in one scene.
 pub const MAX_CHARACTERS: usize = 4096;
+/// Most lights in one scene.
+pub const MAX_LIGHTS: usize = 8;
 
 #[derive(Debug, thiserror::Error)]
 pub enum SceneError {
@@ -47,6 +53,13 @@ pub enum SceneError {
 pub struct Output {
     pub width: u32,
     pub height: u32,
+    /// Background colour (linear RGB); the written alpha is 0 there (EXR keeps it).
+    #[serde(default = "default_background")]
+    pub background: [f32; 3],
+}
+
+fn default_background() -> [f32; 3] {
+    [0.004, 0.005, 0.008]
 }
 
 #[derive(Clone, Copy, Debug, Deserialize, Serialize, PartialEq)]
@@ -70,12 +83,34 @@ pub enum Light {
         direction: [f32; 3],
         #[serde(default = "white")]
         color: [f32; 3],
+        /// With `effects.shadows`: this light gets deep opacity maps [default: true].
+        #[serde(default = "yes")]
+        cast_shadows: bool,
     },
     Point {
         position: [f32; 3],
         #[serde(default = "white")]
         color: [f32; 3],
+        /// Point-light shadows are not built yet; `true` is refused [default: false].
+        #[serde(default)]
+        cast_shadows: bool,
     },
+}
+
+fn yes() -> bool {
+    true
+}
+
+impl Light {
+    /// The light shading uses when a scene lists none.
+    pub const DEFAULT: Light =
+        Light::Directional { direction: [0.4, 0.8, 0.5], color: [1.0, 1.0, 1.0], cast_shadows: true };
+
+    pub fn color(&self) -> [f32; 3] {
+        match *self {
+            Light::Directional { color, .. } | Light::Point { color, .. } => color,
+        }
+    }
 }
 
 fn white() -> [f32; 3] {
@@ -121,10 +156,31 @@ pub struct CharacterDesc {
     /// of the strands' bounding-box diagonal].
     #[serde(default)]
     pub strand_width: Option<f32>,
+    /// A mesh drawn opaque with the hair (the scalp or the body), in the hair's object space.
+    #[serde(default)]
+    pub occluder: Option<OccluderDesc>,
+}
+
+/// A character's occluder mesh: glTF/GLB or OBJ, every face, relative to the scene file.
+#[derive(Clone, Debug, Deserialize, Serialize, PartialEq)]
+#[serde(deny_unknown_fields)]
+pub struct OccluderDesc {
+    pub mesh: PathBuf,
+    /// Places the mesh in the character's object space (then the character's transform
+    /// applies), for meshes modelled in other units or frames than the hair.
+    #[serde(default)]
+    pub transform: TransformDesc,
+    /// Albedo (linear RGB).
+    #[serde(default = "skin")]
+    pub color: [f32; 3],
+}
+
+fn skin() -> [f32; 3] {
+    [0.3, 0.19, 0.14]
 }
 
 fn brown() -> [f32; 3] {
-    [0.3, 0.17, 0.08]
+    [0.073, 0.024, 0.007]
 }
 
 fn default_variation() -> f32 {
@@ -147,7 +203,10 @@ pub struct Effects {
     pub oit_k: u32,
     /// OIT: average list nodes per pixel the pool holds (it is capped by the storage range).
     pub oit_nodes_per_pixel: f32,
-    /// Self-shadowing by deep opacity maps from the first light (which must be directional).
+    /// Opaque mode: samples per pixel (1 = coverage AA only; 2, 4 or 8 add MSAA).
+    pub msaa: u32,
+    /// Deep opacity maps (and occluder depth maps) for every directional light with
+    /// `cast_shadows`.
     pub shadows: bool,
     /// Shadow map resolution (texels per side).
     pub shadow_map_size: u32,
@@ -164,6 +223,7 @@ impl Default for Effects {
             transparency: Transparency::Opaque,
             oit_k: 8,
             oit_nodes_per_pixel: 32.0,
+            msaa: 1,
             shadows: false,
             shadow_map_size: 512,
             shadow_layers: [0.02, 0.06, 0.16],
@@ -213,7 +273,31 @@ pub struct LoadedScene {
 impl LoadedScene {
     /// A character's hair path, resolved against the scene file's folder.
     pub fn hair_path(&self, character: &CharacterDesc) -> PathBuf {
-        self.path.parent().unwrap_or(Path::new(".")).join(&character.hair)
+        self.resolve(&character.hair)
+    }
+
+    /// A path of the scene file, resolved against its folder.
+    pub fn resolve(&self, path: &Path) -> PathBuf {
+        self.path.parent().unwrap_or(Path::new(".")).join(path)
+    }
+
+    /// The lights shading uses (the default one when the scene lists none).
+    pub fn lights(&self) -> Vec<Light> {
+        if self.scene.lights.is_empty() { vec![Light::DEFAULT] } else { self.scene.lights.clone() }
+    }
+
+    /// Indices into [`Self::lights`] of the lights that get shadow maps (none without
+    /// `effects.shadows`).
+    pub fn shadow_lights(&self) -> Vec<usize> {
+        if !self.scene.effects.shadows {
+            return Vec::new();
+        }
+        self.lights()
+            .iter()
+            .enumerate()
+            .filter(|(_, l)| matches!(l, Light::Directional { cast_shadows: true, .. }))
+            .map(|(i, _)| i)
+            .collect()
     }
 }
 
@@ -254,6 +338,16 @@ fn validate(loaded: &LoadedScene) -> Result<(), SceneError> {
             Err(invalid(field, format!("{v:?} is not finite")))
         }
     };
+    let validate_transform = |field: &str, t: &TransformDesc| -> Result<(), SceneError> {
+        finite(&format!("{field}.translation"), &t.translation)?;
+        finite(&format!("{field}.rotation_y_degrees"), &[t.rotation_y_degrees])?;
+        match t.scale {
+            Some(scale) if !(scale.is_finite() && scale > 0.0) => {
+                Err(invalid(&format!("{field}.scale"), format!("{scale} (expected a positive number)")))
+            }
+            _ => Ok(()),
+        }
+    };
     let o = s.output;
     if o.width == 0 || o.height == 0 || o.width > MAX_OUTPUT_SIDE || o.height > MAX_OUTPUT_SIDE {
         return Err(invalid(
@@ -272,13 +366,23 @@ fn validate(loaded: &LoadedScene) -> Result<(), SceneError> {
     if Vec3::from_array(s.camera.eye).distance(Vec3::from_array(s.camera.target)) <= 0.0 {
         return Err(invalid("camera", "eye and target are the same point".into()));
     }
-    if s.lights.len() > 2 {
-        return Err(invalid("lights", format!("{} lights (at most 2 are shaded today)", s.lights.len())));
+    if s.lights.len() > MAX_LIGHTS {
+        return Err(invalid("lights", format!("{} lights (at most {MAX_LIGHTS})", s.lights.len())));
     }
+    finite("output.background", &o.background)?;
     for (i, l) in s.lights.iter().enumerate() {
         let (v, c) = match l {
-            Light::Directional { direction, color } => (direction, color),
-            Light::Point { position, color } => (position, color),
+            Light::Directional { direction, color, .. } => (direction, color),
+            Light::Point { position, color, cast_shadows } => {
+                if *cast_shadows {
+                    return Err(SceneError::NotSupportedYet {
+                        path: path.clone(),
+                        field: format!("lights[{i}].cast_shadows"),
+                        effect: "shadows from a point light".into(),
+                    });
+                }
+                (position, color)
+            }
         };
         finite(&format!("lights[{i}]"), v)?;
         finite(&format!("lights[{i}].color"), c)?;
@@ -296,17 +400,7 @@ fn validate(loaded: &LoadedScene) -> Result<(), SceneError> {
     }
     for (i, c) in s.characters.iter().enumerate() {
         let field = format!("characters[{i}]");
-        let t = &c.transform;
-        finite(&format!("{field}.transform.translation"), &t.translation)?;
-        finite(&format!("{field}.transform.rotation_y_degrees"), &[t.rotation_y_degrees])?;
-        if let Some(scale) = t.scale
-            && !(scale.is_finite() && scale > 0.0)
-        {
-            return Err(invalid(
-                &format!("{field}.transform.scale"),
-                format!("{scale} (expected a positive number)"),
-            ));
-        }
+        validate_transform(&format!("{field}.transform"), &c.transform)?;
         finite(&format!("{field}.color"), &c.color)?;
         let hair = loaded.hair_path(c);
         if let Some(w) = c.strand_width
@@ -320,6 +414,17 @@ fn validate(loaded: &LoadedScene) -> Result<(), SceneError> {
         if !hair.exists() {
             return Err(invalid(&format!("{field}.hair"), format!("{} does not exist", hair.display())));
         }
+        if let Some(occluder) = &c.occluder {
+            finite(&format!("{field}.occluder.color"), &occluder.color)?;
+            validate_transform(&format!("{field}.occluder.transform"), &occluder.transform)?;
+            let mesh = loaded.resolve(&occluder.mesh);
+            if !mesh.exists() {
+                return Err(invalid(
+                    &format!("{field}.occluder.mesh"),
+                    format!("{} does not exist", mesh.display()),
+                ));
+            }
+        }
     }
     let l = s.lod;
     if !(l.strand_alpha.is_finite()
@@ -330,14 +435,16 @@ fn validate(loaded: &LoadedScene) -> Result<(), SceneError> {
         return Err(invalid("lod", "alphas must be positive".into()));
     }
     let e = s.effects;
+    if ![1, 2, 4, 8].contains(&e.msaa) {
+        return Err(invalid("effects.msaa", format!("{} (expected 1, 2, 4 or 8)", e.msaa)));
+    }
+    if e.msaa > 1 && e.transparency == Transparency::Oit {
+        return Err(invalid(
+            "effects.msaa",
+            format!("{} with transparency \"oit\" (MSAA is the opaque mode's anti-aliasing)", e.msaa),
+        ));
+    }
     if e.shadows {
-        if let Some(Light::Point { .. }) = s.lights.first() {
-            return Err(SceneError::NotSupportedYet {
-                path: path.clone(),
-                field: "lights[0]".into(),
-                effect: "shadows from a point light (make the first light directional)".into(),
-            });
-        }
         if !(16..=4096).contains(&e.shadow_map_size) {
             return Err(invalid(
                 "effects.shadow_map_size",

@@ -452,12 +452,12 @@ fn effects_table(ctx: &Context, quick: bool, width: u32, height: u32, frames: us
         let (camera, character) = if sintel {
             (
                 serde_json::json!({ "eye": [0.15, 1.62, 0.5], "target": [0.0, 1.52, 0.0], "fov_y_degrees": 40 }),
-                serde_json::json!({ "hair": groom, "color": [0.45, 0.22, 0.08], "strand_width": 0.0004 }),
+                serde_json::json!({ "hair": groom, "color": [0.171, 0.0397, 0.00719], "strand_width": 0.0004 }),
             )
         } else {
             (
                 serde_json::json!({ "eye": [0.0, 1.82, 0.62], "target": [0.0, 1.55, 0.0], "fov_y_degrees": 45 }),
-                serde_json::json!({ "hair": asset_dir, "color": [0.32, 0.18, 0.08] }),
+                serde_json::json!({ "hair": asset_dir, "color": [0.0835, 0.0272, 0.00719] }),
             )
         };
         let scene = serde_json::json!({

@@ -1,9 +1,13 @@
 //! `hair-render SCENE -o frame.png`: renders a scene file (see `render::scene`).
 //!
 //! ```text
-//! hair-render SCENE -o OUT.png [--path auto|mesh|compute] [--device SEL] [--print-graph]
+//! hair-render SCENE -o OUT.png|OUT.exr [--depth] [--coverage] [--frames N]
+//!             [--path auto|mesh|compute] [--device SEL] [--print-graph]
 //!             [--stats] [--stats-json FILE] [--validation]
 //! ```
+//!
+//! `.png` output is 8-bit sRGB; `.exr` output is linear half-float RGB with an optional `A`
+//! (coverage) and `Z` (view-space distance) channel.
 
 use std::path::PathBuf;
 
@@ -17,9 +21,15 @@ use render::frame::SceneRenderer;
 struct Cli {
     /// The scene (JSON).
     scene: PathBuf,
-    /// Output PNG (written atomically).
+    /// Output image, written atomically: `.png` (8-bit sRGB) or `.exr` (linear half float).
     #[arg(short, long)]
     out: Option<PathBuf>,
+    /// EXR output: add a `Z` channel with the view-space distance (infinite on the background).
+    #[arg(long)]
+    depth: bool,
+    /// EXR output: add an `A` channel with the coverage of hair and occluders.
+    #[arg(long)]
+    coverage: bool,
     /// Generation path: auto, mesh or compute.
     #[arg(long, default_value = "auto")]
     path: PathChoice,
@@ -78,6 +88,14 @@ fn run(cli: &Cli) -> Result<()> {
         print!("{}", renderer.graph());
     }
     let Some(out) = &cli.out else { return Ok(()) };
+    let exr = match out.extension().and_then(|e| e.to_str()).map(str::to_ascii_lowercase).as_deref() {
+        Some("png") => false,
+        Some("exr") => true,
+        _ => anyhow::bail!("{}: the output must end in .png or .exr", out.display()),
+    };
+    if !exr && (cli.depth || cli.coverage) {
+        anyhow::bail!("--depth and --coverage need an .exr output (PNG is 8-bit sRGB colour)");
+    }
     let camera = scene.scene.camera;
     let (eye, target) = (glam::Vec3::from_array(camera.eye), glam::Vec3::from_array(camera.target));
     let mut last = None;
@@ -86,7 +104,13 @@ fn run(cli: &Cli) -> Result<()> {
         let orbit_eye = target + glam::Quat::from_rotation_y(angle) * (eye - target);
         let frame = renderer.render_from(&ctx, orbit_eye)?;
         let file = if cli.frames > 1 { numbered(out, i) } else { out.clone() };
-        render::output::write_png(&file, &frame.image)?;
+        if exr {
+            let channels = render::output::ExrChannels { coverage: cli.coverage, depth: cli.depth };
+            let planes = (render::crowd::NEAR, render::crowd::FAR);
+            render::output::write_exr(&file, &frame.linear, channels, planes)?;
+        } else {
+            render::output::write_png(&file, &frame.image)?;
+        }
         println!(
             "{} ({}x{}, {} path, {:.0} ms)",
             file.display(),

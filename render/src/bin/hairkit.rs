@@ -236,8 +236,15 @@ fn demo(o: &DemoOptions, device: &DeviceArgs) -> Result<()> {
     })?;
     let columns = (f64::from(o.characters).sqrt().ceil() as u32).max(1);
     let rows = o.characters.div_ceil(columns);
-    let colors =
-        [[0.08, 0.05, 0.03], [0.55, 0.33, 0.12], [0.6, 0.24, 0.07], [0.7, 0.55, 0.3], [0.25, 0.13, 0.06]];
+    // Linear RGB.
+    let colors = [
+        [0.0073, 0.0039, 0.0018],
+        [0.26, 0.089, 0.013],
+        [0.32, 0.047, 0.0065],
+        [0.45, 0.26, 0.073],
+        [0.051, 0.016, 0.0048],
+    ];
+    let scalp_mesh = std::path::absolute(&o.scalp).with_context(|| format!("{}", o.scalp.display()))?;
     let characters: Vec<serde_json::Value> = (0..o.characters)
         .map(|i| {
             let (col, row) = (i % columns, i / columns);
@@ -249,6 +256,9 @@ fn demo(o: &DemoOptions, device: &DeviceArgs) -> Result<()> {
                 "hair": format!("assets/style{}", i as usize % asset_dirs.len()),
                 "transform": { "translation": [x, 0.0, z], "rotation_y_degrees": turn },
                 "color": colors[i as usize % colors.len()],
+                // The scalp itself, drawn under the hair: it hides the hair behind the head and
+                // casts and receives shadows.
+                "occluder": { "mesh": scalp_mesh },
             })
         })
         .collect();
@@ -258,7 +268,7 @@ fn demo(o: &DemoOptions, device: &DeviceArgs) -> Result<()> {
         "camera": { "eye": [0.0, 2.3, 0.7 + 0.3 * columns as f32], "target": [0.0, 1.5, -0.25 * rows as f32], "fov_y_degrees": 50 },
         "lights": [
             { "directional": { "direction": [0.4, 0.8, 0.5], "color": [1.0, 0.97, 0.92] } },
-            { "directional": { "direction": [-0.6, 0.3, -0.5], "color": [0.2, 0.25, 0.35] } }
+            { "directional": { "direction": [-0.6, 0.3, -0.5], "color": [0.2, 0.25, 0.35], "cast_shadows": false } }
         ],
         "characters": characters,
         "effects": { "transparency": "oit", "shadows": true }
@@ -276,7 +286,7 @@ fn demo(o: &DemoOptions, device: &DeviceArgs) -> Result<()> {
         paths.retain(|p| *p == ctx.path());
     }
     println!(
-        "\n== crowd: {} characters, {width}x{height}, OIT + deep-opacity shadows ({})",
+        "\n== crowd: {} characters, {width}x{height}, scalp occluders, OIT + deep-opacity shadows ({})",
         o.characters,
         scene_path.display()
     );

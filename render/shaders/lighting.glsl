@@ -1,0 +1,58 @@
+// The scene's lights and their shadow maps, shared by the hair and the occluder shading. All in
+// world space. A shadow-casting light has a deep opacity map (Yuksel & Keyser 2008): the nearest
+// hair depth per texel and the opacity accumulated up to the end of each of three layers behind
+// it; and the nearest occluder depth per texel, which shadows whatever lies behind it.
+
+struct SceneLight {
+    vec4 vector;      // xyz: direction toward the light (w = 0) or its position (w = 1)
+    vec4 color;       // rgb radiance
+    mat4 view_proj;   // world -> light clip space (orthographic)
+    vec4 layer_ends;  // xyz: ends of the 3 opacity layers (light depth units)
+    vec4 map;         // x: map size (0 = casts no shadow), y: first texel of its maps, z: occluder depth bias
+};
+
+layout(std430, set = 0, binding = 15) readonly buffer ShadowDepth { float shadow_depth[]; };
+layout(std430, set = 0, binding = 16) readonly buffer ShadowOpacity { vec4 shadow_opacity[]; };
+layout(std430, set = 0, binding = 17) readonly buffer Lights { SceneLight lights[]; };
+layout(std430, set = 0, binding = 18) readonly buffer OccluderDepth { float occluder_depth[]; };
+
+// Direction toward light `i` from the world point p.
+vec3 light_direction(uint i, vec3 p) {
+    vec4 lv = lights[i].vector;
+    return lv.w > 0.5 ? normalize(lv.xyz - p) : normalize(lv.xyz);
+}
+
+// Fraction of light `i` reaching the world point p through the hair and occluders in front of it.
+float light_transmittance(uint i, vec3 p) {
+    float size = lights[i].map.x;
+    if (size < 0.5) {
+        return 1.0;
+    }
+    vec4 clip = lights[i].view_proj * vec4(p, 1.0);
+    vec3 ndc = clip.xyz / clip.w;
+    vec2 uv = ndc.xy * 0.5 + 0.5;
+    if (any(lessThan(uv, vec2(0.0))) || any(greaterThanEqual(uv, vec2(1.0)))) {
+        return 1.0;
+    }
+    uvec2 texel = uvec2(uv * size);
+    uint index = uint(lights[i].map.y) + texel.y * uint(size) + texel.x;
+    if (ndc.z - occluder_depth[index] > lights[i].map.z) {
+        return 0.0;
+    }
+    float d = ndc.z - shadow_depth[index];
+    vec3 ends = lights[i].layer_ends.xyz;
+    vec4 o = shadow_opacity[index];
+    float opacity;
+    if (d <= 0.0) {
+        opacity = 0.0;
+    } else if (d < ends.x) {
+        opacity = o.x * d / ends.x;
+    } else if (d < ends.y) {
+        opacity = mix(o.x, o.y, (d - ends.x) / (ends.y - ends.x));
+    } else if (d < ends.z) {
+        opacity = mix(o.y, o.z, (d - ends.y) / (ends.z - ends.y));
+    } else {
+        opacity = o.z;
+    }
+    return exp(-1.5 * opacity);
+}

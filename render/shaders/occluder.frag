@@ -1,0 +1,36 @@
+#version 460
+// Occluder shading: Lambert with every scene light, shadowed by the hair's deep opacity maps and
+// by other occluders; both sides of the surface are lit (scalp meshes are often open).
+#extension GL_GOOGLE_include_directive : require
+
+layout(push_constant) uniform Occluder {
+    mat4 model;
+    mat4 view_proj;
+    vec4 eye;
+    vec4 color;
+} occluder;
+
+#include "lighting.glsl"
+
+layout(location = 0) in vec3 v_position;
+layout(location = 1) in vec3 v_normal;
+layout(location = 0) out vec4 out_color;
+
+void main() {
+    vec3 n = normalize(v_normal);
+    vec3 v = normalize(occluder.eye.xyz - v_position);
+    if (dot(n, v) < 0.0) {
+        n = -n;
+    }
+    vec3 albedo = occluder.color.rgb;
+    vec3 color = albedo * occluder.color.w;
+    uint light_count = uint(occluder.eye.w);
+    for (uint i = 0u; i < light_count; ++i) {
+        vec3 l = light_direction(i, v_position);
+        float lambert = max(dot(n, l), 0.0);
+        if (lambert > 0.0) {
+            color += albedo * lights[i].color.rgb * lambert * light_transmittance(i, v_position);
+        }
+    }
+    out_color = vec4(color, 1.0);
+}
