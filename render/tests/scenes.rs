@@ -275,6 +275,67 @@ fn main() -> ExitCode {
                 check_golden("one_character_oit_shadows", &first.image)
             },
         ),
+        GpuTest::new(
+            "lee_perry_smith_scalp_with_its_head_matches_its_golden_image",
+            Requirements::NONE,
+            |ctx| {
+                // A scalp nobody here modelled: the top of the LeePerrySmith head (read from
+                // ../shared/testdata at run time), converted into a hair asset in a temporary
+                // folder and drawn over the whole head as its occluder, OIT and shadows.
+                use hairmesh::asset::{AssetParams, HairAsset, StrandCount};
+                use hairmesh::hair_mesh::{ExtrudeParams, HairMesh};
+                let dir = tempfile::tempdir()?;
+                let head = repo("../shared/testdata/heads/LeePerrySmith/LeePerrySmith.glb");
+                let scalp =
+                    hairmesh::import::load_scalp(&head, &hairmesh::ScalpSelector::parse("above:0,1,0,1.5")?)
+                        .with_context(|| format!("{} (clone the project beside shared/)", head.display()))?;
+                let hair_mesh = HairMesh::extrude(
+                    &scalp,
+                    &ExtrudeParams { layers: 4, length: 1.6, droop: 0.5, ..ExtrudeParams::default() },
+                )?;
+                let style = hairmesh::style::Style {
+                    width: 0.012,
+                    wave: hairmesh::style::Wave { amplitude: 0.08, frequency: 1.5 },
+                    clump: hairmesh::style::Clump { strength: 0.4, exponent: 1.5 },
+                    length_variation: 0.2,
+                    ..hairmesh::style::Style::default()
+                };
+                let asset = HairAsset::build(
+                    &hair_mesh,
+                    &AssetParams { strands: StrandCount::Total(6000), sample_sets: 2, seed: 3 },
+                    style,
+                )?;
+                let asset_dir = dir.path().join("lee_perry_smith");
+                hairmesh::asset_io::write_asset(
+                    &asset_dir,
+                    &asset,
+                    hairmesh::asset_io::Precision::F16,
+                    "file units",
+                    None,
+                )?;
+                let whole = hairmesh::import::load_scalp(&head, &hairmesh::ScalpSelector::All)?;
+                let (lo, hi) = whole.bounds().context("bounds")?;
+                let (lo, hi) = (lo.as_vec3(), hi.as_vec3());
+                let centre = 0.5 * (lo + hi);
+                let radius = 0.5 * (hi - lo).length();
+                let scene = serde_json::json!({
+                    "output": { "width": 256, "height": 256 },
+                    "camera": { "eye": (centre + glam::Vec3::new(0.5, 0.6, 1.6) * radius).to_array(), "target": centre.to_array() },
+                    "lights": [ { "directional": { "direction": [0.4, 0.9, 0.7] } } ],
+                    "characters": [ {
+                        "hair": asset_dir, "color": [0.04, 0.015, 0.006],
+                        "occluder": { "mesh": head, "color": [0.35, 0.22, 0.17] }
+                    } ],
+                    "effects": { "transparency": "oit", "shadows": true, "shadow_map_size": 256 }
+                });
+                let path = dir.path().join("lee_perry_smith.json");
+                std::fs::write(&path, serde_json::to_vec_pretty(&scene)?)?;
+                let renderer = SceneRenderer::new(ctx, &load_scene(&path)?, GenerationPath::Compute)?;
+                let frame = renderer.render(ctx)?;
+                ensure!(frame.stats.strands > 3000, "{:?}", frame.stats);
+                check_golden("lee_perry_smith_oit_shadows", &frame.image)
+            },
+        ),
         GpuTest::new("the_frame_runs_exactly_the_passes_of_its_graph", Requirements::NONE, |ctx| {
             let dir = tempfile::tempdir()?;
             let scene = load_scene(&small_scene(dir.path(), "small_crowd", 64, 48)?)?;

@@ -416,6 +416,8 @@ fn effects_table(ctx: &Context, quick: bool, width: u32, height: u32, frames: us
     )?;
     let groom = Path::new(env!("CARGO_MANIFEST_DIR"))
         .join("../../shared/testdata/strands/tressfx/v4/sintel_hair_full_16points.tfx");
+    let bust =
+        Path::new(env!("CARGO_MANIFEST_DIR")).join("../../shared/testdata/heads/sintel/sintel_bust.obj");
     let mut scenes = vec![
         (
             format!("{strands}-strand character, opaque"),
@@ -429,9 +431,9 @@ fn effects_table(ctx: &Context, quick: bool, width: u32, height: u32, frames: us
             false,
         ),
     ];
-    if groom.is_file() {
+    if groom.is_file() && bust.is_file() {
         scenes.push((
-            "Sintel full groom (11,400 × 16, TressFX), OIT + shadows".to_owned(),
+            "Sintel full groom (11,400 × 16, TressFX) on the bust, OIT + shadows".to_owned(),
             serde_json::json!({ "transparency": "oit", "shadows": true }),
             true,
         ));
@@ -452,7 +454,11 @@ fn effects_table(ctx: &Context, quick: bool, width: u32, height: u32, frames: us
         let (camera, character) = if sintel {
             (
                 serde_json::json!({ "eye": [0.15, 1.62, 0.5], "target": [0.0, 1.52, 0.0], "fov_y_degrees": 40 }),
-                serde_json::json!({ "hair": groom, "color": [0.171, 0.0397, 0.00719], "strand_width": 0.0004 }),
+                // On the Sintel bust (centimetres, 1.195 m below the groom's frame).
+                serde_json::json!({
+                    "hair": groom, "color": [0.171, 0.0397, 0.00719], "strand_width": 0.0004,
+                    "occluder": { "mesh": bust, "transform": { "scale": 0.01, "translation": [0, 1.195, 0] } }
+                }),
             )
         } else {
             (
