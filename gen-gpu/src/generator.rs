@@ -356,6 +356,11 @@ impl Generator {
         (estimate + u64::from(hair.bundle_count)).min(hair.total_strands).max(1)
     }
 
+    /// Bytes of the strand buffers [`Self::prepare`] allocates for `inputs` (before allocating).
+    pub fn frame_bytes(hair: &GpuHair, inputs: &FrameInputs) -> u64 {
+        Self::capacity(hair, inputs) * (SLOT_BYTES + 16)
+    }
+
     /// Allocates the frame buffers for `inputs` and writes the frame parameters.
     pub fn prepare(&self, ctx: &Context, hair: &GpuHair, inputs: &FrameInputs) -> Result<FrameBuffers> {
         let capacity = Self::capacity(hair, inputs);

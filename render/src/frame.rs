@@ -97,6 +97,9 @@ struct GpuLight {
 const OIT_FILL_BINDINGS: [u32; 7] = [12, 13, 14, 15, 16, 17, 18];
 const OIT_BINDINGS: [u32; 3] = [12, 13, 14];
 const OIT_NODE_BYTES: u64 = 16;
+/// Strand-buffer bytes one submission of a frame may hold (characters beyond it go to the next
+/// batch): a 100-character crowd with LOD off needs gigabytes otherwise.
+pub const BATCH_BYTES: u64 = 1 << 30;
 
 /// Order-independent transparency: the fill generator (hair_oit.frag) and the resolve pass.
 struct Oit {
@@ -140,6 +143,8 @@ pub struct SceneRenderer {
     stored_characters: Vec<SceneCharacter>,
     scene: LoadedScene,
     path: GenerationPath,
+    /// See [`BATCH_BYTES`].
+    batch_bytes: u64,
 }
 
 impl fmt::Debug for SceneRenderer {
@@ -329,6 +334,7 @@ impl SceneRenderer {
             stored_characters,
             scene: scene.clone(),
             path,
+            batch_bytes: BATCH_BYTES,
         })
     }
 
@@ -354,6 +360,13 @@ impl SceneRenderer {
                 ..LodParams::default()
             },
         }
+    }
+
+    /// Caps the strand-buffer bytes of one submission (default [`BATCH_BYTES`]); at least one
+    /// character goes into each batch.
+    pub fn with_batch_bytes(mut self, bytes: u64) -> Self {
+        self.batch_bytes = bytes;
+        self
     }
 
     /// The passes this scene's frame runs (built from its effects).
@@ -576,12 +589,13 @@ impl SceneRenderer {
         &self,
         rec: &mut gen_gpu::Recorder<'_>,
         generator: &Generator,
-        frames: &[gen_gpu::FrameBuffers],
+        batch: &[(usize, gen_gpu::FrameBuffers)],
         stored_params: &[Buffer],
         extra: &[(u32, &Buffer)],
         eye: Vec3,
     ) -> gen_gpu::Result<()> {
-        for (c, frame) in self.characters.iter().zip(frames) {
+        for (i, frame) in batch {
+            let c = &self.characters[*i];
             let shading = self.shading(c, eye);
             let extras = DrawExtras { fragment_constants: bytemuck::bytes_of(&shading), buffers: extra };
             generator.record_draw_with(rec, &self.hairs[c.hair], frame, self.path, false, extras)?;
@@ -653,16 +667,25 @@ impl SceneRenderer {
         };
         let characters: Vec<Character> =
             self.characters.iter().map(|c| Character { hair: c.hair, transform: c.transform }).collect();
-        let frames = characters
+        let inputs: Vec<gen_gpu::FrameInputs> = characters
             .iter()
-            .map(|c| {
-                self.generator.prepare(
-                    ctx,
-                    &self.hairs[c.hair],
-                    &character_inputs(&view.camera, c, view.width, view.height, view.lod),
-                )
-            })
-            .collect::<gen_gpu::Result<Vec<_>>>()?;
+            .map(|c| character_inputs(&view.camera, c, view.width, view.height, view.lod))
+            .collect();
+        // Characters are generated and drawn in batches whose strand buffers fit
+        // `BATCH_BYTES`, so a crowd never holds every character's strands at once.
+        let mut batches: Vec<Vec<usize>> = vec![Vec::new()];
+        let mut batch_bytes = 0;
+        for (i, (c, inputs)) in characters.iter().zip(&inputs).enumerate() {
+            let bytes = Generator::frame_bytes(&self.hairs[c.hair], inputs);
+            if batch_bytes + bytes > self.batch_bytes && batches.last().is_some_and(|b| !b.is_empty()) {
+                batches.push(Vec::new());
+                batch_bytes = 0;
+            }
+            batch_bytes += bytes;
+            if let Some(b) = batches.last_mut() {
+                b.push(i);
+            }
+        }
         let stored_params = self
             .stored_characters
             .iter()
@@ -693,111 +716,138 @@ impl SceneRenderer {
         };
         let view_proj = crate::crowd::view_proj(&view.camera, view.width, view.height);
         let background = self.scene.scene.output.background;
-        let ((), timings) = ctx.submit("scene frame", |rec| {
-            for (i, (c, frame)) in characters.iter().zip(&frames).enumerate() {
-                let hair = &self.hairs[c.hair];
-                rec.pass(&format!("lod+cull character {i}"), |rec| {
-                    self.generator.record_lod(rec, hair, frame);
-                });
-                recorded.push(format!("lod+cull character {i}"));
-                if self.path == GenerationPath::Compute {
-                    rec.pass(&format!("generate character {i}"), |rec| {
-                        self.generator.record_generate(rec, hair, frame);
-                    });
-                    recorded.push(format!("generate character {i}"));
-                }
-            }
-            if let Some((heads, _, counters, pool)) = &oit_buffers {
-                rec.pass("clear OIT lists", |rec| {
-                    rec.fill_buffer(heads, u32::MAX);
-                    let init = [0u32, *pool as u32, 0, view.width];
-                    rec.update_buffer(counters, 0, bytemuck::cast_slice(&init));
-                });
-                recorded.push("clear OIT lists".to_owned());
-                rec.memory_barrier(
-                    (
-                        vk::PipelineStageFlags2::CLEAR | vk::PipelineStageFlags2::COPY,
-                        vk::AccessFlags2::TRANSFER_WRITE,
-                    ),
-                    (
-                        vk::PipelineStageFlags2::FRAGMENT_SHADER,
-                        vk::AccessFlags2::SHADER_STORAGE_READ | vk::AccessFlags2::SHADER_STORAGE_WRITE,
-                    ),
-                );
-            }
-            target.begin(rec, background);
-            if let Some(pipes) = &self.occluder_pipes {
-                rec.pass("occluders", |rec| {
-                    let light_count = self.scene.lights().len();
-                    for o in &self.occluders {
-                        let push =
-                            occluder_push(o.transform, view_proj, view.camera.eye, light_count, o.color);
-                        self.meshes[o.mesh].record_draw(rec, &pipes.shade, &push, &lighting);
-                    }
-                });
-                recorded.push("occluders".to_owned());
-            }
-            let drawn = match (&self.oit, &oit_buffers) {
-                (Some(oit), Some((heads, nodes, counters, _))) => {
-                    let fill = format!("raster hair ({}, OIT fill)", self.path);
-                    let extra = [
-                        (12, heads),
-                        (13, nodes),
-                        (14, counters),
-                        lighting[0],
-                        lighting[1],
-                        lighting[2],
-                        lighting[3],
-                    ];
-                    let drawn = rec.pass(&fill, |rec| {
-                        self.draw_characters(rec, &oit.fill, &frames, &stored_params, &extra, view.camera.eye)
-                    });
-                    recorded.push(fill);
-                    rec.end_rendering();
-                    rec.memory_barrier(
-                        (vk::PipelineStageFlags2::FRAGMENT_SHADER, vk::AccessFlags2::SHADER_STORAGE_WRITE),
-                        (vk::PipelineStageFlags2::FRAGMENT_SHADER, vk::AccessFlags2::SHADER_STORAGE_READ),
-                    );
-                    rec.pass("OIT resolve", |rec| {
-                        target.begin_load(rec);
-                        rec.bind_pipeline(&oit.resolve);
-                        rec.push_storage_buffers(&oit.resolve, &extra[..3]);
-                        rec.push_constants(&oit.resolve, &oit.k);
-                        rec.draw(3, 1);
-                        rec.end_rendering();
-                    });
-                    recorded.push("OIT resolve".to_owned());
-                    drawn
-                }
-                _ => {
-                    let raster = format!("raster hair ({}, opaque)", self.path);
-                    let drawn = rec.pass(&raster, |rec| {
-                        self.draw_characters(
-                            rec,
-                            &self.generator,
-                            &frames,
-                            &stored_params,
-                            &lighting,
-                            view.camera.eye,
-                        )
-                    });
-                    recorded.push(raster);
-                    rec.end_rendering();
-                    drawn
-                }
-            };
-            rec.pass("copy out", |rec| target.copy_out(rec));
-            recorded.push("copy out".into());
-            drawn
-        })?;
-        if !shadow_cached {
-            debug_assert_eq!(recorded, graph.passes.iter().map(|p| p.name.clone()).collect::<Vec<_>>());
-        }
+        let mut timings = FrameTimings::default();
         let mut stats = GenerationStats::default();
         stats.strands += self.stored_characters.iter().map(|c| self.stored[c.hair].strands).sum::<u64>();
-        for (c, frame) in characters.iter().zip(&frames) {
-            let s = self.generator.stats(ctx, &self.hairs[c.hair], frame)?;
-            stats += s;
+        let batch_count = batches.len();
+        for (k, batch) in batches.iter().enumerate() {
+            let (first, last) = (k == 0, k + 1 == batch_count);
+            let frames = batch
+                .iter()
+                .map(|&i| Ok((i, self.generator.prepare(ctx, &self.hairs[characters[i].hair], &inputs[i])?)))
+                .collect::<gen_gpu::Result<Vec<_>>>()?;
+            let no_stored: &[Buffer] = &[];
+            // Explicit strands are drawn with the last batch.
+            let stored = if last { &stored_params[..] } else { no_stored };
+            let ((), batch_timings) = ctx.submit("scene frame", |rec| {
+                for (i, frame) in &frames {
+                    let hair = &self.hairs[characters[*i].hair];
+                    rec.pass(&format!("lod+cull character {i}"), |rec| {
+                        self.generator.record_lod(rec, hair, frame);
+                    });
+                    recorded.push(format!("lod+cull character {i}"));
+                    if self.path == GenerationPath::Compute {
+                        rec.pass(&format!("generate character {i}"), |rec| {
+                            self.generator.record_generate(rec, hair, frame);
+                        });
+                        recorded.push(format!("generate character {i}"));
+                    }
+                }
+                if let (true, Some((heads, _, counters, pool))) = (first, &oit_buffers) {
+                    rec.pass("clear OIT lists", |rec| {
+                        rec.fill_buffer(heads, u32::MAX);
+                        let init = [0u32, *pool as u32, 0, view.width];
+                        rec.update_buffer(counters, 0, bytemuck::cast_slice(&init));
+                    });
+                    recorded.push("clear OIT lists".to_owned());
+                    rec.memory_barrier(
+                        (
+                            vk::PipelineStageFlags2::CLEAR | vk::PipelineStageFlags2::COPY,
+                            vk::AccessFlags2::TRANSFER_WRITE,
+                        ),
+                        (
+                            vk::PipelineStageFlags2::FRAGMENT_SHADER,
+                            vk::AccessFlags2::SHADER_STORAGE_READ | vk::AccessFlags2::SHADER_STORAGE_WRITE,
+                        ),
+                    );
+                }
+                if first {
+                    target.begin(rec, background);
+                } else {
+                    target.begin_load(rec);
+                }
+                if let (true, Some(pipes)) = (first, &self.occluder_pipes) {
+                    rec.pass("occluders", |rec| {
+                        let light_count = self.scene.lights().len();
+                        for o in &self.occluders {
+                            let push =
+                                occluder_push(o.transform, view_proj, view.camera.eye, light_count, o.color);
+                            self.meshes[o.mesh].record_draw(rec, &pipes.shade, &push, &lighting);
+                        }
+                    });
+                    recorded.push("occluders".to_owned());
+                }
+                let drawn = match (&self.oit, &oit_buffers) {
+                    (Some(oit), Some((heads, nodes, counters, _))) => {
+                        let fill = format!("raster hair ({}, OIT fill)", self.path);
+                        let extra = [
+                            (12, heads),
+                            (13, nodes),
+                            (14, counters),
+                            lighting[0],
+                            lighting[1],
+                            lighting[2],
+                            lighting[3],
+                        ];
+                        let drawn = rec.pass(&fill, |rec| {
+                            self.draw_characters(rec, &oit.fill, &frames, stored, &extra, view.camera.eye)
+                        });
+                        recorded.push(fill);
+                        rec.end_rendering();
+                        if last {
+                            rec.memory_barrier(
+                                (
+                                    vk::PipelineStageFlags2::FRAGMENT_SHADER,
+                                    vk::AccessFlags2::SHADER_STORAGE_WRITE,
+                                ),
+                                (
+                                    vk::PipelineStageFlags2::FRAGMENT_SHADER,
+                                    vk::AccessFlags2::SHADER_STORAGE_READ,
+                                ),
+                            );
+                            rec.pass("OIT resolve", |rec| {
+                                target.begin_load(rec);
+                                rec.bind_pipeline(&oit.resolve);
+                                rec.push_storage_buffers(&oit.resolve, &extra[..3]);
+                                rec.push_constants(&oit.resolve, &oit.k);
+                                rec.draw(3, 1);
+                                rec.end_rendering();
+                            });
+                            recorded.push("OIT resolve".to_owned());
+                        }
+                        drawn
+                    }
+                    _ => {
+                        let raster = format!("raster hair ({}, opaque)", self.path);
+                        let drawn = rec.pass(&raster, |rec| {
+                            self.draw_characters(
+                                rec,
+                                &self.generator,
+                                &frames,
+                                stored,
+                                &lighting,
+                                view.camera.eye,
+                            )
+                        });
+                        recorded.push(raster);
+                        rec.end_rendering();
+                        drawn
+                    }
+                };
+                if last {
+                    rec.pass("copy out", |rec| target.copy_out(rec));
+                    recorded.push("copy out".into());
+                }
+                drawn
+            })?;
+            timings.passes.extend(batch_timings.passes);
+            timings.cpu_wait_ms += batch_timings.cpu_wait_ms;
+            for (i, frame) in &frames {
+                stats += self.generator.stats(ctx, &self.hairs[characters[*i].hair], frame)?;
+            }
+        }
+        if !shadow_cached && batch_count == 1 {
+            debug_assert_eq!(recorded, graph.passes.iter().map(|p| p.name.clone()).collect::<Vec<_>>());
         }
         let (oit_overflow, oit_pool) = match &oit_buffers {
             Some((_, _, counters, pool)) => {

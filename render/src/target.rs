@@ -169,14 +169,14 @@ impl SceneTarget {
         });
     }
 
-    /// Begins rendering again over what is there (single-sample targets: the OIT resolve).
+    /// Begins rendering again over what is there (the OIT resolve, later batches of a crowd).
     pub fn begin_load(&self, rec: &Recorder<'_>) {
         rec.begin_rendering_to(&Attachments {
             color: &self.color,
-            color_resolve: None,
+            color_resolve: self.resolve.as_ref().map(|r| &r.0),
             clear: None,
             depth: Some(&self.depth),
-            depth_resolve: None,
+            depth_resolve: self.resolve.as_ref().map(|r| &r.1),
             clear_depth: false,
         });
     }

@@ -336,6 +336,31 @@ fn main() -> ExitCode {
                 check_golden("lee_perry_smith_oit_shadows", &frame.image)
             },
         ),
+        GpuTest::new("a_crowd_renders_in_batches_the_same_image", Requirements::NONE, |ctx| {
+            // One character per submission (a tiny batch budget) against all in one.
+            let dir = tempfile::tempdir()?;
+            for effects in [
+                serde_json::json!({ "transparency": "opaque", "msaa": 4 }),
+                serde_json::json!({ "transparency": "oit" }),
+            ] {
+                let scene = load_scene(&scene_with(dir.path(), "small_crowd", 128, 72, effects)?)?;
+                let whole = SceneRenderer::new(ctx, &scene, GenerationPath::Compute)?.render(ctx)?;
+                let batched = SceneRenderer::new(ctx, &scene, GenerationPath::Compute)?
+                    .with_batch_bytes(1)
+                    .render(ctx)?;
+                let rasters = batched.passes.iter().filter(|p| p.starts_with("raster hair")).count();
+                ensure!(rasters == 5, "one raster pass per character: {:?}", batched.passes);
+                ensure!(whole.stats == batched.stats, "{:?} vs {:?}", whole.stats, batched.stats);
+                compare(
+                    "batched",
+                    &batched.image,
+                    &whole.image,
+                    Tolerance { mean: 0.002, percentile: (0.99, 0.05) },
+                )
+                .map_err(anyhow::Error::msg)?;
+            }
+            Ok(())
+        }),
         GpuTest::new("the_frame_runs_exactly_the_passes_of_its_graph", Requirements::NONE, |ctx| {
             let dir = tempfile::tempdir()?;
             let scene = load_scene(&small_scene(dir.path(), "small_crowd", 64, 48)?)?;
