@@ -17,6 +17,7 @@ pub mod roots;
 pub mod scalp;
 pub mod strands;
 pub mod style;
+pub mod teapot;
 pub mod texture;
 
 pub use error::{HairMeshError, Result};

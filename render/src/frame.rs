@@ -339,17 +339,14 @@ impl SceneRenderer {
     }
 
     fn view(&self) -> CrowdView {
-        self.view_from(Vec3::from_array(self.scene.scene.camera.eye))
+        let c = &self.scene.scene.camera;
+        self.view_from(Vec3::from_array(c.eye), Vec3::from_array(c.target))
     }
 
-    fn view_from(&self, eye: Vec3) -> CrowdView {
+    fn view_from(&self, eye: Vec3, target: Vec3) -> CrowdView {
         let s = &self.scene.scene;
         CrowdView {
-            camera: Camera {
-                eye,
-                target: Vec3::from_array(s.camera.target),
-                fov_y: s.camera.fov_y_degrees.to_radians(),
-            },
+            camera: Camera { eye, target, fov_y: s.camera.fov_y_degrees.to_radians() },
             width: s.output.width,
             height: s.output.height,
             path: self.path,
@@ -628,7 +625,18 @@ impl SceneRenderer {
     /// Renders one frame with the camera at `eye` (looking at the scene's target). Shadow maps
     /// do not depend on the camera and stay cached.
     pub fn render_from(&self, ctx: &Context, eye: Vec3) -> Result<RenderedFrame, RenderError> {
-        let view = self.view_from(eye);
+        self.render_camera(ctx, eye, Vec3::from_array(self.scene.scene.camera.target))
+    }
+
+    /// Renders one frame from a camera at `eye` looking at `target` (e.g. a point of the
+    /// scene's camera path, [`LoadedScene::camera_at`]).
+    pub fn render_camera(
+        &self,
+        ctx: &Context,
+        eye: Vec3,
+        target: Vec3,
+    ) -> Result<RenderedFrame, RenderError> {
+        let view = self.view_from(eye, target);
         let graph = self.graph();
         let mut recorded = Vec::new();
         // Shadow maps: computed on the first frame, then reused (static characters and lights).

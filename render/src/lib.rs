@@ -6,9 +6,11 @@
 //! and `hair-bench` commands.
 
 pub mod crowd;
+pub mod crowd_scenes;
 pub mod frame;
 pub mod occluder;
 pub mod output;
+pub mod plots;
 pub mod scene;
 pub mod shadow;
 pub mod target;

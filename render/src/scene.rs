@@ -248,12 +248,24 @@ impl Default for LodDesc {
     }
 }
 
+/// One key of a camera path.
+#[derive(Clone, Copy, Debug, Deserialize, Serialize, PartialEq)]
+#[serde(deny_unknown_fields)]
+pub struct CameraKey {
+    pub eye: [f32; 3],
+    pub target: [f32; 3],
+}
+
 /// A scene as written in its file.
 #[derive(Clone, Debug, Deserialize, Serialize, PartialEq)]
 #[serde(deny_unknown_fields)]
 pub struct Scene {
     pub output: Output,
     pub camera: CameraDesc,
+    /// Keys a camera moves through (Catmull-Rom), for `hair-render --frames N` and the crowd
+    /// benchmarks; the `camera` field's field of view applies.
+    #[serde(default)]
+    pub camera_path: Vec<CameraKey>,
     #[serde(default)]
     pub lights: Vec<Light>,
     pub characters: Vec<CharacterDesc>,
@@ -279,6 +291,30 @@ impl LoadedScene {
     /// A path of the scene file, resolved against its folder.
     pub fn resolve(&self, path: &Path) -> PathBuf {
         self.path.parent().unwrap_or(Path::new(".")).join(path)
+    }
+
+    /// The camera at `t` ∈ [0, 1] along the camera path (Catmull-Rom through the keys, uniform
+    /// in key index); the scene's camera without a path.
+    pub fn camera_at(&self, t: f32) -> (Vec3, Vec3) {
+        let keys = &self.scene.camera_path;
+        let c = &self.scene.camera;
+        if keys.len() < 2 {
+            return (Vec3::from_array(c.eye), Vec3::from_array(c.target));
+        }
+        let segments = (keys.len() - 1) as f32;
+        let x = t.clamp(0.0, 1.0) * segments;
+        let i = (x.floor() as usize).min(keys.len() - 2);
+        let f = x - i as f32;
+        let key = |k: isize| keys[k.clamp(0, keys.len() as isize - 1) as usize];
+        let spline = |get: fn(&CameraKey) -> [f32; 3]| {
+            let [p0, p1, p2, p3] = [-1, 0, 1, 2].map(|o| Vec3::from_array(get(&key(i as isize + o))));
+            // Uniform Catmull-Rom: passes through every key.
+            0.5 * ((2.0 * p1)
+                + (p2 - p0) * f
+                + (2.0 * p0 - 5.0 * p1 + 4.0 * p2 - p3) * f * f
+                + (3.0 * p1 - p0 - 3.0 * p2 + p3) * f * f * f)
+        };
+        (spline(|k| k.eye), spline(|k| k.target))
     }
 
     /// The lights shading uses (the default one when the scene lists none).
@@ -365,6 +401,19 @@ fn validate(loaded: &LoadedScene) -> Result<(), SceneError> {
     }
     if Vec3::from_array(s.camera.eye).distance(Vec3::from_array(s.camera.target)) <= 0.0 {
         return Err(invalid("camera", "eye and target are the same point".into()));
+    }
+    if s.camera_path.len() == 1 || s.camera_path.len() > 10_000 {
+        return Err(invalid(
+            "camera_path",
+            format!("{} keys (expected none, or 2..=10000)", s.camera_path.len()),
+        ));
+    }
+    for (i, k) in s.camera_path.iter().enumerate() {
+        finite(&format!("camera_path[{i}].eye"), &k.eye)?;
+        finite(&format!("camera_path[{i}].target"), &k.target)?;
+        if Vec3::from_array(k.eye).distance(Vec3::from_array(k.target)) <= 0.0 {
+            return Err(invalid(&format!("camera_path[{i}]"), "eye and target are the same point".into()));
+        }
     }
     if s.lights.len() > MAX_LIGHTS {
         return Err(invalid("lights", format!("{} lights (at most {MAX_LIGHTS})", s.lights.len())));

@@ -26,6 +26,39 @@ fn main() -> ExitCode {
             }
             Ok(())
         }),
+        GpuTest::new("crowd_scenes_are_written_reproducibly_and_render", Requirements::NONE, |ctx| {
+            let dir = tempfile::tempdir()?;
+            let write = |out: &std::path::Path| -> anyhow::Result<()> {
+                let out = out.to_str().ok_or_else(|| anyhow::anyhow!("non-UTF-8 temp dir"))?;
+                let args = ["crowd", "-o", out, "--characters", "4", "--strands", "400", "--teapots", "3"];
+                let (ok, _, stderr) =
+                    hairkit(&[&args[..], &["--teapot-strands", "300", "--size", "96x64"]].concat())?;
+                ensure!(ok, "hairkit crowd failed: {stderr}");
+                Ok(())
+            };
+            let (a, b) = (dir.path().join("a"), dir.path().join("b"));
+            write(&a)?;
+            write(&b)?;
+            for name in ["heads.json", "teapots.json"] {
+                let text = std::fs::read_to_string(a.join(name))?;
+                ensure!(text == std::fs::read_to_string(b.join(name))?, "{name}: same seed, same scene");
+                let scene = render::scene::load_scene(&a.join(name))?;
+                ensure!(scene.scene.camera_path.len() >= 2, "{name} has a camera path");
+                let expected = if name == "heads.json" { 4 } else { 3 };
+                ensure!(scene.scene.characters.len() == expected, "{name}");
+                ensure!(scene.scene.characters.iter().all(|c| c.occluder.is_some()), "{name}: occluders");
+                // Halfway along the camera path.
+                let (eye, target) = scene.camera_at(0.5);
+                let renderer = render::frame::SceneRenderer::new(ctx, &scene, ctx.path())?;
+                let frame = renderer.render_camera(ctx, eye, target)?;
+                let drawn = frame.linear.rgba.chunks_exact(4).filter(|p| p[3] > 0.0).count();
+                ensure!(drawn > 200 && frame.stats.strands > 0, "{name}: {drawn} pixels drawn");
+            }
+            // Unique hair per character: the asset folders differ.
+            let hair = |i: u32| std::fs::read(a.join(format!("heads/hair_{i:03}/hair.json")));
+            ensure!(hair(0)? != hair(1)?, "characters have their own hair meshes");
+            Ok(())
+        }),
         GpuTest::new("demo_writes_images_and_timings", Requirements::NONE, |ctx| {
             let dir = tempfile::tempdir()?;
             let out = dir.path().to_str().ok_or_else(|| anyhow::anyhow!("non-UTF-8 temp dir"))?;
@@ -81,6 +114,7 @@ fn main() -> ExitCode {
                 ("bench-stored.csv", 0, 2),
                 ("bench-accuracy.csv", 1, 7),
                 ("bench-effects.csv", 1, 3),
+                ("bench-crowd.csv", 1, 4),
             ] {
                 let csv = std::fs::read_to_string(dir.path().join(file))?;
                 let rows: Vec<&str> = csv.lines().skip(1).collect();
@@ -92,8 +126,15 @@ fn main() -> ExitCode {
                     }
                 }
             }
-            for section in ["On-the-fly vs stored", "Accuracy vs time", "GPU memory", "Render passes"] {
+            for section in
+                ["On-the-fly vs stored", "Accuracy vs time", "GPU memory", "Render passes", "Crowds"]
+            {
                 ensure!(report.contains(section), "`{section}` missing");
+            }
+            for plot in ["plot-generation.png", "plot-accuracy.png", "plot-crowd.png"] {
+                let image = render::output::read_png(&dir.path().join(plot))?;
+                ensure!((image.width, image.height) == (900, 540), "{plot}");
+                ensure!(report.contains(&format!("]({plot})")), "the report shows {plot}");
             }
             // A second run replaces its own section and keeps the rest of the file.
             std::fs::write(dir.path().join("benchmarks.md"), format!("# Benchmarks\n\nkeep me\n\n{report}"))?;

@@ -11,7 +11,9 @@ use std::process::Command;
 use anyhow::{Context, Result, bail};
 
 /// Packages installed from the release's default suite.
-const BASE_PACKAGES: &[&str] = &["libvulkan1", "vulkan-validationlayers", "glslang-tools", "spirv-tools"];
+/// `fonts-dejavu-core`: the font of the benchmark plots.
+const BASE_PACKAGES: &[&str] =
+    &["libvulkan1", "vulkan-validationlayers", "glslang-tools", "spirv-tools", "fonts-dejavu-core"];
 /// The driver: lavapipe, with VK_EXT_mesh_shader from this Mesa major version on.
 const DRIVER_PACKAGE: &str = "mesa-vulkan-drivers";
 const MIN_MESA_MAJOR: u32 = 24;

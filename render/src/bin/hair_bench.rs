@@ -4,9 +4,10 @@
 //! ```text
 //! hair-bench [--quick] [--out DIR] [--device SEL]
 //! ```
-//! Today: generation + raster time of one character through each path, and the GPU memory of
-//! a hair asset against the same strands stored as vertices. Crowd, accuracy and stored-strand
-//! tables follow (issue: hair-bench).
+//! Tables: generation + raster per path, GPU memory of an asset vs the same strands stored,
+//! on-the-fly vs stored strands, accuracy vs time, crowds with LOD off and on (the scenes of
+//! `hairkit crowd`), render passes; CSV files beside the report and PNG plots
+//! (`plot-*.png`). A progress bar shows the stage on a terminal.
 
 use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
@@ -92,6 +93,11 @@ fn run(cli: &Cli) -> Result<()> {
         path: PathChoice::Auto,
     })?;
     let caps = ctx.capabilities().clone();
+    let progress = indicatif::ProgressBar::new(6).with_style(
+        indicatif::ProgressStyle::with_template("hair-bench [{bar:30}] {pos}/{len} {elapsed} {msg}")
+            .unwrap_or_else(|_| indicatif::ProgressStyle::default_bar())
+            .progress_chars("=> "),
+    );
     let (width, height) = if cli.quick { (640, 360) } else { (1280, 720) };
     let sizes: &[u64] = if cli.quick { &[2_000, 10_000] } else { &[10_000, 100_000] };
     let frames = if cli.quick { 2 } else { 3 };
@@ -123,7 +129,7 @@ fn run(cli: &Cli) -> Result<()> {
                 path,
                 lod: LodParams { enabled: false, ..LodParams::default() },
             };
-            eprintln!("{strands} strands, {path} path…");
+            progress.set_message(format!("generation: {strands} strands, {path} path"));
             render_crowd(&ctx, &generator, &hairs, &character, &view)?; // warm-up: pipeline compilation
             let mut generate = Vec::new();
             let mut raster = Vec::new();
@@ -145,6 +151,7 @@ fn run(cli: &Cli) -> Result<()> {
         }
     }
 
+    progress.inc(1);
     let mut md = String::new();
     let command = if cli.quick { "hair-bench --quick" } else { "hair-bench" };
     let _ = writeln!(md, "{BEGIN}\n## On-the-fly generation (`gen-gpu`)\n");
@@ -211,7 +218,9 @@ fn run(cli: &Cli) -> Result<()> {
         "| strands | on the fly (ms) | stored (ms) | time ratio (goal ≤ 1.05×) |\n|---|---|---|---|"
     );
     let mut stored_csv = String::from("strands,on_the_fly_ms,stored_ms,ratio\n");
+    let mut stored_points = Vec::new();
     for &strands in sizes {
+        progress.set_message(format!("on the fly vs stored: {strands} strands"));
         let hairs = [GpuHair::upload(&ctx, &asset(strands)?, TexturePrecision::Auto)?];
         let lod = LodParams { enabled: false, ..LodParams::default() };
         let view = CrowdView { camera, width, height, path: GenerationPath::Compute, lod };
@@ -231,12 +240,28 @@ fn run(cli: &Cli) -> Result<()> {
         let n = hairs[0].total_strands();
         let _ = writeln!(md, "| {n} | {live:.1} | {stored:.1} | {:.2}× |", live / stored);
         let _ = writeln!(stored_csv, "{n},{live:.3},{stored:.3},{:.4}", live / stored);
+        stored_points.push((n as f64, stored));
     }
+    progress.inc(1);
 
+    progress.set_message("accuracy vs time");
     let accuracy = accuracy_table(&ctx, cli.quick, width, height, frames)?;
     md.push_str(&accuracy.markdown);
+    progress.inc(1);
+    let (crowd, crowd_rows) = crowd_table(&ctx, cli.quick, &progress)?;
+    md.push_str(&crowd.markdown);
+    progress.inc(1);
+    progress.set_message("render passes");
     let effects = effects_table(&ctx, cli.quick, width, height, frames)?;
     md.push_str(&effects.markdown);
+    progress.inc(1);
+    progress.set_message("plots");
+    let plots = draw_plots(&cli.out, &rows, &stored_points, &accuracy.csv, &crowd_rows)?;
+    let _ = writeln!(md, "\n### Plots\n");
+    for (file, caption) in &plots {
+        let _ = writeln!(md, "![{caption}]({file})\n");
+    }
+    progress.finish_and_clear();
     let _ = writeln!(md, "{END}");
 
     std::fs::create_dir_all(&cli.out).with_context(|| format!("creating {}", cli.out.display()))?;
@@ -261,6 +286,7 @@ fn run(cli: &Cli) -> Result<()> {
     write(&cli.out.join("bench-stored.csv"), stored_csv.as_bytes())?;
     write(&cli.out.join("bench-accuracy.csv"), accuracy.csv.as_bytes())?;
     write(&cli.out.join("bench-effects.csv"), effects.csv.as_bytes())?;
+    write(&cli.out.join("bench-crowd.csv"), crowd.csv.as_bytes())?;
     println!("{}", md.replace(BEGIN, "").replace(END, "").trim());
     println!("\nwrote {} and the CSV files beside it", report.display());
     Ok(())
@@ -283,6 +309,193 @@ fn flip_mean(reference: &RgbaImage, test: &RgbaImage) -> f64 {
     let t = nv_flip::FlipImageRgb8::with_data(test.width, test.height, &rgb(test));
     let map = nv_flip::flip(r, t, nv_flip::DEFAULT_PIXELS_PER_DEGREE);
     f64::from(nv_flip::FlipPool::from_image(&map).mean())
+}
+
+/// Crowds with LOD off and on: the heads crowd and the teapot crowd of `hairkit crowd`, from
+/// the first key of their camera paths, compute path.
+fn crowd_table(
+    ctx: &Context,
+    quick: bool,
+    progress: &indicatif::ProgressBar,
+) -> Result<(Table, Vec<CrowdRow>)> {
+    let dir = std::env::temp_dir().join(format!("hair-bench-crowd-{}", std::process::id()));
+    let options = if quick {
+        render::crowd_scenes::CrowdOptions {
+            out: dir.clone(),
+            characters: 9,
+            strands: 3_000,
+            teapots: 12,
+            teapot_strands: 1_500,
+            size: (320, 180),
+            ..render::crowd_scenes::CrowdOptions::default()
+        }
+    } else {
+        render::crowd_scenes::CrowdOptions {
+            out: dir.clone(),
+            ..render::crowd_scenes::CrowdOptions::default()
+        }
+    };
+    progress.set_message("writing the crowd scenes");
+    let scenes = render::crowd_scenes::write_crowds(&options, |_, _, _| {})?;
+    let mut rows = Vec::new();
+    for (name, path, count, strands) in [
+        ("heads", &scenes.heads, options.characters, options.strands),
+        ("teapots", &scenes.teapots, options.teapots, options.teapot_strands),
+    ] {
+        let mut images = Vec::new();
+        for lod in [false, true] {
+            progress.set_message(format!("crowd: {count} {name}, LOD {}", if lod { "on" } else { "off" }));
+            let mut scene = render::scene::load_scene(path)?;
+            scene.scene.lod.enabled = lod;
+            let renderer = render::frame::SceneRenderer::new(ctx, &scene, GenerationPath::Compute)?;
+            // A warm-up frame (shader JIT, first-touch allocation) except for the full LOD-off
+            // crowd, whose minutes-long frame dwarfs that.
+            if lod || quick {
+                renderer.render(ctx)?;
+            }
+            let frame = renderer.render(ctx)?;
+            // Every submission of the frame (characters are drawn in batches).
+            let ms: f64 = frame
+                .timings
+                .passes
+                .iter()
+                .filter(|p| p.name == "scene frame")
+                .filter_map(|p| p.gpu_ms)
+                .sum();
+            rows.push(CrowdRow {
+                scene: format!("{count} {name} × {strands} strands"),
+                lod,
+                strands: frame.stats.strands,
+                segments: frame.stats.vertices.saturating_sub(frame.stats.strands),
+                frame_ms: ms,
+                flip: 0.0,
+            });
+            images.push(frame.image);
+        }
+        let n = rows.len();
+        rows[n - 1].flip = flip_mean(&images[0], &images[1]);
+    }
+    let _ = std::fs::remove_dir_all(&dir);
+    let mut md = String::new();
+    let (w, h) = options.size;
+    let _ = writeln!(md, "\n### Crowds: LOD off vs on\n");
+    let _ = writeln!(
+        md,
+        "Scenes written by `hairkit crowd` (seed {}), {w}×{h}, opaque with coverage AA, scalp occluders, compute path, from the first key of each camera path; one frame each (GPU timestamps of every batch). Image error: mean FLIP of the LOD render against the LOD-off render. Goal: ≥ 30× faster with LOD at mean FLIP ≤ 0.05.\n",
+        options.seed
+    );
+    let _ = writeln!(
+        md,
+        "| scene | LOD | strands drawn | segments drawn | frame (ms) | speed-up | FLIP vs LOD off |\n|---|---|---|---|---|---|---|"
+    );
+    let mut csv = String::from("scene,lod,strands,segments,frame_ms,flip\n");
+    for pair in rows.chunks(2) {
+        for r in pair {
+            let speedup = pair[0].frame_ms / r.frame_ms;
+            let _ = writeln!(
+                md,
+                "| {} | {} | {} | {} | {:.0} | {:.1}× | {} |",
+                r.scene,
+                if r.lod { "on" } else { "off" },
+                r.strands,
+                r.segments,
+                r.frame_ms,
+                speedup,
+                if r.lod { format!("{:.3}", r.flip) } else { "—".into() }
+            );
+            let _ = writeln!(
+                csv,
+                "{},{},{},{},{:.3},{:.4}",
+                r.scene.replace(',', ""),
+                u8::from(r.lod),
+                r.strands,
+                r.segments,
+                r.frame_ms,
+                r.flip
+            );
+        }
+    }
+    Ok((Table { markdown: md, csv }, rows))
+}
+
+/// The report's charts, as (file name, caption).
+fn draw_plots(
+    out: &Path,
+    rows: &[Row],
+    stored: &[(f64, f64)],
+    accuracy_csv: &str,
+    crowd: &[CrowdRow],
+) -> Result<Vec<(String, String)>> {
+    use render::plots::{Chart, Series, draw};
+    std::fs::create_dir_all(out).with_context(|| format!("creating {}", out.display()))?;
+    let mut files = Vec::new();
+    let mut series: Vec<Series> = [GenerationPath::Compute, GenerationPath::Mesh]
+        .into_iter()
+        .map(|path| Series {
+            name: format!("{path} path (generated every frame)"),
+            points: rows.iter().filter(|r| r.path == path).map(|r| (r.strands as f64, r.total_ms)).collect(),
+        })
+        .filter(|s| !s.points.is_empty())
+        .collect();
+    series.push(Series { name: "stored strands (compute path buffers)".into(), points: stored.to_vec() });
+    let chart = Chart {
+        title: "Frame time vs strands (one character, LOD off)",
+        x_label: "strands",
+        y_label: "GPU frame time (ms)",
+        log_x: true,
+        log_y: true,
+        lines: true,
+    };
+    draw(&out.join("plot-generation.png"), &chart, &series)?;
+    files.push(("plot-generation.png".to_owned(), chart.title.to_owned()));
+    // configuration, max_widths, mean_widths, max_percent, strands, flip, frame_ms, bytes
+    let accuracy: Vec<Series> = accuracy_csv
+        .lines()
+        .skip(1)
+        .filter_map(|line| {
+            let f: Vec<&str> = line.split(',').collect();
+            let (error, ms) = (f.get(1)?.parse::<f64>().ok()?, f.get(6)?.parse::<f64>().ok()?);
+            // Exact configurations have no error: plot them at the axis floor.
+            Some(Series { name: (*f.first()?).to_owned(), points: vec![(ms, error.max(1e-4))] })
+        })
+        .collect();
+    let chart = Chart {
+        title: "Accuracy vs time (error against the f64 CPU reference)",
+        x_label: "GPU frame time (ms)",
+        y_label: "max position error (strand widths)",
+        log_x: false,
+        log_y: true,
+        lines: false,
+    };
+    draw(&out.join("plot-accuracy.png"), &chart, &accuracy)?;
+    files.push(("plot-accuracy.png".to_owned(), chart.title.to_owned()));
+    let crowd_series: Vec<Series> = crowd
+        .chunks(2)
+        .map(|pair| Series {
+            name: format!("{} (LOD off → on)", pair[0].scene),
+            points: pair.iter().map(|r| (r.strands as f64, r.frame_ms)).collect(),
+        })
+        .collect();
+    let chart = Chart {
+        title: "Crowds: LOD off vs on",
+        x_label: "strands drawn",
+        y_label: "GPU frame time (ms)",
+        log_x: true,
+        log_y: true,
+        lines: true,
+    };
+    draw(&out.join("plot-crowd.png"), &chart, &crowd_series)?;
+    files.push(("plot-crowd.png".to_owned(), chart.title.to_owned()));
+    Ok(files)
+}
+
+struct CrowdRow {
+    scene: String,
+    lod: bool,
+    strands: u64,
+    segments: u64,
+    frame_ms: f64,
+    flip: f64,
 }
 
 /// Every accuracy switch side by side: error against the f64 CPU reference, image error against
@@ -339,7 +552,6 @@ fn accuracy_table(ctx: &Context, quick: bool, width: u32, height: u32, frames: u
     );
     let mut reference: Option<RgbaImage> = None;
     for (name, precision, options, lod) in configs {
-        eprintln!("accuracy: {name}…");
         let generator = Generator::with_options(ctx, options)?;
         let hair = GpuHair::upload(ctx, &asset, precision)?;
         let view = CrowdView { camera, width, height, path: GenerationPath::Compute, lod };
@@ -450,7 +662,6 @@ fn effects_table(ctx: &Context, quick: bool, width: u32, height: u32, frames: us
     );
     let mut csv = String::from("scene,strands,generate_ms,raster_ms,resolve_ms,shadow_ms,frame_ms\n");
     for (name, effects, sintel) in scenes {
-        eprintln!("render: {name}…");
         let (camera, character) = if sintel {
             (
                 serde_json::json!({ "eye": [0.15, 1.62, 0.5], "target": [0.0, 1.52, 0.0], "fov_y_degrees": 40 }),

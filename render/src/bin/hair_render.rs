@@ -48,8 +48,8 @@ struct Cli {
     /// Enable the Khronos validation layer (also HAIRKIT_VALIDATION=1).
     #[arg(long)]
     validation: bool,
-    /// Render N frames orbiting the camera once around its target; files are numbered
-    /// (`out.png` → `out-0000.png`, `out-0001.png`, …).
+    /// Render N frames along the scene's `camera_path`, or orbiting the camera once around its
+    /// target when it has none; files are numbered (`out.png` → `out-0000.png`, …).
     #[arg(long, default_value_t = 1, value_parser = clap::value_parser!(u32).range(1..=10000))]
     frames: u32,
 }
@@ -100,9 +100,13 @@ fn run(cli: &Cli) -> Result<()> {
     let (eye, target) = (glam::Vec3::from_array(camera.eye), glam::Vec3::from_array(camera.target));
     let mut last = None;
     for i in 0..cli.frames {
-        let angle = std::f32::consts::TAU * i as f32 / cli.frames as f32;
-        let orbit_eye = target + glam::Quat::from_rotation_y(angle) * (eye - target);
-        let frame = renderer.render_from(&ctx, orbit_eye)?;
+        let (frame_eye, frame_target) = if scene.scene.camera_path.is_empty() {
+            let angle = std::f32::consts::TAU * i as f32 / cli.frames as f32;
+            (target + glam::Quat::from_rotation_y(angle) * (eye - target), target)
+        } else {
+            scene.camera_at(i as f32 / (cli.frames - 1).max(1) as f32)
+        };
+        let frame = renderer.render_camera(&ctx, frame_eye, frame_target)?;
         let file = if cli.frames > 1 { numbered(out, i) } else { out.clone() };
         if exr {
             let channels = render::output::ExrChannels { coverage: cli.coverage, depth: cli.depth };

@@ -3,6 +3,8 @@
 //! ```text
 //! hairkit info [--all] [--device SEL] [--path auto|mesh|compute]
 //! hairkit demo [-o DIR] [--strands N] [--size WxH] [--device SEL] [--path auto|mesh|compute]
+//! hairkit crowd [-o DIR] [--characters N] [--strands N] [--teapots N] [--teapot-strands N]
+//!               [--size WxH] [--seed S]
 //! ```
 
 use std::path::PathBuf;
@@ -50,6 +52,35 @@ enum Command {
         #[command(flatten)]
         device: DeviceArgs,
     },
+    /// Write crowd scenes: characters with unique hair meshes (variations of the head cap)
+    /// and hairy Utah teapots, each with a camera path (`hair-render --frames N` follows it).
+    Crowd(CrowdArgs),
+}
+
+/// `hairkit crowd`.
+#[derive(Args, Debug)]
+struct CrowdArgs {
+    /// Output folder (asset folders, meshes, `heads.json`, `teapots.json`).
+    #[arg(short, long, default_value = "target/crowd")]
+    out: PathBuf,
+    /// Characters with unique hair meshes.
+    #[arg(long, default_value_t = 100, value_parser = clap::value_parser!(u32).range(1..=4096))]
+    characters: u32,
+    /// Strands per character.
+    #[arg(long, default_value_t = 100_000, value_parser = clap::value_parser!(u64).range(1..=10_000_000))]
+    strands: u64,
+    /// Hairy Utah teapots.
+    #[arg(long, default_value_t = 200, value_parser = clap::value_parser!(u32).range(1..=4096))]
+    teapots: u32,
+    /// Strands per teapot.
+    #[arg(long, default_value_t = 20_000, value_parser = clap::value_parser!(u64).range(1..=10_000_000))]
+    teapot_strands: u64,
+    /// Image size of the scenes, WIDTHxHEIGHT.
+    #[arg(long, default_value = "1280x720", value_parser = parse_size)]
+    size: (u32, u32),
+    /// Seed of every random choice (same seed, same crowd).
+    #[arg(long, default_value_t = 1)]
+    seed: u64,
 }
 
 #[derive(Args, Debug)]
@@ -99,8 +130,48 @@ fn main() -> std::process::ExitCode {
     }
 }
 
+fn crowd(args: &CrowdArgs) -> Result<()> {
+    let options = render::crowd_scenes::CrowdOptions {
+        out: args.out.clone(),
+        characters: args.characters,
+        strands: args.strands,
+        teapots: args.teapots,
+        teapot_strands: args.teapot_strands,
+        size: args.size,
+        seed: args.seed,
+        ..render::crowd_scenes::CrowdOptions::default()
+    };
+    let start = Instant::now();
+    let bar = indicatif::ProgressBar::new(0).with_style(
+        indicatif::ProgressStyle::with_template("{msg:>20} [{bar:40}] {pos}/{len} ({eta} left)")
+            .unwrap_or_else(|_| indicatif::ProgressStyle::default_bar())
+            .progress_chars("=> "),
+    );
+    let scenes = render::crowd_scenes::write_crowds(&options, |done, total, what| {
+        bar.set_length(total);
+        bar.set_position(done);
+        bar.set_message(what.to_owned());
+    })?;
+    bar.finish_and_clear();
+    println!(
+        "{} characters × {} strands and {} teapots × {} strands in {:.1} s",
+        args.characters,
+        args.strands,
+        args.teapots,
+        args.teapot_strands,
+        start.elapsed().as_secs_f64()
+    );
+    println!("{}\n{}", scenes.heads.display(), scenes.teapots.display());
+    println!(
+        "render one: hair-render {} -o crowd.png --stats   (add --frames N to follow the camera path)",
+        scenes.heads.display()
+    );
+    Ok(())
+}
+
 fn run(cli: Cli) -> Result<()> {
     match cli.command {
+        Command::Crowd(args) => crowd(&args),
         Command::Info { all, device } => {
             if all {
                 println!("Vulkan devices:");

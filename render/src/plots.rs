@@ -1,0 +1,166 @@
+//! PNG charts for the benchmark report, drawn with `plotters` (bitmap backend, DejaVu Sans from
+//! the system: Debian's `fonts-dejavu-core`, installed by `cargo xtask setup`).
+
+use std::path::Path;
+use std::sync::OnceLock;
+
+use plotters::prelude::*;
+
+/// Font files tried in order.
+const FONTS: [&str; 2] =
+    ["/usr/share/fonts/truetype/dejavu/DejaVuSans.ttf", "/usr/share/fonts/dejavu/DejaVuSans.ttf"];
+
+#[derive(Debug, thiserror::Error)]
+pub enum PlotError {
+    #[error("no font for the plots (install fonts-dejavu-core; looked for {0})")]
+    NoFont(String),
+    #[error("{path}: {message}")]
+    Draw { path: std::path::PathBuf, message: String },
+}
+
+fn register_font() -> Result<(), PlotError> {
+    static REGISTERED: OnceLock<bool> = OnceLock::new();
+    let ok = *REGISTERED.get_or_init(|| {
+        FONTS.iter().any(|f| {
+            std::fs::read(f).is_ok_and(|bytes| {
+                // plotters keeps fonts for the life of the program.
+                let bytes: &'static [u8] = Box::leak(bytes.into_boxed_slice());
+                plotters::style::register_font("sans-serif", FontStyle::Normal, bytes).is_ok()
+            })
+        })
+    });
+    if ok { Ok(()) } else { Err(PlotError::NoFont(FONTS.join(", "))) }
+}
+
+/// One named series of (x, y) points.
+#[derive(Clone, Debug)]
+pub struct Series {
+    pub name: String,
+    pub points: Vec<(f64, f64)>,
+}
+
+/// How to draw a chart.
+#[derive(Clone, Debug)]
+pub struct Chart<'a> {
+    pub title: &'a str,
+    pub x_label: &'a str,
+    pub y_label: &'a str,
+    /// Logarithmic axes (values must be positive).
+    pub log_x: bool,
+    pub log_y: bool,
+    /// Join the points of a series with lines.
+    pub lines: bool,
+}
+
+const COLORS: [RGBColor; 6] = [
+    RGBColor(31, 119, 180),
+    RGBColor(255, 127, 14),
+    RGBColor(44, 160, 44),
+    RGBColor(214, 39, 40),
+    RGBColor(148, 103, 189),
+    RGBColor(140, 86, 75),
+];
+
+fn range(values: impl Iterator<Item = f64>, log: bool) -> (f64, f64) {
+    let (lo, hi) = values
+        .filter(|v| v.is_finite() && (!log || *v > 0.0))
+        .fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), v| (lo.min(v), hi.max(v)));
+    if !lo.is_finite() {
+        return if log { (0.1, 10.0) } else { (0.0, 1.0) };
+    }
+    if log {
+        (lo / 1.5, hi * 1.5)
+    } else {
+        let pad = ((hi - lo) * 0.08).max(hi.abs() * 0.05).max(1e-9);
+        ((lo - pad).min(0.0_f64.max(lo - pad)), hi + pad)
+    }
+}
+
+/// Draws `series` into a 900×540 PNG at `path` (written atomically).
+pub fn draw(path: &Path, chart: &Chart<'_>, series: &[Series]) -> Result<(), PlotError> {
+    register_font()?;
+    let err = |e: &dyn std::fmt::Display| PlotError::Draw { path: path.to_owned(), message: e.to_string() };
+    let (w, h) = (900u32, 540u32);
+    let mut pixels = vec![0u8; (w * h * 3) as usize];
+    {
+        let root = BitMapBackend::with_buffer(&mut pixels, (w, h)).into_drawing_area();
+        root.fill(&WHITE).map_err(|e| err(&e))?;
+        let xs = range(series.iter().flat_map(|s| s.points.iter().map(|p| p.0)), chart.log_x);
+        let ys = range(series.iter().flat_map(|s| s.points.iter().map(|p| p.1)), chart.log_y);
+        let mut builder = ChartBuilder::on(&root);
+        builder
+            .caption(chart.title, ("sans-serif", 24))
+            .margin(16)
+            .x_label_area_size(48)
+            .y_label_area_size(72);
+        // The four axis-type combinations are different chart types in plotters.
+        macro_rules! plot {
+            ($x:expr, $y:expr) => {{
+                let mut c = builder.build_cartesian_2d($x, $y).map_err(|e| err(&e))?;
+                c.configure_mesh()
+                    .x_desc(chart.x_label)
+                    .y_desc(chart.y_label)
+                    .label_style(("sans-serif", 15))
+                    .draw()
+                    .map_err(|e| err(&e))?;
+                for (i, s) in series.iter().enumerate() {
+                    let color = COLORS[i % COLORS.len()];
+                    let points: Vec<(f64, f64)> =
+                        s.points.iter().copied().filter(|(x, y)| x.is_finite() && y.is_finite()).collect();
+                    if chart.lines {
+                        c.draw_series(LineSeries::new(points.clone(), color.stroke_width(2)))
+                            .map_err(|e| err(&e))?;
+                    }
+                    c.draw_series(points.iter().map(|&p| Circle::new(p, 5, color.filled())))
+                        .map_err(|e| err(&e))?
+                        .label(s.name.as_str())
+                        .legend(move |(x, y)| Circle::new((x + 8, y), 5, color.filled()));
+                }
+                c.configure_series_labels()
+                    .background_style(WHITE.mix(0.85))
+                    .border_style(BLACK)
+                    .label_font(("sans-serif", 15))
+                    .position(SeriesLabelPosition::UpperLeft)
+                    .draw()
+                    .map_err(|e| err(&e))?;
+            }};
+        }
+        match (chart.log_x, chart.log_y) {
+            (false, false) => plot!(xs.0..xs.1, ys.0..ys.1),
+            (true, false) => plot!((xs.0..xs.1).log_scale(), ys.0..ys.1),
+            (false, true) => plot!(xs.0..xs.1, (ys.0..ys.1).log_scale()),
+            (true, true) => plot!((xs.0..xs.1).log_scale(), (ys.0..ys.1).log_scale()),
+        }
+        root.present().map_err(|e| err(&e))?;
+    }
+    hairmesh::atomic::write_file_atomic(path, |out| {
+        let mut encoder = png::Encoder::new(out, w, h);
+        encoder.set_color(png::ColorType::Rgb);
+        encoder.set_depth(png::BitDepth::Eight);
+        let mut writer = encoder.write_header().map_err(std::io::Error::other)?;
+        writer.write_image_data(&pixels).map_err(std::io::Error::other)?;
+        writer.finish().map_err(std::io::Error::other)
+    })
+    .map_err(|e| err(&e))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_chart_is_a_png_of_its_size() {
+        let dir = tempfile::tempdir().expect("temp dir");
+        let path = dir.path().join("chart.png");
+        let series = vec![
+            Series { name: "a".into(), points: vec![(1.0, 2.0), (10.0, 20.0), (100.0, f64::NAN)] },
+            Series { name: "b".into(), points: vec![(2.0, 1.0), (20.0, 3.0)] },
+        ];
+        let chart = Chart { title: "t", x_label: "x", y_label: "y", log_x: true, log_y: true, lines: true };
+        draw(&path, &chart, &series).expect("draw");
+        let image = crate::output::read_png(&path).expect("a PNG");
+        assert_eq!((image.width, image.height), (900, 540));
+        // Something besides the white background was drawn.
+        assert!(image.pixels.chunks_exact(4).filter(|p| p[0] < 128).count() > 1000);
+    }
+}
