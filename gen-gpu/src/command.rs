@@ -6,8 +6,9 @@ use ash::vk;
 use crate::error::VkResultExt;
 use crate::{Buffer, BufferDesc, Context, GpuError, Image, ImageDesc, MemoryLocation, Pipeline, Result};
 
-/// Most timestamp scopes one submission records.
-const MAX_SCOPES: u32 = 64;
+/// Most timestamp scopes one submission records (a crowd frame has a few per character); later
+/// scopes are labelled but untimed.
+const MAX_SCOPES: u32 = 2048;
 
 /// GPU time of one pass.
 #[derive(Clone, Debug, PartialEq)]
@@ -87,7 +88,10 @@ impl<'a> Recorder<'a> {
             // SAFETY: recording command buffer; label outlives the call.
             unsafe { du.cmd_begin_debug_utils_label(self.cmd, &info) };
         }
-        let scope = self.write_timestamp().map(|begin| {
+        // Both queries are reserved now, so an outer scope always gets its end even when the
+        // scopes inside it use up the pool.
+        let scope = self.reserve_queries().map(|begin| {
+            self.write_timestamp(begin);
             self.scopes.push(Scope { name: name.into(), depth: self.depth, begin, end: None });
             self.scopes.len() - 1
         });
@@ -95,7 +99,9 @@ impl<'a> Recorder<'a> {
         let result = f(self);
         self.depth -= 1;
         if let Some(i) = scope {
-            self.scopes[i].end = self.write_timestamp();
+            let end = self.scopes[i].begin + 1;
+            self.write_timestamp(end);
+            self.scopes[i].end = Some(end);
         }
         if let Some(du) = &self.ctx.shared.debug_utils {
             // SAFETY: matches the begin above.
@@ -104,16 +110,17 @@ impl<'a> Recorder<'a> {
         result
     }
 
-    fn write_timestamp(&mut self) -> Option<u32> {
-        if self.query_pool == vk::QueryPool::null() {
+    /// Two consecutive queries of the pool (begin, end), if any are left.
+    fn reserve_queries(&mut self) -> Option<u32> {
+        if self.query_pool == vk::QueryPool::null() || self.next_query + 2 > 2 * MAX_SCOPES {
             return None;
         }
-        let index = self.next_query;
-        if index >= 2 * MAX_SCOPES {
-            return None;
-        }
-        self.next_query += 1;
-        // SAFETY: the pool was reset before recording and `index` is in range.
+        self.next_query += 2;
+        Some(self.next_query - 2)
+    }
+
+    fn write_timestamp(&mut self, index: u32) {
+        // SAFETY: the pool was reset before recording and `index` was reserved in range.
         unsafe {
             self.device().cmd_write_timestamp2(
                 self.cmd,
@@ -122,7 +129,6 @@ impl<'a> Recorder<'a> {
                 index,
             );
         }
-        Some(index)
     }
 
     pub fn bind_pipeline(&self, pipeline: &Pipeline) {
