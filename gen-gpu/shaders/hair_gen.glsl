@@ -52,7 +52,8 @@ struct BundleLod {
 
 layout(std430, set = 0, binding = 0) readonly buffer ParamsBuffer { GenParams params; };
 layout(std430, set = 0, binding = 1) readonly buffer BundleBuffer { Bundle bundles[]; };
-layout(std430, set = 0, binding = 2) readonly buffer SampleBuffer { vec2 samples[]; };
+// Root samples as unorm16 pairs (hairmesh::roots::pack_sample).
+layout(std430, set = 0, binding = 2) readonly buffer SampleBuffer { uint samples[]; };
 layout(std430, set = 0, binding = 3) readonly buffer SampleSetBuffer { SampleSetInfo sample_sets[]; };
 layout(set = 0, binding = 4) uniform sampler3D hair_mesh_tex;
 layout(set = 0, binding = 5) uniform sampler3D u_tex;
@@ -139,7 +140,7 @@ vec3 curve_position(uint bundle, vec2 st, float tau) {
 vec2 root_parameter(uint bundle, uint strand) {
     Bundle b = bundles[bundle];
     SampleSetInfo set = sample_sets[b.info.z];
-    vec2 p = samples[set.offset + strand % max(set.count, 1u)];
+    vec2 p = unpackUnorm2x16(samples[set.offset + strand % max(set.count, 1u)]);
     if (b.info.y == 1u) {
         float denom = 1.0 - p.y;
         p.x = denom > 1e-12 ? clamp(p.x / denom, 0.0, 1.0) : 0.0;

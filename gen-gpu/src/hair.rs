@@ -124,11 +124,11 @@ impl GpuHair {
         let (v, v_bytes) = upload("v", &t.v, rgba, 4)?;
 
         // Sample sets: squares first, then triangles; bundle b uses set b mod count of its domain.
-        let mut points: Vec<[f32; 2]> = Vec::new();
+        let mut points: Vec<u32> = Vec::new();
         let mut set_info: Vec<[u32; 2]> = Vec::new();
         for set in asset.square_sets.iter().chain(&asset.triangle_sets) {
             set_info.push([points.len() as u32, set.points.len() as u32]);
-            points.extend(set.points.iter().map(|p| [p.x as f32, p.y as f32]));
+            points.extend(set.points.iter().map(|p| hairmesh::roots::pack_sample(*p)));
         }
         let squares = asset.square_sets.len() as u32;
         let triangles = asset.triangle_sets.len() as u32;

@@ -226,7 +226,7 @@ impl HairAsset {
     /// Block parameter `(s, t)` of strand `j` of bundle `b`.
     pub fn root_parameter(&self, bundle: u32, strand: u32) -> DVec2 {
         let set = self.sample_set(bundle);
-        let p = set.points[strand as usize % set.points.len()];
+        let p = crate::roots::quantize_sample(set.points[strand as usize % set.points.len()]);
         match self.bundles[bundle as usize].domain {
             SampleDomain::Square => p,
             SampleDomain::Triangle => triangle_to_square(p),

@@ -57,6 +57,22 @@ impl SampleDomain {
 /// Maps a triangle-domain sample to the square so that bilinear interpolation over a 2×2 block
 /// whose fourth texel duplicates the third vertex equals barycentric interpolation:
 /// `ξ1′ = ξ1 / (1 − ξ2)`, `ξ2′ = ξ2` (with `ξ1′ = 0` at the apex `ξ2 = 1`).
+/// Steps of the 16-bit fixed point a root sample is stored in on the GPU (`unorm16` × 2, four
+/// bytes a sample; 1/65535 of a face is far below a strand width).
+pub const SAMPLE_STEPS: f64 = 65535.0;
+
+/// A sample as the GPU stores it: each coordinate rounded to the 16-bit grid. Generation on both
+/// sides starts from this value, so the CPU reference matches the GPU exactly.
+pub fn quantize_sample(p: DVec2) -> DVec2 {
+    (p.clamp(DVec2::ZERO, DVec2::ONE) * SAMPLE_STEPS).round() / SAMPLE_STEPS
+}
+
+/// The 16-bit pair of a sample (x in the low half), as `unpackUnorm2x16` reads it.
+pub fn pack_sample(p: DVec2) -> u32 {
+    let q = (p.clamp(DVec2::ZERO, DVec2::ONE) * SAMPLE_STEPS).round();
+    q.x as u32 | ((q.y as u32) << 16)
+}
+
 pub fn triangle_to_square(p: DVec2) -> DVec2 {
     let denom = 1.0 - p.y;
     let x = if denom > 1e-12 { (p.x / denom).clamp(0.0, 1.0) } else { 0.0 };

@@ -78,7 +78,8 @@ fn strands_start_exactly_on_the_scalp_at_their_root_sample() {
             }
             BundleFace::Triangle([a, b, c]) => {
                 let set = asset.sample_set(s.bundle);
-                let xi = set.points[s.index as usize];
+                // The sample as stored on the GPU (16-bit fixed point), like the generator.
+                let xi = hairmesh::roots::quantize_sample(set.points[s.index as usize]);
                 v(a) * (1.0 - xi.x - xi.y) + v(b) * xi.x + v(c) * xi.y
             }
         };
