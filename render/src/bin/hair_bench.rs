@@ -533,7 +533,7 @@ fn draw_plots(
     let crowd_series: Vec<Series> = crowd
         .chunk_by(|a, b| a.scene == b.scene)
         .map(|group| Series {
-            name: format!("{} (LOD α = 1 … 256)", group[0].scene),
+            name: format!("{} (LOD α = 16 … 256)", group[0].scene),
             points: group
                 .iter()
                 .filter(|r| r.alpha.is_some())
