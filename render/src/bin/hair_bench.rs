@@ -378,7 +378,7 @@ fn crowd_table(
         let alphas: &[Option<f64>] = if quick {
             &[None, Some(16.0), Some(256.0)]
         } else {
-            &[None, Some(1.0), Some(16.0), Some(64.0), Some(256.0)]
+            &[None, Some(16.0), Some(64.0), Some(256.0)]
         };
         for &alpha in alphas {
             let lod = alpha.is_some();
