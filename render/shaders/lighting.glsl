@@ -7,8 +7,9 @@ struct SceneLight {
     vec4 vector;      // xyz: direction toward the light (w = 0) or its position (w = 1)
     vec4 color;       // rgb radiance
     mat4 view_proj;   // world -> light clip space (orthographic)
-    vec4 layer_ends;  // xyz: ends of the 3 opacity layers (light depth units)
-    vec4 map;         // x: map size (0 = casts no shadow), y: first texel of its maps, z: occluder depth bias
+    vec4 layer_ends;  // xyz: ends of the 3 opacity layers behind the nearest hair (world units)
+    vec4 map;         // x: map size (0 = casts no shadow), y: first texel of its maps, z: occluder bias (world units)
+    vec4 depth;       // x near, y far, z 1 = perspective (point light), else orthographic
 };
 
 layout(std430, set = 0, binding = 15) readonly buffer ShadowDepth { float shadow_depth[]; };
@@ -22,6 +23,12 @@ vec3 light_direction(uint i, vec3 p) {
     return lv.w > 0.5 ? normalize(lv.xyz - p) : normalize(lv.xyz);
 }
 
+// World distance from light `i` of a depth-buffer value of its maps.
+float light_linear_depth(uint i, float z) {
+    vec4 d = lights[i].depth;
+    return d.z > 0.5 ? d.x * d.y / (d.y - z * (d.y - d.x)) : d.x + z * (d.y - d.x);
+}
+
 // Fraction of light `i` reaching the world point p through the hair and occluders in front of it.
 float light_transmittance(uint i, vec3 p) {
     float size = lights[i].map.x;
@@ -29,6 +36,9 @@ float light_transmittance(uint i, vec3 p) {
         return 1.0;
     }
     vec4 clip = lights[i].view_proj * vec4(p, 1.0);
+    if (clip.w <= 0.0) {
+        return 1.0;
+    }
     vec3 ndc = clip.xyz / clip.w;
     vec2 uv = ndc.xy * 0.5 + 0.5;
     if (any(lessThan(uv, vec2(0.0))) || any(greaterThanEqual(uv, vec2(1.0)))) {
@@ -36,10 +46,11 @@ float light_transmittance(uint i, vec3 p) {
     }
     uvec2 texel = uvec2(uv * size);
     uint index = uint(lights[i].map.y) + texel.y * uint(size) + texel.x;
-    if (ndc.z - occluder_depth[index] > lights[i].map.z) {
+    float depth = light_linear_depth(i, ndc.z);
+    if (depth - light_linear_depth(i, occluder_depth[index]) > lights[i].map.z) {
         return 0.0;
     }
-    float d = ndc.z - shadow_depth[index];
+    float d = depth - light_linear_depth(i, shadow_depth[index]);
     vec3 ends = lights[i].layer_ends.xyz;
     vec4 o = shadow_opacity[index];
     float opacity;

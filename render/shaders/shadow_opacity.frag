@@ -6,9 +6,17 @@ layout(location = 2) in vec4 v_coverage_side;
 layout(location = 0) out vec4 out_opacity;
 
 layout(push_constant) uniform Layers {
-    layout(offset = 16) vec4 ends;   // xyz: layer ends in light depth units; w: map size
+    layout(offset = 16) vec4 ends;   // xyz: layer ends (world units); w: map size
     uvec4 map;                       // x: first texel of this light's maps in the depth buffer
+    vec4 depth;                      // x near, y far, z 1 = perspective (else orthographic)
 } layers;
+
+// World distance from the light of a depth-buffer value.
+float linear_depth(float z) {
+    float n = layers.depth.x;
+    float f = layers.depth.y;
+    return layers.depth.z > 0.5 ? n * f / (f - z * (f - n)) : n + z * (f - n);
+}
 
 layout(std430, set = 0, binding = 15) readonly buffer ShadowDepth { float shadow_depth[]; };
 
@@ -17,7 +25,7 @@ const float STRAND_OPACITY = 0.5;
 
 void main() {
     uint index = layers.map.x + uint(gl_FragCoord.y) * uint(layers.ends.w) + uint(gl_FragCoord.x);
-    float d = gl_FragCoord.z - shadow_depth[index];
+    float d = linear_depth(gl_FragCoord.z) - linear_depth(shadow_depth[index]);
     float a = clamp(v_coverage_side.x, 0.0, 1.0) * STRAND_OPACITY;
     out_opacity = vec4(d <= layers.ends.x ? a : 0.0, d <= layers.ends.y ? a : 0.0, d <= layers.ends.z ? a : 0.0, 0.0);
 }

@@ -17,7 +17,7 @@ use crate::RgbaImage;
 use crate::crowd::{Camera, Character, CrowdView, character_inputs};
 use crate::occluder::{LIGHTING_BINDINGS, OccluderMesh, OccluderPipelines, occluder_push};
 use crate::scene::{Light, LoadedScene, SceneError, Transparency, merged_style};
-use crate::shadow::{ShadowAtlas, ShadowPipelines};
+use crate::shadow::{LightView, ShadowAtlas, ShadowLight, ShadowPipelines};
 use crate::target::{LinearFrame, SCENE_COLOR_FORMAT, SceneTarget};
 
 /// The SPIR-V of this crate's shaders.
@@ -38,6 +38,8 @@ pub enum RenderError {
     },
     #[error(transparent)]
     Gpu(#[from] gen_gpu::GpuError),
+    #[error("{path}: lights[{light}]: {message}")]
+    Light { path: std::path::PathBuf, light: usize, message: String },
 }
 
 /// One pass of the frame graph.
@@ -91,6 +93,7 @@ struct GpuLight {
     view_proj: [f32; 16],
     layer_ends: [f32; 4],
     map: [f32; 4],
+    depth: [f32; 4],
 }
 
 /// Bindings of the OIT buffers (`oit.glsl`) and the lighting (`lighting.glsl`).
@@ -501,13 +504,14 @@ impl SceneRenderer {
                 let shadow = atlas.and_then(|a| {
                     shadow_lights.iter().position(|&s| s == i).and_then(|k| a.lights.get(k)).map(|ls| (a, ls))
                 });
-                let (view_proj, layer_ends, map) = match shadow {
+                let (view_proj, layer_ends, map, depth) = match shadow {
                     Some((a, ls)) => (
                         ls.light_view_proj,
                         [ls.layer_ends[0], ls.layer_ends[1], ls.layer_ends[2], 0.0],
                         [a.size as f32, ls.first_texel as f32, ls.occluder_bias, 0.0],
+                        ls.depth_params,
                     ),
-                    None => (Mat4::IDENTITY, [0.0; 4], [0.0; 4]),
+                    None => (Mat4::IDENTITY, [0.0; 4], [0.0; 4], [0.0; 4]),
                 };
                 let [r, g, b] = l.color();
                 GpuLight {
@@ -516,6 +520,7 @@ impl SceneRenderer {
                     view_proj: view_proj.to_cols_array(),
                     layer_ends,
                     map,
+                    depth,
                 }
             })
             .collect()
@@ -526,15 +531,6 @@ impl SceneRenderer {
     fn render_shadow_maps(&self, ctx: &Context, pipes: &ShadowPipelines) -> Result<ShadowAtlas, RenderError> {
         let s = &self.scene.scene;
         let lights = self.scene.lights();
-        let toward_lights: Vec<Vec3> = self
-            .scene
-            .shadow_lights()
-            .into_iter()
-            .filter_map(|i| match lights[i] {
-                Light::Directional { direction, .. } => Some(Vec3::from_array(direction)),
-                Light::Point { .. } => None,
-            })
-            .collect();
         let mut lo = Vec3::splat(f32::INFINITY);
         let mut hi = Vec3::splat(f32::NEG_INFINITY);
         let mut add_box = |m: Mat4, (a, b): (Vec3, Vec3)| {
@@ -578,7 +574,26 @@ impl SceneRenderer {
             layer_fractions: s.effects.shadow_layers,
             lod: self.view().lod,
         };
-        Ok(crate::shadow::render_shadow_maps(ctx, pipes, &casters, &toward_lights, (lo, hi), settings)?)
+        let shadow_lights = self
+            .scene
+            .shadow_lights()
+            .into_iter()
+            .map(|i| {
+                let light = match lights[i] {
+                    Light::Directional { direction, .. } => {
+                        ShadowLight::Directional(Vec3::from_array(direction))
+                    }
+                    Light::Point { position, .. } => ShadowLight::Point(Vec3::from_array(position)),
+                };
+                let view = LightView::new(light, (lo, hi)).map_err(|message| RenderError::Light {
+                    path: self.scene.path.clone(),
+                    light: i,
+                    message,
+                })?;
+                Ok((light, view))
+            })
+            .collect::<Result<Vec<_>, RenderError>>()?;
+        Ok(crate::shadow::render_shadow_maps(ctx, pipes, &casters, &shadow_lights, settings)?)
     }
 
     /// Draws every character (generated, then stored) with `generator`'s fragment stage.

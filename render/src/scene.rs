@@ -17,12 +17,13 @@
 //! `effects.transparency` is `"opaque"` (coverage-scaled strands blended in draw order, depth
 //! tested) or `"oit"` (per-pixel linked lists with a k-buffer resolve, `oit_k` sorted, pool of
 //! `oit_nodes_per_pixel` nodes per pixel on average); opaque mode may add MSAA (`msaa`: 2, 4, 8).
-//! `shadows` adds deep opacity maps and occluder depth maps for every directional light with
-//! `cast_shadows` (default true; `shadow_map_size`, `shadow_layers`). A character may carry an
+//! `shadows` adds deep opacity maps and occluder depth maps for every light with `cast_shadows`
+//! (default true; orthographic for directional lights, perspective for point lights, which must
+//! lie outside the casters; `shadow_map_size`, `shadow_layers`). A character may carry an
 //! `occluder` mesh (its scalp or body, `{"mesh": "head.obj", "color": [..]}`), drawn opaque with
 //! Lambert shading, casting and receiving shadows. Colours are linear; `output.background` is
-//! the clear colour. Effects that are not built yet (`ao`, `volume_lod`, `dynamics`, point-light
-//! shadows) are refused with a clear "not supported yet".
+//! the clear colour. Effects that are not built yet (`ao`, `volume_lod`, `dynamics`, shadows from
+//! a point light inside the casters) are refused with a clear "not supported yet".
 
 use std::path::{Path, PathBuf};
 
@@ -91,8 +92,9 @@ pub enum Light {
         position: [f32; 3],
         #[serde(default = "white")]
         color: [f32; 3],
-        /// Point-light shadows are not built yet; `true` is refused [default: false].
-        #[serde(default)]
+        /// With `effects.shadows`: this light gets deep opacity maps, seen in perspective from
+        /// the light, which must then lie outside the casters' bounds [default: true].
+        #[serde(default = "yes")]
         cast_shadows: bool,
     },
 }
@@ -205,8 +207,7 @@ pub struct Effects {
     pub oit_nodes_per_pixel: f32,
     /// Opaque mode: samples per pixel (1 = coverage AA only; 2, 4 or 8 add MSAA).
     pub msaa: u32,
-    /// Deep opacity maps (and occluder depth maps) for every directional light with
-    /// `cast_shadows`.
+    /// Deep opacity maps (and occluder depth maps) for every light with `cast_shadows`.
     pub shadows: bool,
     /// Shadow map resolution (texels per side).
     pub shadow_map_size: u32,
@@ -331,7 +332,12 @@ impl LoadedScene {
         self.lights()
             .iter()
             .enumerate()
-            .filter(|(_, l)| matches!(l, Light::Directional { cast_shadows: true, .. }))
+            .filter(|(_, l)| {
+                matches!(
+                    l,
+                    Light::Directional { cast_shadows: true, .. } | Light::Point { cast_shadows: true, .. }
+                )
+            })
             .map(|(i, _)| i)
             .collect()
     }
@@ -422,16 +428,7 @@ fn validate(loaded: &LoadedScene) -> Result<(), SceneError> {
     for (i, l) in s.lights.iter().enumerate() {
         let (v, c) = match l {
             Light::Directional { direction, color, .. } => (direction, color),
-            Light::Point { position, color, cast_shadows } => {
-                if *cast_shadows {
-                    return Err(SceneError::NotSupportedYet {
-                        path: path.clone(),
-                        field: format!("lights[{i}].cast_shadows"),
-                        effect: "shadows from a point light".into(),
-                    });
-                }
-                (position, color)
-            }
+            Light::Point { position, color, .. } => (position, color),
         };
         finite(&format!("lights[{i}]"), v)?;
         finite(&format!("lights[{i}].color"), c)?;

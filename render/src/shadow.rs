@@ -1,6 +1,7 @@
 //! Self-shadowing by deep opacity maps (Yuksel & Keyser 2008), one set per shadow-casting
-//! (directional) light: the hair is generated again in the light's orthographic view
-//! (orthographic LOD: the view height stands in for d·tan(θ/2)), a depth pass keeps the nearest
+//! light: the hair is generated again in the light's view — orthographic for a directional
+//! light (orthographic LOD: the view height stands in for d·tan(θ/2)), perspective from a point
+//! light outside the casters — a depth pass keeps the nearest
 //! hair per texel, an opacity pass accumulates opacity into three layers behind it, and an
 //! occluder depth pass keeps the nearest occluder (scalp, body), which shadows everything behind
 //! it. The maps of all lights share three buffers (`lighting.glsl` indexes them per light). A
@@ -16,16 +17,80 @@ use hairmesh::reference::{LodParams, Projection, ViewParams};
 use crate::frame::shaders;
 use crate::occluder::{OccluderMesh, OccluderPipelines};
 
+/// A shadow-casting light.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum ShadowLight {
+    /// Direction toward a light at infinity: an orthographic view.
+    Directional(Vec3),
+    /// A point light's position: a perspective view of the casters from outside them.
+    Point(Vec3),
+}
+
+/// A light's view of the casters' bounding sphere. Depths are compared linearly, in world
+/// units, for both projections.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct LightView {
+    /// World space → light clip space.
+    pub view_proj: Mat4,
+    pub near: f32,
+    pub far: f32,
+    pub perspective: bool,
+    /// Radius of the casters' bounding sphere.
+    pub radius: f32,
+    /// Perspective: the vertical (= horizontal) field of view.
+    pub fov: f32,
+}
+
+impl LightView {
+    /// The light's view of the box `(lo, hi)`; a point light inside the box's bounding sphere
+    /// would need a cube map and is refused.
+    pub fn new(light: ShadowLight, (lo, hi): (Vec3, Vec3)) -> Result<Self, String> {
+        let centre = 0.5 * (lo + hi);
+        let radius = (0.5 * (hi - lo).length()).max(1e-6);
+        let up_for = |dir: Vec3| if dir.y.abs() > 0.95 { Vec3::Z } else { Vec3::Y };
+        match light {
+            ShadowLight::Directional(toward) => {
+                let dir = toward.try_normalize().unwrap_or(Vec3::Y);
+                let view = Mat4::look_at_rh(centre + dir * (radius * 2.0), centre, up_for(dir));
+                let (near, far) = (radius * 0.5, radius * 3.5);
+                let proj = Mat4::orthographic_rh(-radius, radius, -radius, radius, near, far);
+                Ok(Self { view_proj: proj * view, near, far, perspective: false, radius, fov: 0.0 })
+            }
+            ShadowLight::Point(position) => {
+                let distance = position.distance(centre);
+                if distance.is_nan() || distance <= radius * 1.05 {
+                    return Err(format!(
+                        "the point light at {position} is inside the shadow casters' bounds (centre {centre}, radius {radius}); shadows from there need a cube map, which is not supported yet"
+                    ));
+                }
+                let fov = 2.0 * (radius / distance).asin() * 1.02;
+                let dir = (position - centre) / distance;
+                let view = Mat4::look_at_rh(position, centre, up_for(dir));
+                let (near, far) = ((distance - radius) * 0.98, distance + radius);
+                let proj = Mat4::perspective_rh(fov, 1.0, near, far);
+                Ok(Self { view_proj: proj * view, near, far, perspective: true, radius, fov })
+            }
+        }
+    }
+
+    /// `[near, far, 1 if perspective, 0]`, as the shaders take it.
+    pub fn depth_params(&self) -> [f32; 4] {
+        [self.near, self.far, if self.perspective { 1.0 } else { 0.0 }, 0.0]
+    }
+}
+
 /// One light's part of a [`ShadowAtlas`].
 #[derive(Clone, Copy, Debug)]
 pub struct LightShadow {
     /// World space → light clip space.
     pub light_view_proj: Mat4,
-    /// Layer ends in light depth units.
+    /// Near and far plane and projection (see [`LightView::depth_params`]).
+    pub depth_params: [f32; 4],
+    /// Layer ends behind the nearest hair, in world units.
     pub layer_ends: [f32; 3],
     /// First texel of this light's maps in the atlas buffers.
     pub first_texel: u64,
-    /// Light depth an occluder must lie in front of a point to shadow it (against acne).
+    /// World distance an occluder must lie in front of a point to shadow it (against acne).
     pub occluder_bias: f32,
 }
 
@@ -90,7 +155,7 @@ impl ShadowPipelines {
             GeneratorOptions {
                 fragment: Some(FragmentStage {
                     shader: &shaders::SHADOW_OPACITY_FRAG,
-                    push_constant_bytes: 32,
+                    push_constant_bytes: 48,
                     blend: Blend::Additive,
                     depth_write: false,
                     color_write: true,
@@ -102,18 +167,6 @@ impl ShadowPipelines {
         )?;
         Ok(Self { depth, opacity })
     }
-}
-
-/// An orthographic light looking along `-toward_light` at a box `(lo, hi)`: world → clip, and
-/// the depth range in world units.
-pub fn light_view_proj(toward_light: Vec3, (lo, hi): (Vec3, Vec3)) -> (Mat4, f32) {
-    let centre = 0.5 * (lo + hi);
-    let radius = (0.5 * (hi - lo).length()).max(1e-6);
-    let dir = toward_light.try_normalize().unwrap_or(Vec3::Y);
-    let up = if dir.y.abs() > 0.95 { Vec3::Z } else { Vec3::Y };
-    let view = Mat4::look_at_rh(centre + dir * (radius * 2.0), centre, up);
-    let proj = Mat4::orthographic_rh(-radius, radius, -radius, radius, radius * 0.5, radius * 3.5);
-    (proj * view, radius * 3.0)
 }
 
 /// What the shadow passes draw: generated characters `(hair, transform)`, stored ones and
@@ -130,23 +183,27 @@ pub struct ShadowCasters<'a> {
 }
 
 fn light_inputs(
-    light: Mat4,
+    view: &LightView,
+    light: ShadowLight,
     transform: Mat4,
-    toward_light: Vec3,
-    range: f32,
     size: u32,
     lod: LodParams,
 ) -> FrameInputs {
     let scale = transform.x_axis.truncate().length().max(1e-6);
-    let object_dir = transform.inverse().transform_vector3(toward_light).normalize_or_zero();
+    let to_object = transform.inverse();
+    let (eye, projection) = match light {
+        // Orthographic: the strip faces this direction; LOD uses the view height.
+        ShadowLight::Directional(toward) => (
+            to_object.transform_vector3(toward).normalize_or_zero(),
+            Projection::Orthographic { height: f64::from(2.0 * view.radius / scale) },
+        ),
+        ShadowLight::Point(position) => {
+            (to_object.transform_point3(position), Projection::Perspective { fov_y: f64::from(view.fov) })
+        }
+    };
     FrameInputs {
-        view_proj: light * transform,
-        view: ViewParams {
-            // Orthographic: the strip faces this direction; LOD uses the view height.
-            eye: object_dir.as_dvec3(),
-            vertical_resolution: f64::from(size),
-            projection: Projection::Orthographic { height: f64::from(range * 2.0 / 3.0 / scale) },
-        },
+        view_proj: view.view_proj * transform,
+        view: ViewParams { eye: eye.as_dvec3(), vertical_resolution: f64::from(size), projection },
         lod,
         viewport: [size, size],
         cull: true,
@@ -163,19 +220,18 @@ pub struct ShadowSettings {
     pub lod: LodParams,
 }
 
-/// Renders the deep opacity maps and occluder depth maps of every light in `toward_lights`
-/// (directions toward each light) over the world box `bounds`, in one submission.
+/// Renders the deep opacity maps and occluder depth maps of every light in `lights` over the
+/// world box `bounds`, in one submission. `views` are the lights' [`LightView`]s.
 pub fn render_shadow_maps(
     ctx: &Context,
     pipes: &ShadowPipelines,
     casters: &ShadowCasters<'_>,
-    toward_lights: &[Vec3],
-    bounds: (Vec3, Vec3),
+    lights: &[(ShadowLight, LightView)],
     settings: ShadowSettings,
 ) -> gen_gpu::Result<ShadowAtlas> {
     let ShadowSettings { size, layer_fractions, lod } = settings;
     let texels = u64::from(size) * u64::from(size);
-    let light_count = toward_lights.len().max(1) as u64;
+    let light_count = lights.len().max(1) as u64;
     let depth = Buffer::new(ctx, "shadow depth maps", BufferDesc::storage(texels * 4 * light_count))?;
     let opacity = Buffer::new(ctx, "shadow opacity maps", BufferDesc::storage(texels * 16 * light_count))?;
     let occluder_depth =
@@ -191,7 +247,6 @@ pub fn render_shadow_maps(
         vk::ImageUsageFlags::DEPTH_STENCIL_ATTACHMENT | vk::ImageUsageFlags::TRANSFER_SRC,
     );
     let depth_image = Image::new(ctx, "shadow depth", depth_desc)?;
-    let layer_ends = layer_fractions.map(|f| f.max(1e-6) / 3.0);
     let has_occluders = !casters.occluders.is_empty() && casters.occluder_pipelines.is_some();
 
     struct PerLight {
@@ -199,16 +254,12 @@ pub fn render_shadow_maps(
         frames: Vec<gen_gpu::FrameBuffers>,
         stored_params: Vec<Buffer>,
     }
-    let per_light = toward_lights
+    let per_light = lights
         .iter()
         .enumerate()
-        .map(|(i, &toward_light)| {
-            let (light, range) = light_view_proj(toward_light, bounds);
-            let inputs: Vec<FrameInputs> = casters
-                .generated
-                .iter()
-                .map(|(_, m)| light_inputs(light, *m, toward_light, range, size, lod))
-                .collect();
+        .map(|(i, &(light, view))| {
+            let inputs: Vec<FrameInputs> =
+                casters.generated.iter().map(|(_, m)| light_inputs(&view, light, *m, size, lod)).collect();
             let frames = casters
                 .generated
                 .iter()
@@ -219,17 +270,18 @@ pub fn render_shadow_maps(
                 .stored_characters
                 .iter()
                 .map(|(s, m)| {
-                    let i = light_inputs(light, *m, toward_light, range, size, lod);
+                    let i = light_inputs(&view, light, *m, size, lod);
                     pipes.depth.stored_params(ctx, &casters.stored[*s], &i)
                 })
                 .collect::<gen_gpu::Result<Vec<_>>>()?;
             Ok(PerLight {
                 shadow: LightShadow {
-                    light_view_proj: light,
-                    layer_ends,
+                    light_view_proj: view.view_proj,
+                    depth_params: view.depth_params(),
+                    layer_ends: layer_fractions.map(|f| f.max(1e-6) * view.radius),
                     first_texel: texels * i as u64,
-                    // Three texels' worth of depth (the box is 2r wide and 3r deep).
-                    occluder_bias: 2.0 / size as f32,
+                    // Three texels' worth (a texel spans about 2r / size at the casters).
+                    occluder_bias: 6.0 * view.radius / size as f32,
                 },
                 frames,
                 stored_params,
@@ -360,7 +412,8 @@ pub fn render_shadow_maps(
                 rec.begin_rendering(&opacity_image, [0.0; 4], Some(&depth_image));
                 let extra = [(15, &depth)];
                 let ends = light.shadow.layer_ends;
-                let constants: [u32; 8] = [
+                let [near, far, perspective, _] = light.shadow.depth_params;
+                let constants: [u32; 12] = [
                     ends[0].to_bits(),
                     ends[1].to_bits(),
                     ends[2].to_bits(),
@@ -368,6 +421,10 @@ pub fn render_shadow_maps(
                     light.shadow.first_texel as u32,
                     0,
                     0,
+                    0,
+                    near.to_bits(),
+                    far.to_bits(),
+                    perspective.to_bits(),
                     0,
                 ];
                 let drawn = draw(
