@@ -143,6 +143,34 @@ fn camera_path(half_width: f32, depth: f32, height: f32) -> Vec<serde_json::Valu
     ]
 }
 
+/// Position `(x, z)` of crowd member `i` in a grid of `columns` centred on x = 0, rows going
+/// back from z = 0.
+fn grid_position(i: u32, columns: u32, spacing: f32) -> (f32, f32) {
+    let (col, row) = (i % columns, i / columns);
+    ((col as f32 - (columns - 1) as f32 / 2.0) * spacing, -(row as f32) * spacing)
+}
+
+/// A crowd scene: key and fill light, opaque hair with LOD, the camera at the path's first key.
+fn crowd_scene(
+    size: (u32, u32),
+    path: &[serde_json::Value],
+    characters: &[serde_json::Value],
+) -> serde_json::Value {
+    let (width, height) = size;
+    serde_json::json!({
+        "output": { "width": width, "height": height },
+        "camera": { "eye": path[0]["eye"], "target": path[0]["target"], "fov_y_degrees": 50 },
+        "camera_path": path,
+        "lights": [
+            { "directional": { "direction": [0.4, 0.8, 0.5], "color": [1.0, 0.97, 0.92] } },
+            { "directional": { "direction": [-0.6, 0.3, -0.5], "color": [0.2, 0.25, 0.35], "cast_shadows": false } }
+        ],
+        "characters": characters,
+        "effects": { "transparency": "opaque" },
+        "lod": { "enabled": true }
+    })
+}
+
 /// Writes both crowds; `progress(done, total, what)` after each asset.
 pub fn write_crowds(
     options: &CrowdOptions,
@@ -186,9 +214,9 @@ pub fn write_crowds(
         let asset = HairAsset::build(&hair_mesh, &params, style(&mut rng, 0.2))?;
         let name = format!("heads/hair_{i:03}");
         write_asset(&out.join(&name), &asset, "hairkit crowd (procedural head cap)")?;
-        let (col, row) = (i % columns, i / columns);
-        let x = (col as f32 - (columns - 1) as f32 / 2.0) * spacing + uniform(&mut rng, -0.08, 0.08) as f32;
-        let z = -(row as f32) * spacing + uniform(&mut rng, -0.08, 0.08) as f32;
+        let (x, z) = grid_position(i, columns, spacing);
+        let x = x + uniform(&mut rng, -0.08, 0.08) as f32;
+        let z = z + uniform(&mut rng, -0.08, 0.08) as f32;
         characters.push(serde_json::json!({
             "hair": name,
             // The head cap is centred at y = 1.6; characters stand at slightly different heights.
@@ -202,27 +230,9 @@ pub fn write_crowds(
         done += 1;
         progress(done, total, "head hair assets");
     }
-    let (width, height) = options.size;
-    let half_width = 0.5 * columns as f32 * spacing;
-    let depth = rows as f32 * spacing;
-    let lights = serde_json::json!([
-        { "directional": { "direction": [0.4, 0.8, 0.5], "color": [1.0, 0.97, 0.92] } },
-        { "directional": { "direction": [-0.6, 0.3, -0.5], "color": [0.2, 0.25, 0.35], "cast_shadows": false } }
-    ]);
     let heads_path = out.join("heads.json");
-    let path = camera_path(half_width, depth, 1.6);
-    write_scene(
-        &heads_path,
-        &serde_json::json!({
-            "output": { "width": width, "height": height },
-            "camera": { "eye": path[0]["eye"], "target": path[0]["target"], "fov_y_degrees": 50 },
-            "camera_path": path,
-            "lights": lights,
-            "characters": characters,
-            "effects": { "transparency": "opaque" },
-            "lod": { "enabled": true }
-        }),
-    )?;
+    let path = camera_path(0.5 * columns as f32 * spacing, rows as f32 * spacing, 1.6);
+    write_scene(&heads_path, &crowd_scene(options.size, &path, &characters))?;
 
     // Teapots: a hairy teapot is 0.1 × the original (31.5 cm tall).
     let scale = 0.1;
@@ -255,9 +265,7 @@ pub fn write_crowds(
     let spacing = 0.75;
     let teapots: Vec<serde_json::Value> = (0..options.teapots)
         .map(|i| {
-            let (col, row) = (i % columns, i / columns);
-            let x = (col as f32 - (columns - 1) as f32 / 2.0) * spacing;
-            let z = -(row as f32) * spacing;
+            let (x, z) = grid_position(i, columns, spacing);
             serde_json::json!({
                 "hair": format!("teapots/hair_{}", i % variants),
                 "transform": {
@@ -272,17 +280,6 @@ pub fn write_crowds(
         .collect();
     let teapots_path = out.join("teapots.json");
     let path = camera_path(0.5 * columns as f32 * spacing, rows as f32 * spacing, 0.2);
-    write_scene(
-        &teapots_path,
-        &serde_json::json!({
-            "output": { "width": width, "height": height },
-            "camera": { "eye": path[0]["eye"], "target": path[0]["target"], "fov_y_degrees": 50 },
-            "camera_path": path,
-            "lights": lights,
-            "characters": teapots,
-            "effects": { "transparency": "opaque" },
-            "lod": { "enabled": true }
-        }),
-    )?;
+    write_scene(&teapots_path, &crowd_scene(options.size, &path, &teapots))?;
     Ok(CrowdScenes { heads: heads_path, teapots: teapots_path })
 }

@@ -319,8 +319,9 @@ impl LoadedScene {
     }
 
     /// The lights shading uses (the default one when the scene lists none).
-    pub fn lights(&self) -> Vec<Light> {
-        if self.scene.lights.is_empty() { vec![Light::DEFAULT] } else { self.scene.lights.clone() }
+    pub fn lights(&self) -> &[Light] {
+        const DEFAULT_LIGHTS: &[Light] = &[Light::DEFAULT];
+        if self.scene.lights.is_empty() { DEFAULT_LIGHTS } else { &self.scene.lights }
     }
 
     /// Indices into [`Self::lights`] of the lights that get shadow maps (none without

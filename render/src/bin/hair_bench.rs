@@ -380,14 +380,14 @@ fn crowd_table(
         } else {
             &[None, Some(16.0), Some(64.0), Some(256.0)]
         };
+        let loaded = render::scene::load_scene(path)?;
         for &alpha in alphas {
-            let lod = alpha.is_some();
             progress.set_message(format!(
                 "crowd: {count} {name}, LOD {}",
                 alpha.map_or("off".to_owned(), |a| format!("α = {a}"))
             ));
-            let mut scene = render::scene::load_scene(path)?;
-            scene.scene.lod.enabled = lod;
+            let mut scene = loaded.clone();
+            scene.scene.lod.enabled = alpha.is_some();
             if let Some(a) = alpha {
                 scene.scene.lod.strand_alpha = a;
                 scene.scene.lod.vertex_alpha = a;
