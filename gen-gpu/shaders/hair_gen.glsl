@@ -22,7 +22,7 @@ struct GenParams {
     vec4 lod;            // x: enabled; y: strand alpha; z: vertex alpha; w: morph band lambda
     uvec4 counts;        // x: bundles; y: max segments log2 E; z: square sets; w: triangle sets
     vec4 normalization;  // xyz: origin; w: scale
-    uvec4 layout_info;   // x: blocks per row; y: width; z: height; w: layers L
+    uvec4 layout_info;   // x: -; y: width; z: height; w: layers L
     vec4 style0;         // width, tip_width, root_fade, length_variation
     vec4 curl;           // radius, frequency, phase, -
     vec4 wave_frizz;     // wave amplitude, wave frequency, frizz amplitude, frizz frequency
@@ -35,7 +35,8 @@ struct GenParams {
 struct Bundle {
     vec4 bounds_min;     // xyz, w: face size (strand LOD h)
     vec4 bounds_max;     // xyz, w: hair length (vertex LOD h)
-    uvec4 info;          // x: strands N_i; y: domain (0 square, 1 triangle); z: sample set; w: -
+    uvec4 info;          // x: strands N_i; y: bit 0 domain (0 square, 1 triangle), bits 1-3 root symmetry;
+                         // z: sample set; w: cell x (bits 0-13), y (14-27), orientation (28-30)
 };
 
 struct SampleSetInfo {
@@ -96,9 +97,26 @@ vec4 fetch(sampler3D tex, vec3 coord) {
     return mix(mix(c00, c10, w.y), mix(c01, c11, w.y), w.z);
 }
 
+// One of the 8 symmetries of the unit square (hairmesh::lattice::SquareSymmetry): bit 0 swaps
+// s and t, then bit 1 mirrors s, bit 2 mirrors t.
+vec2 square_symmetry(uint code, vec2 st) {
+    if ((code & 1u) != 0u) {
+        st = st.yx;
+    }
+    if ((code & 2u) != 0u) {
+        st.x = 1.0 - st.x;
+    }
+    if ((code & 4u) != 0u) {
+        st.y = 1.0 - st.y;
+    }
+    return st;
+}
+
+// The bundle's cell in the shared-vertex lattice (texture.rs, TextureLayout::block_coord).
 vec2 block_coord(uint bundle, vec2 st) {
-    uint per_row = params.layout_info.x;
-    return vec2(float(2u * (bundle % per_row)) + 0.5 + st.x, float(2u * (bundle / per_row)) + 0.5 + st.y);
+    uint cell = bundles[bundle].info.w;
+    vec2 origin = vec2(float(cell & 0x3fffu), float((cell >> 14u) & 0x3fffu));
+    return origin + 0.5 + square_symmetry(cell >> 28u, st);
 }
 
 // Object-space point of the curve surface: two trilinear fetches and a lerp per quadratic.
@@ -110,28 +128,34 @@ vec3 curve_position(uint bundle, vec2 st, float tau) {
     float local = x - segment;
     if (EXACT_CUBIC == 1u) {
         // The cubic's control points from the same slices (texture.rs, curve_position_cubic).
-        float z = 4.0 * segment + 0.5;
+        float z = 3.0 * segment + 0.5;
         vec3 b0 = fetch(hair_mesh_tex, vec3(xy, z)).xyz;
         vec3 q_a = fetch(hair_mesh_tex, vec3(xy, z + 1.0)).xyz;
-        vec3 q_b = fetch(hair_mesh_tex, vec3(xy, z + 3.0)).xyz;
-        vec3 b3 = fetch(hair_mesh_tex, vec3(xy, z + 4.0)).xyz;
+        vec3 q_b = fetch(hair_mesh_tex, vec3(xy, z + 2.0)).xyz;
+        vec3 b3 = fetch(hair_mesh_tex, vec3(xy, z + 3.0)).xyz;
         vec3 b1 = b0 + (q_a - b0) * (4.0 / 3.0);
         vec3 b2 = b3 + (q_b - b3) * (4.0 / 3.0);
         float s = 1.0 - local;
         vec3 p = b0 * (s * s * s) + b1 * (3.0 * s * s * local) + b2 * (3.0 * s * local * local) + b3 * (local * local * local);
         return params.normalization.xyz + p * params.normalization.w;
     }
-    float z0;
+    // Slices from z = 3 segment: B0, q_a, q_b, B3; the quadratics' shared point m = (q_a + q_b)/2
+    // is implicit, lerp(q_a, m, q) = lerp(q_a, q_b, q/2) (texture.rs, curve_position).
+    float z = 3.0 * segment + 0.5;
+    float za;
+    float zb;
     float q;
     if (local < 0.5) {
-        z0 = 4.0 * segment;
         q = 2.0 * local;
+        za = z + q;
+        zb = z + 1.0 + 0.5 * q;
     } else {
-        z0 = 4.0 * segment + 2.0;
         q = 2.0 * local - 1.0;
+        za = z + 1.0 + 0.5 * (1.0 + q);
+        zb = z + 2.0 + q;
     }
-    vec3 a = fetch(hair_mesh_tex, vec3(xy, z0 + 0.5 + q)).xyz;
-    vec3 b = fetch(hair_mesh_tex, vec3(xy, z0 + 1.5 + q)).xyz;
+    vec3 a = fetch(hair_mesh_tex, vec3(xy, za)).xyz;
+    vec3 b = fetch(hair_mesh_tex, vec3(xy, zb)).xyz;
     return params.normalization.xyz + mix(a, b, q) * params.normalization.w;
 }
 
@@ -141,15 +165,22 @@ vec2 root_parameter(uint bundle, uint strand) {
     Bundle b = bundles[bundle];
     SampleSetInfo set = sample_sets[b.info.z];
     vec2 p = unpackUnorm2x16(samples[set.offset + strand % max(set.count, 1u)]);
-    if (b.info.y == 1u) {
-        float denom = 1.0 - p.y;
-        p.x = denom > 1e-12 ? clamp(p.x / denom, 0.0, 1.0) : 0.0;
+    uint symmetry = b.info.y >> 1u;
+    if ((b.info.y & 1u) == 0u) {
+        return square_symmetry(symmetry, p);
     }
+    // Triangle: permute the barycentrics (roots.rs, TRIANGLE_PERMUTATIONS), then map to the square.
+    vec3 l = vec3(1.0 - p.x - p.y, p.x, p.y);
+    const uvec2 PERMUTATIONS[6] = uvec2[6](uvec2(1, 2), uvec2(2, 1), uvec2(0, 2), uvec2(2, 0), uvec2(0, 1), uvec2(1, 0));
+    uvec2 perm = PERMUTATIONS[symmetry % 6u];
+    p = vec2(l[perm.x], l[perm.y]);
+    float denom = 1.0 - p.y;
+    p.x = denom > 1e-12 ? clamp(p.x / denom, 0.0, 1.0) : 0.0;
     return p;
 }
 
 vec2 centre_parameter(uint bundle) {
-    return bundles[bundle].info.y == 1u ? vec2(0.5, 1.0 / 3.0) : vec2(0.5, 0.5);
+    return (bundles[bundle].info.y & 1u) == 1u ? vec2(0.5, 1.0 / 3.0) : vec2(0.5, 0.5);
 }
 
 // ---------------------------------------------------------------- styling (style.rs)

@@ -685,7 +685,7 @@ fn params(hair: &GpuHair, inputs: &FrameInputs, capacity: u64, chunk_slots: u64)
             asset.triangle_sets.len() as u32,
         ],
         normalization: [f(n.origin.x), f(n.origin.y), f(n.origin.z), f(n.scale)],
-        layout_info: [t.layout.blocks_per_row, t.layout.width, t.layout.height, t.layout.layers],
+        layout_info: [0, t.layout.width, t.layout.height, t.layout.layers],
         style0: [f(s.width), f(s.tip_width), f(s.root_fade), f(s.length_variation)],
         curl: [f(s.curl.radius), f(s.curl.frequency), f(s.curl.phase), 0.0],
         wave_frizz: [f(s.wave.amplitude), f(s.wave.frequency), f(s.frizz.amplitude), f(s.frizz.frequency)],

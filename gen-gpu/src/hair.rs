@@ -35,7 +35,8 @@ impl TextureBytes {
     }
 }
 
-/// `Bundle` in `hair_gen.glsl` (std430, 48 bytes).
+/// `Bundle` in `hair_gen.glsl` (std430, 48 bytes): bounds with face size and hair length, then
+/// strands, domain | root symmetry << 1, sample set, packed cell.
 #[repr(C)]
 #[derive(Clone, Copy, Debug, bytemuck::Pod, bytemuck::Zeroable)]
 struct GpuBundle {
@@ -43,6 +44,9 @@ struct GpuBundle {
     bounds_max: [f32; 4],
     info: [u32; 4],
 }
+
+/// Largest slice side whose cells pack into the bundle table (14 bits per axis).
+const CELL_AXIS_LIMIT: u32 = 1 << 14;
 
 /// An uploaded hair asset. Owns its GPU objects.
 #[derive(Debug)]
@@ -123,6 +127,15 @@ impl GpuHair {
         let (u, u_bytes) = upload("u", &t.u, rgba, 4)?;
         let (v, v_bytes) = upload("v", &t.v, rgba, 4)?;
 
+        // Cells pack into one u32 each (hair_gen.glsl, block_coord).
+        if t.layout.width > CELL_AXIS_LIMIT || t.layout.height > CELL_AXIS_LIMIT {
+            return Err(GpuError::OverBudget {
+                name: "texture slice".into(),
+                requested: u64::from(t.layout.width.max(t.layout.height)),
+                budget: u64::from(CELL_AXIS_LIMIT),
+                why: "14-bit cell coordinates",
+            });
+        }
         // Sample sets: squares first, then triangles; bundle b uses set b mod count of its domain.
         let mut points: Vec<u32> = Vec::new();
         let mut set_info: Vec<[u32; 2]> = Vec::new();
@@ -141,12 +154,15 @@ impl GpuHair {
                     SampleDomain::Square => (0, b as u32 % squares.max(1)),
                     SampleDomain::Triangle => (1, squares + b as u32 % triangles.max(1)),
                 };
+                let symmetry = u32::from(asset.root_symmetry(b as u32));
+                let cell = &t.layout.cells[b];
+                let cell = cell.x | (cell.y << 14) | (u32::from(cell.orientation.code()) << 28);
                 let lo = info.bounds_min.as_vec3();
                 let hi = info.bounds_max.as_vec3();
                 GpuBundle {
                     bounds_min: [lo.x, lo.y, lo.z, info.face_size() as f32],
                     bounds_max: [hi.x, hi.y, hi.z, info.length as f32],
-                    info: [info.strands, domain, set, 0],
+                    info: [info.strands, domain | (symmetry << 1), set, cell],
                 }
             })
             .collect();

@@ -43,7 +43,12 @@ fn convert(c: &mut Criterion) {
         b.iter(|| {
             HairAsset::build(
                 black_box(&hm),
-                &AssetParams { strands: StrandCount::Total(20_000), sample_sets: 4, seed: 1 },
+                &AssetParams {
+                    strands: StrandCount::Total(20_000),
+                    sample_sets: 1,
+                    seed: 1,
+                    ..Default::default()
+                },
                 Style::default(),
             )
         });

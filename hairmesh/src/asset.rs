@@ -7,10 +7,12 @@ use serde::{Deserialize, Serialize};
 use crate::curve::column_segments;
 use crate::hair_mesh::{BundleFace, HairMesh};
 use crate::roots::{
-    EliminationParams, SampleDomain, prefix_quality, progressive_samples, triangle_to_square,
+    EliminationParams, SampleDomain, permute_triangle_sample, prefix_quality, progressive_samples,
+    triangle_to_square,
 };
 use crate::style::Style;
-use crate::texture::{HairTextures, block_vertices};
+use crate::style::pcg_hash;
+use crate::texture::{HairTextures, SliceLayout, block_vertices};
 use crate::{HairMeshError, Result};
 
 /// How many strands each bundle gets.
@@ -32,14 +34,20 @@ pub const MAX_TOTAL_STRANDS: u64 = 50_000_000;
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
 pub struct AssetParams {
     pub strands: StrandCount,
-    /// Sample sets per domain; bundle `b` uses set `b mod sets` (variety between neighbours).
+    /// Sample sets per domain; bundle `b` uses set `b mod sets`, under a symmetry of its domain
+    /// chosen per bundle ([`HairAsset::root_symmetry`]), so one set already gives neighbours 8
+    /// (squares) or 6 (triangles) different patterns. Each set costs 4 bytes per strand of the
+    /// largest bundle on the GPU.
     pub sample_sets: u32,
     pub seed: u64,
+    /// How bundles are laid out in the textures' slices.
+    #[serde(default)]
+    pub layout: SliceLayout,
 }
 
 impl Default for AssetParams {
     fn default() -> Self {
-        Self { strands: StrandCount::Total(10_000), sample_sets: 4, seed: 1 }
+        Self { strands: StrandCount::Total(10_000), sample_sets: 1, seed: 1, layout: SliceLayout::Lattice }
     }
 }
 
@@ -101,7 +109,7 @@ impl HairAsset {
         if params.sample_sets == 0 || params.sample_sets > 64 {
             return Err(bad(format!("{} sample sets (expected 1..=64)", params.sample_sets)));
         }
-        let textures = HairTextures::build(hm);
+        let textures = HairTextures::build(hm, params.layout);
         let root = &hm.layers[0];
         let areas: Vec<f64> = hm
             .faces
@@ -223,13 +231,28 @@ impl HairAsset {
         &sets[bundle as usize % sets.len()]
     }
 
+    /// The symmetry of its domain under which bundle `b` reads its sample set: a
+    /// [`crate::lattice::SquareSymmetry`] code (0..8) for squares, a
+    /// [`crate::roots::TRIANGLE_PERMUTATIONS`] index (0..6) for triangles. A hash of the bundle
+    /// index, so neighbours sharing a set still get different root patterns.
+    pub fn root_symmetry(&self, bundle: u32) -> u8 {
+        let h = pcg_hash(bundle ^ 0x68e3_1da4);
+        match self.bundles[bundle as usize].domain {
+            SampleDomain::Square => (h % 8) as u8,
+            SampleDomain::Triangle => (h % 6) as u8,
+        }
+    }
+
     /// Block parameter `(s, t)` of strand `j` of bundle `b`.
     pub fn root_parameter(&self, bundle: u32, strand: u32) -> DVec2 {
         let set = self.sample_set(bundle);
         let p = crate::roots::quantize_sample(set.points[strand as usize % set.points.len()]);
+        let symmetry = self.root_symmetry(bundle);
         match self.bundles[bundle as usize].domain {
-            SampleDomain::Square => p,
-            SampleDomain::Triangle => triangle_to_square(p),
+            SampleDomain::Square => {
+                crate::lattice::SquareSymmetry::new(symmetry).unwrap_or_default().apply(p)
+            }
+            SampleDomain::Triangle => triangle_to_square(permute_triangle_sample(p, symmetry)),
         }
     }
 

@@ -4,7 +4,7 @@
 //! ```text
 //! ASSET/
 //!   hair.json        format, version, units, normalization, layout, bundle table, sample sets, style
-//!   hair_mesh.exr    channels R,G,B = normalized position; (1 + 4L) slices
+//!   hair_mesh.exr    channels R,G,B = normalized position; (1 + 3L) slices
 //!   uv.exr           channels R,G = root uv; 1 slice
 //!   w.exr            channel R = w; L + 1 slices
 //!   u.exr, v.exr     channels R,G,B = unit styling direction; L + 1 slices
@@ -27,7 +27,11 @@ use crate::texture::{HairTextures, Normalization, Texture3, TextureLayout};
 use crate::{HairMeshError, Result};
 
 pub const FORMAT: &str = "hairkit.hair-asset";
-pub const FORMAT_VERSION: u32 = 1;
+/// 2: shared-vertex lattice cells in `layout.cells`, `1 + 3L` hair-mesh slices (1: 2×2 blocks,
+/// `1 + 4L` slices; re-convert such assets).
+pub const FORMAT_VERSION: u32 = 2;
+/// Largest texture side accepted (texels).
+pub const MAX_TEXTURE_SIDE: u32 = 16_384;
 pub const MANIFEST: &str = "hair.json";
 /// Largest texture accepted when loading (texels of one 3D texture).
 pub const MAX_TEXELS: u64 = 1 << 28;
@@ -110,7 +114,7 @@ pub fn write_asset(
         source: source.map(str::to_owned),
         precision,
         normalization: t.normalization,
-        layout: t.layout,
+        layout: t.layout.clone(),
         textures: files.clone(),
         bundles: asset.bundles.clone(),
         square_sets: asset.square_sets.clone(),
@@ -212,7 +216,7 @@ pub fn read_asset(path: &Path) -> Result<(HairAsset, Manifest)> {
     let m = &manifest;
     let load = |file: &TextureFile, field: &str| read_texture(&dir.join(&file.file), field, m, file);
     let textures = HairTextures {
-        layout: m.layout,
+        layout: m.layout.clone(),
         normalization: m.normalization,
         hair_mesh: load(&m.textures.hair_mesh, "textures.hair_mesh")?,
         uv: load(&m.textures.uv, "textures.uv")?,
@@ -247,14 +251,25 @@ fn validate_manifest(path: &Path, m: &Manifest) -> Result<()> {
         return Err(err("normalization", "origin must be finite and scale positive".into()));
     }
     let l = &m.layout;
-    let expected = TextureLayout::new(l.bundles, l.layers);
-    if *l != expected || l.layers == 0 || l.layers > crate::hair_mesh::MAX_LAYERS {
+    if l.layers == 0 || l.layers > crate::hair_mesh::MAX_LAYERS {
+        return Err(err(
+            "layout.layers",
+            format!("{} (expected 1..={})", l.layers, crate::hair_mesh::MAX_LAYERS),
+        ));
+    }
+    if !(2..=MAX_TEXTURE_SIDE).contains(&l.width) || !(2..=MAX_TEXTURE_SIDE).contains(&l.height) {
         return Err(err(
             "layout",
-            format!(
-                "{l:?} is inconsistent (expected {expected:?}, 1..={} layers)",
-                crate::hair_mesh::MAX_LAYERS
-            ),
+            format!("{}×{} texels (each side must be 2..={MAX_TEXTURE_SIDE})", l.width, l.height),
+        ));
+    }
+    if l.cells.len() != l.bundles as usize {
+        return Err(err("layout.cells", format!("{} cells for {} bundles", l.cells.len(), l.bundles)));
+    }
+    if let Some(i) = l.cells.iter().position(|c| c.x >= l.width - 1 || c.y >= l.height - 1) {
+        return Err(err(
+            &format!("layout.cells[{i}]"),
+            format!("{:?} does not fit a {}×{} slice", l.cells[i], l.width, l.height),
         ));
     }
     if u64::from(l.width) * u64::from(l.height) * u64::from(l.curve_slices()) > MAX_TEXELS {

@@ -48,7 +48,7 @@ impl Default for ExtrudeParams {
     }
 }
 
-/// Most layers a hair mesh may have (the texture holds 1 + 4L slices).
+/// Most layers a hair mesh may have (the texture holds 1 + 3L slices).
 pub const MAX_LAYERS: u32 = 64;
 
 /// Layers × vertices with one face list.

@@ -10,6 +10,7 @@ pub mod curve;
 mod error;
 pub mod hair_mesh;
 pub mod import;
+pub mod lattice;
 pub mod procedural;
 pub mod reference;
 pub mod rng;

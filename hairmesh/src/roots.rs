@@ -54,9 +54,6 @@ impl SampleDomain {
     }
 }
 
-/// Maps a triangle-domain sample to the square so that bilinear interpolation over a 2×2 block
-/// whose fourth texel duplicates the third vertex equals barycentric interpolation:
-/// `ξ1′ = ξ1 / (1 − ξ2)`, `ξ2′ = ξ2` (with `ξ1′ = 0` at the apex `ξ2 = 1`).
 /// Steps of the 16-bit fixed point a root sample is stored in on the GPU (`unorm16` × 2, four
 /// bytes a sample; 1/65535 of a face is far below a strand width).
 pub const SAMPLE_STEPS: f64 = 65535.0;
@@ -73,6 +70,21 @@ pub fn pack_sample(p: DVec2) -> u32 {
     q.x as u32 | ((q.y as u32) << 16)
 }
 
+/// Permutations of the barycentric coordinates `(λ0, λ1, λ2) = (1 − ξ1 − ξ2, ξ1, ξ2)`: entry `k`
+/// names the `λ` that becomes `ξ1` and the one that becomes `ξ2`. Entry 0 is the identity.
+pub const TRIANGLE_PERMUTATIONS: [[usize; 2]; 6] = [[1, 2], [2, 1], [0, 2], [2, 0], [0, 1], [1, 0]];
+
+/// A triangle-domain sample with its corners permuted ([`TRIANGLE_PERMUTATIONS`]`[code % 6]`):
+/// the triangle's six symmetries, which keep a blue-noise set blue noise.
+pub fn permute_triangle_sample(p: DVec2, code: u8) -> DVec2 {
+    let l = [1.0 - p.x - p.y, p.x, p.y];
+    let [a, b] = TRIANGLE_PERMUTATIONS[usize::from(code) % 6];
+    DVec2::new(l[a], l[b])
+}
+
+/// Maps a triangle-domain sample to the square so that bilinear interpolation over a 2×2 block
+/// whose fourth texel duplicates the third vertex equals barycentric interpolation:
+/// `ξ1′ = ξ1 / (1 − ξ2)`, `ξ2′ = ξ2` (with `ξ1′ = 0` at the apex `ξ2 = 1`).
 pub fn triangle_to_square(p: DVec2) -> DVec2 {
     let denom = 1.0 - p.y;
     let x = if denom > 1e-12 { (p.x / denom).clamp(0.0, 1.0) } else { 0.0 };

@@ -1,15 +1,21 @@
 //! The five textures of a hair asset and how they are addressed (paper Table 1).
 //!
-//! **Layout.** Every bundle (root face) owns a 2×2 texel block in every 2D slice: block `f` sits
-//! at texel `(2·(f mod B), 2·(f div B))` with `B = ⌈√F⌉` blocks per row. Inside a block,
-//! texel `(0,0)` holds face vertex 0, `(1,0)` vertex 1, `(1,1)` vertex 2 and `(0,1)` vertex 3;
-//! a triangle repeats its vertex 2 in `(0,1)`. A fetch at texel coordinate
-//! `(2i + ½ + s, 2j + ½ + t)` with `s, t ∈ [0, 1]` is then exactly the bilinear patch of a quad,
-//! and for a triangle with `s = ξ1 / (1 − ξ2)`, `t = ξ2` it is barycentric interpolation.
+//! **Layout.** Every bundle (root face) owns a *cell* of 2×2 texels in every 2D slice
+//! ([`crate::lattice`]): by default the shared-vertex lattice, where neighbouring faces of a quad
+//! grid share the texels of their common vertices (about one texel per vertex), or one separate
+//! 2×2 block per face ([`SliceLayout::Blocks`], the paper's layout, four texels per face). A cell
+//! records where the face's corners sit: a fetch at texel coordinate `cell + ½ + O(s, t)` (`O` the
+//! cell's [`SquareSymmetry`], `s, t ∈ [0, 1]`) is exactly the bilinear patch of a quad, and for a
+//! triangle (`[a, b, c, c]`, its last corner repeated) with `s = ξ1 / (1 − ξ2)`, `t = ξ2` it is
+//! barycentric interpolation.
 //!
-//! **Hair-mesh texture** (3D, xyz): `1 + 4L` slices, position of each vertex column. Slice 0 is
-//! the root layer; segment `i` (layer `i` to `i+1`) adds slices `4i+1 = q_a`, `4i+2 = m`,
-//! `4i+3 = q_b`, `4i+4 = layer i+1` (see [`crate::curve`]). Positions are stored normalized,
+//! **Hair-mesh texture** (3D, xyz): `1 + 3L` slices, position of each vertex column. Slice 0 is
+//! the root layer; segment `i` (layer `i` to `i+1`) adds slices `3i+1 = q_a`, `3i+2 = q_b`,
+//! `3i+3 = layer i+1` (see [`crate::curve`]). The paper also stores the quadratics' shared point
+//! `m = (q_a + q_b)/2`; it is not needed: on the first quadratic `(B0, q_a, m)` the point
+//! `lerp(q_a, m, q)` is `lerp(q_a, q_b, q/2)`, on the second `(m, q_b, B3)` `lerp(m, q_b, q)` is
+//! `lerp(q_a, q_b, (1+q)/2)`, each still one trilinear fetch, so a point costs two fetches and a
+//! lerp as before and the texture is a quarter smaller. Positions are stored normalized,
 //! `(p − origin) / scale` with the asset's bounds `origin` (min corner) and `scale` (largest
 //! extent), so f16 storage keeps ~1/2048 of the hair's size as precision everywhere.
 //!
@@ -22,6 +28,7 @@ use serde::{Deserialize, Serialize};
 
 use crate::curve::column_segments;
 use crate::hair_mesh::{BundleFace, HairMesh};
+pub use crate::lattice::{Cell, Lattice, SquareSymmetry};
 
 /// How strand points are evaluated between layers.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash, Serialize, Deserialize)]
@@ -34,28 +41,45 @@ pub enum CurveEvaluation {
     Cubic,
 }
 
-/// Where each bundle's block is; shared by all five textures.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+/// How bundles are laid out in the 2D slices.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum SliceLayout {
+    /// Charts of faces sharing their common vertices' texels ([`Lattice::build`]).
+    #[default]
+    Lattice,
+    /// One 2×2 block per face (the paper's layout; 4 texels per face).
+    Blocks,
+}
+
+/// Where each bundle's cell is; shared by all five textures.
+#[derive(Clone, Debug, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
 pub struct TextureLayout {
     pub bundles: u32,
-    pub blocks_per_row: u32,
     /// Texels.
     pub width: u32,
     pub height: u32,
     /// Hair-mesh layers above the root (`L`).
     pub layers: u32,
+    /// One per bundle, `[x, y, orientation]`.
+    pub cells: Vec<Cell>,
 }
 
 impl TextureLayout {
-    pub fn new(bundles: u32, layers: u32) -> Self {
-        let blocks_per_row = (f64::from(bundles.max(1)).sqrt().ceil() as u32).max(1);
-        let rows = bundles.max(1).div_ceil(blocks_per_row);
-        Self { bundles, blocks_per_row, width: 2 * blocks_per_row, height: 2 * rows, layers }
+    pub fn new(lattice: &Lattice, layers: u32) -> Self {
+        Self {
+            bundles: lattice.cells.len() as u32,
+            width: lattice.width,
+            height: lattice.height,
+            layers,
+            cells: lattice.cells.clone(),
+        }
     }
 
-    /// Slices of the hair-mesh texture: `1 + 4L`.
+    /// Slices of the hair-mesh texture: `1 + 3L`.
     pub fn curve_slices(&self) -> u32 {
-        1 + 4 * self.layers
+        1 + 3 * self.layers
     }
 
     /// Slices of the w, u and v textures: `L + 1`.
@@ -63,22 +87,19 @@ impl TextureLayout {
         self.layers + 1
     }
 
-    /// Texel of the block's corner `(0,0)`.
-    pub fn block_origin(&self, bundle: u32) -> (u32, u32) {
-        (2 * (bundle % self.blocks_per_row), 2 * (bundle / self.blocks_per_row))
-    }
-
     /// Texel holding face corner `k` (0..4) of `bundle`.
     pub fn corner_texel(&self, bundle: u32, k: usize) -> (u32, u32) {
-        let (x, y) = self.block_origin(bundle);
-        let (dx, dy) = [(0, 0), (1, 0), (1, 1), (0, 1)][k];
-        (x + dx, y + dy)
+        self.cells[bundle as usize].corner_texel(k)
     }
 
     /// Continuous texel coordinate (texel centres at +½) of block parameter `(s, t)`.
     pub fn block_coord(&self, bundle: u32, s: f64, t: f64) -> DVec2 {
-        let (x, y) = self.block_origin(bundle);
-        DVec2::new(f64::from(x) + 0.5 + s, f64::from(y) + 0.5 + t)
+        self.cells[bundle as usize].coord(DVec2::new(s, t))
+    }
+
+    /// Texels of one 2D slice.
+    pub fn slice_texels(&self) -> u64 {
+        u64::from(self.width) * u64::from(self.height)
     }
 }
 
@@ -301,9 +322,14 @@ fn frame_or_fallback(su: DVec3, sv: DVec3, normal: DVec3, column_dir: DVec3, edg
 
 impl HairTextures {
     /// Builds the five textures of a hair mesh.
-    pub fn build(hm: &HairMesh) -> Self {
+    pub fn build(hm: &HairMesh, slice_layout: SliceLayout) -> Self {
         let layers = hm.layer_count() as u32;
-        let layout = TextureLayout::new(hm.faces.len() as u32, layers);
+        let corners: Vec<[u32; 4]> = hm.faces.iter().map(block_vertices).collect();
+        let lattice = match slice_layout {
+            SliceLayout::Lattice => Lattice::build(&corners),
+            SliceLayout::Blocks => Lattice::blocks(&corners),
+        };
+        let layout = TextureLayout::new(&lattice, layers);
         let (min, max) = hm
             .layers
             .iter()
@@ -321,7 +347,7 @@ impl HairTextures {
                 let mut slices = vec![column[0]];
                 for seg in column_segments(&column) {
                     let q = seg.to_quadratics();
-                    slices.extend([q.q_a, q.m, q.q_b, q.end]);
+                    slices.extend([q.q_a, q.q_b, q.end]);
                 }
                 slices
             })
@@ -335,19 +361,18 @@ impl HairTextures {
         let mut w = Texture3::new(w_tex, h_tex, layout.layer_slices(), 1);
         let mut u = Texture3::new(w_tex, h_tex, layout.layer_slices(), 3);
         let mut v = Texture3::new(w_tex, h_tex, layout.layer_slices(), 3);
-        for (b, face) in hm.faces.iter().enumerate() {
-            for (k, &vertex) in block_vertices(face).iter().enumerate() {
-                let (x, y) = layout.corner_texel(b as u32, k);
-                let vi = vertex as usize;
-                for (z, p) in curve_slices[vi].iter().enumerate() {
-                    hair_mesh.set(x, y, z as u32, &normalization.to_stored(*p).to_array());
-                }
-                uv.set(x, y, 0, &uvs[vi].to_array());
-                for l in 0..layout.layer_slices() as usize {
-                    w.set(x, y, l as u32, &[w_values[l][vi]]);
-                    u.set(x, y, l as u32, &frames[l][vi][0].to_array());
-                    v.set(x, y, l as u32, &frames[l][vi][1].to_array());
-                }
+        for (i, vertex) in lattice.texels.iter().enumerate() {
+            let Some(vertex) = *vertex else { continue };
+            let (x, y) = (i as u32 % w_tex, i as u32 / w_tex);
+            let vi = vertex as usize;
+            for (z, p) in curve_slices[vi].iter().enumerate() {
+                hair_mesh.set(x, y, z as u32, &normalization.to_stored(*p).to_array());
+            }
+            uv.set(x, y, 0, &uvs[vi].to_array());
+            for l in 0..layout.layer_slices() as usize {
+                w.set(x, y, l as u32, &[w_values[l][vi]]);
+                u.set(x, y, l as u32, &frames[l][vi][0].to_array());
+                v.set(x, y, l as u32, &frames[l][vi][1].to_array());
             }
         }
         Self { layout, normalization, hair_mesh, uv, w, u, v }
@@ -362,12 +387,19 @@ impl HairTextures {
         let x = (tau.clamp(0.0, 1.0) * layers).min(layers);
         let segment = x.floor().min(layers - 1.0);
         let local = x - segment;
-        let (z0, q) =
-            if local < 0.5 { (4.0 * segment, 2.0 * local) } else { (4.0 * segment + 2.0, 2.0 * local - 1.0) };
+        // Slices from z = 3·segment: B0, q_a, q_b, B3 (module docs: m is implicit).
+        let z = 3.0 * segment + 0.5;
+        let (za, zb, q) = if local < 0.5 {
+            let q = 2.0 * local;
+            (z + q, z + 1.0 + 0.5 * q, q)
+        } else {
+            let q = 2.0 * local - 1.0;
+            (z + 1.0 + 0.5 * (1.0 + q), z + 2.0 + q, q)
+        };
         let mut a = [0.0; 3];
         let mut b = [0.0; 3];
-        self.hair_mesh.sample(DVec3::new(xy.x, xy.y, z0 + 0.5 + q), &mut a);
-        self.hair_mesh.sample(DVec3::new(xy.x, xy.y, z0 + 1.5 + q), &mut b);
+        self.hair_mesh.sample(DVec3::new(xy.x, xy.y, za), &mut a);
+        self.hair_mesh.sample(DVec3::new(xy.x, xy.y, zb), &mut b);
         let stored = DVec3::from_array(a).lerp(DVec3::from_array(b), q);
         self.normalization.to_object(stored)
     }
@@ -387,8 +419,8 @@ impl HairTextures {
             self.hair_mesh.sample(DVec3::new(xy.x, xy.y, slice + 0.5), &mut out);
             DVec3::from_array(out)
         };
-        let z = 4.0 * segment;
-        let (b0, q_a, q_b, b3) = (fetch(z), fetch(z + 1.0), fetch(z + 3.0), fetch(z + 4.0));
+        let z = 3.0 * segment;
+        let (b0, q_a, q_b, b3) = (fetch(z), fetch(z + 1.0), fetch(z + 2.0), fetch(z + 3.0));
         let b1 = b0 + (q_a - b0) * (4.0 / 3.0);
         let b2 = b3 + (q_b - b3) * (4.0 / 3.0);
         self.normalization.to_object(crate::curve::CubicBezier([b0, b1, b2, b3]).eval(local))
@@ -448,7 +480,7 @@ mod tests {
     #[test]
     fn strands_start_on_the_root_face_and_end_at_the_tip_layer() {
         let hm = quad_and_triangle();
-        let tex = HairTextures::build(&hm);
+        let tex = HairTextures::build(&hm, SliceLayout::Lattice);
         let quad = tex.curve_position(0, 0.25, 0.5, 0.0);
         let expected = DVec3::new(0.25, 0.0, -0.5);
         assert!(quad.distance(expected) < 1e-12, "{quad}");
@@ -468,7 +500,7 @@ mod tests {
     #[test]
     fn texture_curve_matches_the_quadratics() {
         let hm = quad_and_triangle();
-        let tex = HairTextures::build(&hm);
+        let tex = HairTextures::build(&hm, SliceLayout::Lattice);
         let column = hm.column(0);
         let segs = column_segments(&column);
         for i in 0..=60 {
@@ -484,7 +516,7 @@ mod tests {
     #[test]
     fn cubic_evaluation_recovers_the_catmull_rom_segments() {
         let hm = quad_and_triangle();
-        let tex = HairTextures::build(&hm);
+        let tex = HairTextures::build(&hm, SliceLayout::Lattice);
         let segs = column_segments(&hm.column(0));
         for i in 0..=30 {
             let tau = f64::from(i) / 30.0;
@@ -534,12 +566,19 @@ mod tests {
     }
 
     #[test]
-    fn layout_holds_every_bundle() {
-        for bundles in [1, 2, 3, 5, 17, 1000, 3450] {
-            let l = TextureLayout::new(bundles, 4);
-            let (x, y) = l.corner_texel(bundles - 1, 2);
-            assert!(x < l.width && y < l.height, "{bundles}");
-            assert_eq!(l.curve_slices(), 17);
+    fn both_layouts_give_the_same_curves() {
+        let hm = quad_and_triangle();
+        let lattice = HairTextures::build(&hm, SliceLayout::Lattice);
+        let blocks = HairTextures::build(&hm, SliceLayout::Blocks);
+        assert!(lattice.layout.slice_texels() < blocks.layout.slice_texels());
+        for bundle in 0..2 {
+            for (s, t, tau) in [(0.1, 0.9, 0.3), (0.7, 0.2, 0.55), (1.0, 1.0, 1.0), (0.0, 0.5, 0.0)] {
+                for eval in [CurveEvaluation::Quadratic, CurveEvaluation::Cubic] {
+                    let a = lattice.curve_point(eval, bundle, s, t, tau);
+                    let b = blocks.curve_point(eval, bundle, s, t, tau);
+                    assert!(a.distance(b) < 1e-12, "bundle {bundle} ({s}, {t}, {tau}): {a} vs {b}");
+                }
+            }
         }
     }
 }

@@ -19,8 +19,12 @@ fn asset() -> HairAsset {
     )
     .expect("extrude");
     let style = Style { curl: Curl { radius: 0.05, frequency: 2.0, phase: 0.1 }, ..Style::default() };
-    HairAsset::build(&hm, &AssetParams { strands: StrandCount::Total(200), sample_sets: 2, seed: 9 }, style)
-        .expect("asset")
+    HairAsset::build(
+        &hm,
+        &AssetParams { strands: StrandCount::Total(200), sample_sets: 2, seed: 9, ..Default::default() },
+        style,
+    )
+    .expect("asset")
 }
 
 /// Equality with a short message naming the first differing part (the assets are large).

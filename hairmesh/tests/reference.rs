@@ -29,7 +29,7 @@ fn asset_of(scalp: &ScalpMesh, layers: u32, length: f64, style: Style, strands: 
         .expect("extrude");
     HairAsset::build(
         &hm,
-        &AssetParams { strands: StrandCount::Total(strands), sample_sets: 2, seed: 3 },
+        &AssetParams { strands: StrandCount::Total(strands), sample_sets: 2, seed: 3, ..Default::default() },
         style,
     )
     .expect("asset")
@@ -78,8 +78,12 @@ fn strands_start_exactly_on_the_scalp_at_their_root_sample() {
             }
             BundleFace::Triangle([a, b, c]) => {
                 let set = asset.sample_set(s.bundle);
-                // The sample as stored on the GPU (16-bit fixed point), like the generator.
-                let xi = hairmesh::roots::quantize_sample(set.points[s.index as usize]);
+                // The sample as stored on the GPU (16-bit fixed point), like the generator, read
+                // under the bundle's symmetry (a permutation of the triangle's corners).
+                let xi = hairmesh::roots::permute_triangle_sample(
+                    hairmesh::roots::quantize_sample(set.points[s.index as usize]),
+                    asset.root_symmetry(s.bundle),
+                );
                 v(a) * (1.0 - xi.x - xi.y) + v(b) * xi.x + v(c) * xi.y
             }
         };
@@ -194,7 +198,7 @@ fn hard_cases_stay_finite_with_unit_tangents() {
     hm.layers[4] = hm.layers[2].clone(); // the column doubles back
     let asset = HairAsset::build(
         &hm,
-        &AssetParams { strands: StrandCount::Total(30), sample_sets: 1, seed: 1 },
+        &AssetParams { strands: StrandCount::Total(30), sample_sets: 1, seed: 1, ..Default::default() },
         styled(),
     )
     .expect("asset");

@@ -137,7 +137,7 @@ fn sintel_roots_match_the_artist_groom() {
     .expect("extrude");
     let asset = HairAsset::build(
         &hm,
-        &AssetParams { strands: StrandCount::Total(2000), sample_sets: 1, seed: 1 },
+        &AssetParams { strands: StrandCount::Total(2000), sample_sets: 1, seed: 1, ..Default::default() },
         Style::default(),
     )
     .expect("asset");

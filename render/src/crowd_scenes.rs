@@ -208,8 +208,9 @@ pub fn write_crowds(
         let hair_mesh = HairMesh::extrude(scalp, &extrude)?;
         let params = AssetParams {
             strands: StrandCount::Total(options.strands),
-            sample_sets: 4,
+            sample_sets: 1,
             seed: rng.next_u64(),
+            ..AssetParams::default()
         };
         let asset = HairAsset::build(&hair_mesh, &params, style(&mut rng, 0.2))?;
         let name = format!("heads/hair_{i:03}");
@@ -252,8 +253,9 @@ pub fn write_crowds(
         let hair_mesh = HairMesh::extrude(&scalp, &extrude)?;
         let params = AssetParams {
             strands: StrandCount::Total(options.teapot_strands),
-            sample_sets: 4,
+            sample_sets: 1,
             seed: rng.next_u64(),
+            ..AssetParams::default()
         };
         let asset = HairAsset::build(&hair_mesh, &params, style(&mut rng, 2.0))?;
         write_asset(&out.join(format!("teapots/hair_{v}")), &asset, "hairkit crowd (Utah teapot)")?;

@@ -115,6 +115,7 @@ fn main() -> ExitCode {
                 ("bench-accuracy.csv", 1, 7),
                 ("bench-effects.csv", 1, 3),
                 ("bench-crowd.csv", 1, 4),
+                ("bench-memory.csv", 1, 5),
             ] {
                 let csv = std::fs::read_to_string(dir.path().join(file))?;
                 let rows: Vec<&str> = csv.lines().skip(1).collect();
@@ -125,6 +126,11 @@ fn main() -> ExitCode {
                         ensure!(v.is_finite() && v >= 0.0, "{file}: {row}");
                     }
                 }
+            }
+            // The lattice layout needs fewer texels and bytes than 2×2 blocks on every head cap.
+            for row in std::fs::read_to_string(dir.path().join("bench-memory.csv"))?.lines().skip(1) {
+                let v: Vec<f64> = row.split(',').skip(1).map(str::parse).collect::<Result<_, _>>()?;
+                ensure!(v[4] < v[3] && v[6] < v[5], "bench-memory.csv: {row}");
             }
             for section in
                 ["On-the-fly vs stored", "Accuracy vs time", "GPU memory", "Render passes", "Crowds"]

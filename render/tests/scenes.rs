@@ -302,7 +302,12 @@ fn main() -> ExitCode {
                 };
                 let asset = HairAsset::build(
                     &hair_mesh,
-                    &AssetParams { strands: StrandCount::Total(6000), sample_sets: 2, seed: 3 },
+                    &AssetParams {
+                        strands: StrandCount::Total(6000),
+                        sample_sets: 2,
+                        seed: 3,
+                        ..Default::default()
+                    },
                     style,
                 )?;
                 let asset_dir = dir.path().join("lee_perry_smith");

@@ -17,7 +17,7 @@ use hairmesh::asset::{AssetParams, HairAsset, StrandCount};
 use hairmesh::hair_mesh::{ExtrudeParams, HairMesh};
 use hairmesh::reference::LodParams;
 use hairmesh::style::{Clump, Curl, Frizz, Style, Wave};
-use hairmesh::texture::CurveEvaluation;
+use hairmesh::texture::{CurveEvaluation, SliceLayout};
 
 /// Extrudes `scalp` into 4 layers and builds its asset.
 fn asset_from(
@@ -32,7 +32,7 @@ fn asset_from(
     )?;
     Ok(HairAsset::build(
         &hm,
-        &AssetParams { strands: StrandCount::Total(strands), sample_sets: 2, seed: 5 },
+        &AssetParams { strands: StrandCount::Total(strands), sample_sets: 2, seed: 5, ..Default::default() },
         style,
     )?)
 }
@@ -154,6 +154,45 @@ fn main() -> ExitCode {
             let asset = lee_perry_smith_asset(2000, styled(1.0))?;
             let eyes = [Vec3::new(0.0, 6.0, 14.0), Vec3::new(5.0, 8.0, -60.0)];
             check_oracle(ctx, "LeePerrySmith", &asset, &eyes, &[full, lod])
+        }),
+        GpuTest::new("lattice_and_block_layouts_generate_the_same_strands", Requirements::NONE, move |ctx| {
+            // Same hair mesh, same roots; only where the texels sit differs (cells rotated and
+            // mirrored, vertices shared), so the strands agree to f32 rounding.
+            let hm = HairMesh::extrude(
+                &hairmesh::procedural::head_cap(6, 24),
+                &ExtrudeParams { layers: 4, length: 0.18, droop: 0.4, ..ExtrudeParams::default() },
+            )?;
+            let build = |layout| {
+                HairAsset::build(
+                    &hm,
+                    &AssetParams { strands: StrandCount::Total(1200), layout, ..Default::default() },
+                    styled(0.1),
+                )
+            };
+            let (lattice, blocks) = (build(SliceLayout::Lattice)?, build(SliceLayout::Blocks)?);
+            let (tl, tb) = (lattice.textures.layout.slice_texels(), blocks.textures.layout.slice_texels());
+            ensure!(tl * 2 < tb, "lattice {tl} texels per slice vs blocks {tb}");
+            let generator = Generator::new(ctx, Filtering::Manual)?;
+            let inputs = inputs_for(&lattice, Vec3::new(0.1, 1.75, 0.45), full);
+            let capture = |asset: &HairAsset| -> anyhow::Result<_> {
+                let hair = GpuHair::upload(ctx, asset, TexturePrecision::F32)?;
+                Ok(generator.capture(ctx, &hair, &inputs, GenerationPath::Compute)?)
+            };
+            let (a, b) = (capture(&lattice)?, capture(&blocks)?);
+            ensure!(a.strands.len() == b.strands.len() && !a.strands.is_empty());
+            let tolerance = 1e-5 * lattice.textures.normalization.scale as f32;
+            let mut worst = 0f32;
+            for (x, y) in a.strands.iter().zip(&b.strands) {
+                ensure!((x.bundle, x.index, x.positions.len()) == (y.bundle, y.index, y.positions.len()));
+                for (p, q) in x.positions.iter().zip(&y.positions) {
+                    worst = worst.max(p.distance(*q));
+                }
+            }
+            eprintln!(
+                "  {tl} vs {tb} texels per slice; largest difference {worst:.2e} (tolerance {tolerance:.2e})"
+            );
+            ensure!(worst <= tolerance);
+            Ok(())
         }),
         GpuTest::new("mesh_path_matches_compute_path", Requirements::MESH_SHADER, move |ctx| {
             let asset = head_cap_asset(1500, styled(0.1))?;
@@ -425,7 +464,12 @@ fn main() -> ExitCode {
             )?;
             let asset = HairAsset::build(
                 &hm,
-                &AssetParams { strands: StrandCount::Total(1), sample_sets: 1, seed: 1 },
+                &AssetParams {
+                    strands: StrandCount::Total(1),
+                    sample_sets: 1,
+                    seed: 1,
+                    ..Default::default()
+                },
                 styled(0.01),
             )?;
             let hair = GpuHair::upload(ctx, &asset, TexturePrecision::F32)?;

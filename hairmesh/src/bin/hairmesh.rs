@@ -2,7 +2,8 @@
 //!
 //! ```text
 //! hairmesh convert INPUT -o DIR [--layers N] [--length X] [--droop X] [--density D | --strands N]
-//!                  [--scalp SELECTOR] [--morph-layers] [--style FILE] [--seed N] [--sample-sets N] [--f16]
+//!                  [--scalp SELECTOR] [--morph-layers] [--style FILE] [--seed N] [--sample-sets N] [--layout lattice|blocks]
+//!                  [--f16]
 //! hairmesh info PATH          (an asset folder, hair.json, .tfx, .tfxbone or .hair)
 //! hairmesh head-cap -o FILE   (write the project's procedural head cap as glTF)
 //! ```
@@ -18,6 +19,13 @@ use hairmesh::asset_io::{Precision, read_asset, write_asset};
 use hairmesh::hair_mesh::{BundleFace, ExtrudeParams, HairMesh};
 use hairmesh::import::load_scalp;
 use hairmesh::style::Style;
+use hairmesh::texture::SliceLayout;
+
+#[derive(Clone, Copy, Debug, clap::ValueEnum)]
+enum LayoutArg {
+    Lattice,
+    Blocks,
+}
 
 #[derive(Parser, Debug)]
 #[command(
@@ -63,9 +71,13 @@ struct ConvertArgs {
     /// Seed of the root sample sets.
     #[arg(long, default_value_t = 1)]
     seed: u64,
-    /// Root sample sets per domain.
-    #[arg(long, default_value_t = 4)]
+    /// Root sample sets per domain (each bundle also reads its set under one of its domain's
+    /// symmetries; every set costs 4 bytes per strand of the largest bundle on the GPU).
+    #[arg(long, default_value_t = 1)]
     sample_sets: u32,
+    /// Slice layout: `lattice` (faces share their vertices' texels) or `blocks` (a 2×2 block per face).
+    #[arg(long, value_enum, default_value_t = LayoutArg::Lattice)]
+    layout: LayoutArg,
     /// Store textures as half floats.
     #[arg(long)]
     f16: bool,
@@ -152,7 +164,15 @@ fn convert(o: &ConvertArgs) -> Result<()> {
             )?
         })
     })?;
-    let params = AssetParams { strands: o.strand_count(), sample_sets: o.sample_sets, seed: o.seed };
+    let params = AssetParams {
+        strands: o.strand_count(),
+        sample_sets: o.sample_sets,
+        seed: o.seed,
+        layout: match o.layout {
+            LayoutArg::Lattice => SliceLayout::Lattice,
+            LayoutArg::Blocks => SliceLayout::Blocks,
+        },
+    };
     let asset = step("textures and blue-noise root sets", || Ok(HairAsset::build(&hm, &params, style)?))?;
     let units = if matches!(input.extension().and_then(|e| e.to_str()), Some("gltf" | "glb")) {
         "metres"

@@ -265,7 +265,12 @@ fn demo(o: &DemoOptions, device: &DeviceArgs) -> Result<()> {
                 let hm = HairMesh::extrude(&scalp, extrude)?;
                 Ok(HairAsset::build(
                     &hm,
-                    &AssetParams { strands: StrandCount::Total(o.strands), sample_sets: 4, seed: 1 },
+                    &AssetParams {
+                        strands: StrandCount::Total(o.strands),
+                        sample_sets: 1,
+                        seed: 1,
+                        ..Default::default()
+                    },
                     *style,
                 )?)
             })
