@@ -29,6 +29,6 @@ void main() {
         store_vertex(local_slot, k, strand_vertex(bundle, strand, l, 0u, k));
     }
     if (thread == 0u) {
-        strand_info[local_slot] = uvec4(bundle, strand, segments + 1u, l.level);
+        strand_info[local_slot] = uvec4(bundle, strand, segments + 1u, floatBitsToUint(l.width_scale));
     }
 }

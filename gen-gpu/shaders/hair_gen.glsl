@@ -416,16 +416,22 @@ uint strands_per_mesh_group(uint level) {
 // Camera-facing strip corners of a strand vertex, in clip space. Strips narrower than a pixel
 // are widened to one pixel and report the fraction they really cover (coverage AA: the
 // fragment stage scales alpha by it instead of drawing thinner-than-a-pixel geometry).
-void strip_corners(StrandVertex v, out vec4 left, out vec4 right, out float coverage) {
+// `strand_coverage` is the coverage of one of the strands this one stands for under strand LOD
+// (its width divided by the LOD width scale): opaque mode lets only strands whose real strands
+// are solid write depth, so LOD does not turn sub-pixel hair into an occluding sheet.
+void strip_corners(StrandVertex v, float width_scale, out vec4 left, out vec4 right, out float coverage,
+                   out float strand_coverage) {
     vec3 to_eye = params.projection.z > 0.5 ? params.eye.xyz : params.eye.xyz - v.position;
     vec3 side = try_normalize(cross(v.tangent, to_eye), any_orthonormal(v.tangent)) * (0.5 * v.width);
     vec4 centre = params.view_proj * vec4(v.position, 1.0);
     left = params.view_proj * vec4(v.position - side, 1.0);
     right = params.view_proj * vec4(v.position + side, 1.0);
     coverage = 1.0;
+    strand_coverage = 1.0;
     if (left.w > 0.0 && right.w > 0.0) {
         vec2 pixels = (right.xy / right.w - left.xy / left.w) * 0.5 * params.viewport.xy;
         float width_px = length(pixels);
+        strand_coverage = min(1.0, width_px / max(width_scale, 1.0));
         if (width_px < 1.0) {
             float grow = 1.0 / max(width_px, 1e-3);
             left = centre + (left - centre) * grow;
@@ -439,13 +445,15 @@ void strip_corners(StrandVertex v, out vec4 left, out vec4 right, out float cove
 struct StrandVaryings {
     vec4 position_tau;    // xyz position, w strand parameter
     vec4 tangent_random;  // xyz unit tangent, w per-strand random in [0, 1)
-    vec4 coverage_side;   // x coverage in [0, 1], y -1 on the left edge, +1 on the right
+    vec4 coverage_side;   // x coverage in [0, 1], y -1 on the left edge, +1 on the right,
+                          // z coverage of one real strand (before strand LOD widening)
 };
 
-StrandVaryings strand_varyings(StrandVertex v, uint bundle, uint strand, float coverage, float side) {
+StrandVaryings strand_varyings(StrandVertex v, uint bundle, uint strand, float coverage, float strand_coverage,
+                               float side) {
     StrandVaryings o;
     o.position_tau = vec4(v.position, v.tau);
     o.tangent_random = vec4(v.tangent, strand_random(bundle, strand, 7u));
-    o.coverage_side = vec4(coverage, side, 0.0, 0.0);
+    o.coverage_side = vec4(coverage, side, strand_coverage, 0.0);
     return o;
 }

@@ -30,7 +30,8 @@ layout(std430, set = 0, binding = 9) buffer OffsetBuffer {
 // The current chunk's window. Per slot: MAX_VERTICES x (vec4(position, width),
 // vec4(tangent, tau)).
 layout(std430, set = 0, binding = 10) buffer StrandVertexBuffer { vec4 strand_vertices[]; };
-// The current chunk's window. Per slot: (bundle, strand index, vertex count, level).
+// The current chunk's window. Per slot: (bundle, strand index, vertex count, LOD width scale as
+// float bits).
 layout(std430, set = 0, binding = 11) buffer StrandInfoBuffer { uvec4 strand_info[]; };
 
 uint chunk_slots() {

@@ -7,6 +7,10 @@
 #include "hair_gen.glsl"
 #include "hair_outputs.glsl"
 
+// Opaque mode draws the same strands twice (a depth prepass, then colour with LESS_OR_EQUAL):
+// both pipelines must compute bit-identical positions.
+invariant gl_Position;
+
 layout(location = 0) out vec4 v_position_tau;
 layout(location = 1) out vec4 v_tangent_random;
 layout(location = 2) out vec4 v_coverage_side;
@@ -42,10 +46,11 @@ void main() {
     vec4 left;
     vec4 right;
     float coverage;
-    strip_corners(v, left, right, coverage);
+    float strand_coverage;
+    strip_corners(v, uintBitsToFloat(info.w), left, right, coverage, strand_coverage);
     bool is_left = (corner & 1u) == 0u;
     gl_Position = is_left ? left : right;
-    StrandVaryings o = strand_varyings(v, info.x, info.y, coverage, is_left ? -1.0 : 1.0);
+    StrandVaryings o = strand_varyings(v, info.x, info.y, coverage, strand_coverage, is_left ? -1.0 : 1.0);
     v_position_tau = o.position_tau;
     v_tangent_random = o.tangent_random;
     v_coverage_side = o.coverage_side;

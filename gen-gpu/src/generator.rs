@@ -43,6 +43,8 @@ pub struct FragmentStage {
     pub blend: crate::Blend,
     /// Depth writes (the depth test stays on).
     pub depth_write: bool,
+    /// The depth test (`LESS`; `LESS_OR_EQUAL` to redraw strands over their own depth prepass).
+    pub depth_compare: vk::CompareOp,
     /// Colour writes (off for a fill pass that only appends to buffers).
     pub color_write: bool,
     /// Storage buffers of its own, at bindings 12 and up of set 0.
@@ -284,6 +286,7 @@ impl Generator {
             push_constant_bytes: 0,
             blend: crate::Blend::Replace,
             depth_write: true,
+            depth_compare: vk::CompareOp::LESS,
             color_write: true,
             extra_bindings: &[],
         });
@@ -304,7 +307,7 @@ impl Generator {
                     depth_write: fragment.depth_write,
                     color_write: fragment.color_write,
                     samples: options.samples,
-                    depth_compare: vk::CompareOp::LESS,
+                    depth_compare: fragment.depth_compare,
                 },
             )
         };

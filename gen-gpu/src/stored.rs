@@ -68,7 +68,7 @@ impl StoredStrands {
                 };
                 vertex_data.push(v);
             }
-            info.push([slot, 0, keep as u32, 0]);
+            info.push([slot, 0, keep as u32, 1f32.to_bits()]);
         }
         let strands = info.len() as u64;
         if strands == 0 {

@@ -8,15 +8,7 @@ layout(location = 0) in vec4 v_position_tau;
 layout(location = 1) in vec4 v_tangent_random;
 layout(location = 2) in vec4 v_coverage_side;
 
-// Bytes 0-15 belong to the pre-raster stages (gen-gpu's FRAGMENT_PUSH_OFFSET).
-layout(push_constant) uniform Shading {
-    layout(offset = 16) mat4 model;          // the character's object -> world transform
-    vec4 eye;                                // xyz world eye; w: number of lights
-    vec4 hair_color;                         // rgb base colour (linear); w: per-strand variation
-    vec4 specular_shift;                     // x primary shift, y secondary shift, z primary exponent, w secondary exponent
-    vec4 specular_strength;                  // x primary, y secondary, z ambient, w sparkle
-    vec4 hair_opacity;                       // x: opacity of one strand (1 = opaque)
-} shading;
+#include "shading_constants.glsl"
 
 #include "lighting.glsl"
 

@@ -150,7 +150,9 @@ fn grid_position(i: u32, columns: u32, spacing: f32) -> (f32, f32) {
     ((col as f32 - (columns - 1) as f32 / 2.0) * spacing, -(row as f32) * spacing)
 }
 
-/// A crowd scene: key and fill light, opaque hair with LOD, the camera at the path's first key.
+/// A crowd scene: key and fill light, blended hair (its strands are mostly thinner than a pixel:
+/// blended mode keeps their density, and their look under strand LOD) with LOD, the camera at
+/// the path's first key.
 fn crowd_scene(
     size: (u32, u32),
     path: &[serde_json::Value],
@@ -166,7 +168,7 @@ fn crowd_scene(
             { "directional": { "direction": [-0.6, 0.3, -0.5], "color": [0.2, 0.25, 0.35], "cast_shadows": false } }
         ],
         "characters": characters,
-        "effects": { "transparency": "opaque" },
+        "effects": { "transparency": "blended" },
         "lod": { "enabled": true }
     })
 }

@@ -129,6 +129,8 @@ struct SceneOccluder {
 /// Everything a scene needs on the GPU, built once and rendered many times.
 pub struct SceneRenderer {
     generator: Generator,
+    /// Blended mode: the solid-fragment depth prepass (`hair_depth.frag`).
+    depth_prepass: Option<Generator>,
     oit: Option<Oit>,
     /// Shadow pipelines and the maps of the first frame (the scene is static).
     shadow: Option<(ShadowPipelines, std::sync::Mutex<Option<ShadowAtlas>>)>,
@@ -190,7 +192,14 @@ impl SceneRenderer {
                     shader: &shaders::HAIR_FRAG,
                     push_constant_bytes: size_of::<Shading>() as u32,
                     blend: gen_gpu::Blend::Over,
-                    depth_write: true,
+                    // Blended mode: only the depth prepass writes hair depth; this pass shades
+                    // what lies in front of (or is) the nearest solid fragment.
+                    depth_write: effects.transparency != Transparency::Blended,
+                    depth_compare: if effects.transparency == Transparency::Blended {
+                        vk::CompareOp::LESS_OR_EQUAL
+                    } else {
+                        vk::CompareOp::LESS
+                    },
                     color_write: true,
                     extra_bindings: &LIGHTING_BINDINGS,
                 }),
@@ -199,6 +208,29 @@ impl SceneRenderer {
                 ..GeneratorOptions::default()
             },
         )?;
+        // Blended mode's depth prepass: fragments a strand covers fully write depth, thinner
+        // ones do not, so a sub-pixel strand (alpha = coverage) never hides the strands behind it.
+        let depth_prepass = if effects.transparency != Transparency::Blended {
+            None
+        } else {
+            Some(Generator::with_options(
+                ctx,
+                GeneratorOptions {
+                    fragment: Some(FragmentStage {
+                        shader: &shaders::HAIR_DEPTH_FRAG,
+                        push_constant_bytes: size_of::<Shading>() as u32,
+                        blend: gen_gpu::Blend::Replace,
+                        depth_write: true,
+                        depth_compare: vk::CompareOp::LESS,
+                        color_write: false,
+                        extra_bindings: &[],
+                    }),
+                    color_format: Some(SCENE_COLOR_FORMAT),
+                    samples: effects.msaa,
+                    ..GeneratorOptions::default()
+                },
+            )?)
+        };
         let oit = if effects.transparency == Transparency::Oit {
             let fill = Generator::with_options(
                 ctx,
@@ -208,6 +240,7 @@ impl SceneRenderer {
                         push_constant_bytes: size_of::<Shading>() as u32,
                         blend: gen_gpu::Blend::Replace,
                         depth_write: false,
+                        depth_compare: vk::CompareOp::LESS,
                         color_write: false,
                         extra_bindings: &OIT_FILL_BINDINGS,
                     }),
@@ -325,6 +358,7 @@ impl SceneRenderer {
         };
         Ok(Self {
             generator,
+            depth_prepass,
             oit,
             shadow,
             no_shadow,
@@ -457,11 +491,15 @@ impl SceneRenderer {
                 writes: target(false),
             });
         } else {
-            passes.push(PassNode {
-                name: format!("raster hair ({}, opaque)", self.path),
-                reads,
-                writes: target(msaa),
-            });
+            if self.depth_prepass.is_some() {
+                passes.push(PassNode {
+                    name: format!("hair depth prepass ({}, solid fragments)", self.path),
+                    reads: reads.clone(),
+                    writes: vec!["depth".into()],
+                });
+                reads.push("depth".into());
+            }
+            passes.push(PassNode { name: self.raster_pass_name(), reads, writes: target(msaa) });
         }
         passes.push(PassNode {
             name: "copy out".into(),
@@ -594,6 +632,66 @@ impl SceneRenderer {
             })
             .collect::<Result<Vec<_>, RenderError>>()?;
         Ok(crate::shadow::render_shadow_maps(ctx, pipes, &casters, &shadow_lights, settings)?)
+    }
+
+    /// `raster hair (compute, opaque)` / `(…, blended)`.
+    fn raster_pass_name(&self) -> String {
+        let mode = if self.depth_prepass.is_some() { "blended" } else { "opaque" };
+        format!("raster hair ({}, {mode})", self.path)
+    }
+
+    /// Blended mode's depth prepass: draws the characters whose strands can cover a whole pixel
+    /// (only those fragments write depth; `hair_depth.frag`), skipping the rest — in a crowd,
+    /// every character far enough away that its widest strand is thinner than a pixel.
+    fn draw_depth_prepass(
+        &self,
+        rec: &mut gen_gpu::Recorder<'_>,
+        generator: &Generator,
+        batch: &[(usize, gen_gpu::FrameBuffers)],
+        stored_params: &[Buffer],
+        view: &CrowdView,
+    ) -> gen_gpu::Result<()> {
+        let eye = view.camera.eye;
+        for (i, frame) in batch {
+            let c = &self.characters[*i];
+            if self.may_cover_pixels(c, view) {
+                let shading = self.shading(c, eye);
+                let extras = DrawExtras { fragment_constants: bytemuck::bytes_of(&shading), buffers: &[] };
+                generator.record_draw_with(rec, &self.hairs[c.hair], frame, self.path, false, extras)?;
+            }
+        }
+        self.draw_stored(rec, generator, stored_params, &[], eye);
+        Ok(())
+    }
+
+    /// Whether one of `c`'s strands can be a pixel wide in `view`: its widest strand at the
+    /// nearest point of its bounds (conservative; strand LOD widening does not count, as the
+    /// prepass tests each real strand's coverage).
+    fn may_cover_pixels(&self, c: &SceneCharacter, view: &CrowdView) -> bool {
+        let asset = &self.hairs[c.hair].asset;
+        let (lo, hi) = asset.bundles.iter().fold((Vec3::INFINITY, Vec3::NEG_INFINITY), |(lo, hi), b| {
+            (lo.min(b.bounds_min.as_vec3()), hi.max(b.bounds_max.as_vec3()))
+        });
+        let (mut wlo, mut whi) = (Vec3::INFINITY, Vec3::NEG_INFINITY);
+        for k in 0..8 {
+            let corner = Vec3::new(
+                if k & 1 == 0 { lo.x } else { hi.x },
+                if k & 2 == 0 { lo.y } else { hi.y },
+                if k & 4 == 0 { lo.z } else { hi.z },
+            );
+            let p = c.transform.transform_point3(corner);
+            wlo = wlo.min(p);
+            whi = whi.max(p);
+        }
+        let eye = view.camera.eye;
+        let distance = eye.distance(eye.clamp(wlo, whi));
+        let scale = (0..3).map(|i| c.transform.col(i).truncate().length()).fold(0.0f32, f32::max);
+        let style = &asset.style;
+        let width = (style.width * style.tip_width.max(1.0)) as f32 * scale;
+        let pixels = width * view.height as f32 / (2.0 * distance * (0.5 * view.camera.fov_y).tan());
+        // Half a pixel of margin for the strip's own projection (it is measured per vertex); a
+        // NaN (eye on the bounds) keeps the draw.
+        pixels.is_nan() || pixels >= 0.5
     }
 
     /// Draws every character (generated, then stored) with `generator`'s fragment stage.
@@ -841,7 +939,18 @@ impl SceneRenderer {
                         drawn
                     }
                     _ => {
-                        let raster = format!("raster hair ({}, opaque)", self.path);
+                        let prepass = match &self.depth_prepass {
+                            Some(generator) => {
+                                let name = format!("hair depth prepass ({}, solid fragments)", self.path);
+                                let drawn = rec.pass(&name, |rec| {
+                                    self.draw_depth_prepass(rec, generator, &frames, stored, &view)
+                                });
+                                recorded.push(name);
+                                drawn
+                            }
+                            None => Ok(()),
+                        };
+                        let raster = self.raster_pass_name();
                         let drawn = rec.pass(&raster, |rec| {
                             self.draw_characters(
                                 rec,
@@ -854,7 +963,7 @@ impl SceneRenderer {
                         });
                         recorded.push(raster);
                         rec.end_rendering();
-                        drawn
+                        prepass.and(drawn)
                     }
                 };
                 if last {

@@ -14,9 +14,12 @@
 //!
 //! Unknown fields are errors, reported with line and column. Paths are relative to the scene
 //! file. Every number is checked (finite, in range) and errors name the file and the field.
-//! `effects.transparency` is `"opaque"` (coverage-scaled strands blended in draw order, depth
-//! tested) or `"oit"` (per-pixel linked lists with a k-buffer resolve, `oit_k` sorted, pool of
-//! `oit_nodes_per_pixel` nodes per pixel on average); opaque mode may add MSAA (`msaa`: 2, 4, 8).
+//! `effects.transparency` is `"opaque"` (coverage-scaled strands blended in draw order, every
+//! fragment writing depth), `"blended"` (only strands at least a pixel wide write depth, in a
+//! depth prepass; thinner ones blend without hiding what is behind them: for crowds and distant
+//! hair) or `"oit"` (per-pixel linked lists with a k-buffer resolve, `oit_k` sorted, pool of
+//! `oit_nodes_per_pixel` nodes per pixel on average); opaque and blended modes may add MSAA
+//! (`msaa`: 2, 4, 8).
 //! `shadows` adds deep opacity maps and occluder depth maps for every light with `cast_shadows`
 //! (default true; orthographic for directional lights, perspective for point lights, which must
 //! lie outside the casters; `shadow_map_size`, `shadow_layers`). A character may carry an
@@ -192,8 +195,18 @@ fn default_variation() -> f32 {
 #[derive(Clone, Copy, Debug, Default, Deserialize, Serialize, PartialEq, Eq)]
 #[serde(rename_all = "snake_case")]
 pub enum Transparency {
+    /// Every hair fragment writes depth, alpha = its coverage: the nearest drawn wins, and a
+    /// sub-pixel strand hides the strands behind it. Cheapest; looks closest to `oit` when
+    /// strands are about a pixel wide or wider (close-ups).
     #[default]
     Opaque,
+    /// Only fragments of strands at least a pixel wide write depth (a depth prepass); thinner
+    /// strands blend with their coverage in draw order and never hide the strands behind them,
+    /// so sub-pixel hair keeps its density and strand LOD (fewer, wider strands) keeps its
+    /// look. For distant characters and crowds; in close-ups of sub-pixel hair the draw order
+    /// shows (bundles drawn later lie on top).
+    Blended,
+    /// Per-pixel linked lists with a k-buffer resolve: order-independent and the most accurate.
     Oit,
 }
 
@@ -488,7 +501,7 @@ fn validate(loaded: &LoadedScene) -> Result<(), SceneError> {
     if e.msaa > 1 && e.transparency == Transparency::Oit {
         return Err(invalid(
             "effects.msaa",
-            format!("{} with transparency \"oit\" (MSAA is the opaque mode's anti-aliasing)", e.msaa),
+            format!("{} with transparency \"oit\" (MSAA anti-aliases the opaque and blended modes)", e.msaa),
         ));
     }
     if e.shadows {

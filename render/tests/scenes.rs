@@ -346,6 +346,7 @@ fn main() -> ExitCode {
             let dir = tempfile::tempdir()?;
             for effects in [
                 serde_json::json!({ "transparency": "opaque", "msaa": 4 }),
+                serde_json::json!({ "transparency": "blended" }),
                 serde_json::json!({ "transparency": "oit" }),
             ] {
                 let scene = load_scene(&scene_with(dir.path(), "small_crowd", 128, 72, effects)?)?;
@@ -364,6 +365,39 @@ fn main() -> ExitCode {
                 )
                 .map_err(anyhow::Error::msg)?;
             }
+            Ok(())
+        }),
+        GpuTest::new("blended_mode_keeps_thin_hair_dense_under_strand_lod", Requirements::NONE, |ctx| {
+            // The small crowd at 160×90: every strand is thinner than a pixel. In opaque mode
+            // such a strand writes depth and hides the strands behind it, so dropping strands
+            // (strand LOD, the kept ones widened) changes the image; blended mode lets them
+            // blend, so LOD keeps the look.
+            let dir = tempfile::tempdir()?;
+            let mut flips = Vec::new();
+            for mode in ["opaque", "blended"] {
+                let effects = serde_json::json!({ "transparency": mode });
+                let mut scene = load_scene(&scene_with(dir.path(), "small_crowd", 160, 90, effects)?)?;
+                scene.scene.lod.enabled = false;
+                let renderer = SceneRenderer::new(ctx, &scene, GenerationPath::Compute)?;
+                let full = renderer.render(ctx)?;
+                let prepasses = full.passes.iter().filter(|p| p.starts_with("hair depth prepass")).count();
+                ensure!(prepasses == usize::from(mode == "blended"), "{mode}: {:?}", full.passes);
+                ensure!(full.passes.iter().any(|p| p == &format!("raster hair (compute, {mode})")));
+                scene.scene.lod =
+                    render::scene::LodDesc { enabled: true, strand_alpha: 16.0, vertex_alpha: 1.0 };
+                let lod = SceneRenderer::new(ctx, &scene, GenerationPath::Compute)?.render(ctx)?;
+                ensure!(lod.stats.strands * 2 < full.stats.strands, "{:?} vs {:?}", lod.stats, full.stats);
+                let loose = Tolerance { mean: 1.0, percentile: (0.99, 1.0) };
+                let flip = compare(&format!("lod_{mode}"), &lod.image, &full.image, loose)
+                    .map_err(anyhow::Error::msg)?
+                    .mean;
+                eprintln!(
+                    "  {mode}: strand LOD α = 16 draws {} of {} strands, FLIP vs LOD off {flip:.4}",
+                    lod.stats.strands, full.stats.strands
+                );
+                flips.push(flip);
+            }
+            ensure!(flips[1] < 0.6 * flips[0], "blended {:.4} vs opaque {:.4}", flips[1], flips[0]);
             Ok(())
         }),
         GpuTest::new("the_frame_runs_exactly_the_passes_of_its_graph", Requirements::NONE, |ctx| {

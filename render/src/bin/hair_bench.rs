@@ -451,7 +451,7 @@ fn crowd_table(
     let _ = writeln!(md, "\n### Crowds: LOD off vs on\n");
     let _ = writeln!(
         md,
-        "Scenes written by `hairkit crowd` (seed {}), {w}×{h}, opaque with coverage AA, scalp occluders, compute path, from the first key of each camera path; one frame each (GPU timestamps of every batch). Image error: mean FLIP of the LOD render against the LOD-off render. LOD α (strand and vertex α alike) trades detail for time: L = h·R/(α·d·tan(θ/2)), so α = 1 keeps every strand of a bundle taller than about two pixels. Goal: ≥ 30× faster with LOD at mean FLIP ≤ 0.05.\n",
+        "Scenes written by `hairkit crowd` (seed {}), {w}×{h}, blended transparency (coverage AA; only strands a pixel wide write depth, so thinner ones keep their density under LOD), scalp occluders, compute path, from the first key of each camera path; one frame each (GPU timestamps of every batch). Image error: mean FLIP of the LOD render against the LOD-off render. LOD α (strand and vertex α alike) trades detail for time: L = h·R/(α·d·tan(θ/2)), so α = 1 keeps every strand of a bundle taller than about two pixels. Goal: ≥ 30× faster with LOD at mean FLIP ≤ 0.05.\n",
         options.seed
     );
     let _ = writeln!(
