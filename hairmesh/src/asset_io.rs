@@ -243,7 +243,10 @@ fn validate_manifest(path: &Path, m: &Manifest) -> Result<()> {
     if m.format_version != FORMAT_VERSION {
         return Err(err(
             "format_version",
-            format!("{} is not supported (this build reads {FORMAT_VERSION})", m.format_version),
+            format!(
+                "{} is not supported (this build reads {FORMAT_VERSION}; re-convert older assets with `hairmesh convert`)",
+                m.format_version
+            ),
         ));
     }
     let n = &m.normalization;

@@ -131,9 +131,8 @@ impl Lattice {
     /// The one-2×2-block-per-face layout (blocks in rows of `⌈√F⌉`): the baseline the lattice is
     /// measured against, and a layout every face set has.
     pub fn blocks(corners: &[[u32; 4]]) -> Self {
-        let per_row = (f64::from(corners.len().max(1) as u32).sqrt().ceil() as u32).max(1);
-        let rows = (corners.len().max(1) as u32).div_ceil(per_row);
-        let (width, height) = (2 * per_row, 2 * rows);
+        let (width, height) = Self::block_slice(corners.len());
+        let per_row = width / 2;
         let cells: Vec<Cell> = (0..corners.len() as u32)
             .map(|f| Cell {
                 x: 2 * (f % per_row),
@@ -149,6 +148,12 @@ impl Lattice {
             }
         }
         Self { width, height, cells, texels }
+    }
+
+    /// Texels (width, height) of a slice of [`Self::blocks`] for `faces` faces.
+    pub fn block_slice(faces: usize) -> (u32, u32) {
+        let per_row = (f64::from(faces.max(1) as u32).sqrt().ceil() as u32).max(1);
+        (2 * per_row, 2 * (faces.max(1) as u32).div_ceil(per_row))
     }
 
     /// Grows charts over the faces (`corners[f]` = the face's four corner vertices, triangles

@@ -139,6 +139,26 @@ fn hostile_asset_folders_give_clear_errors() {
         &["hair.json", "layout"],
     );
     corrupt(
+        "version 1",
+        |d| edit_json(d, |v| v["format_version"] = 1.into()),
+        &["hair.json", "format_version", "re-convert"],
+    );
+    corrupt(
+        "cell outside the slice",
+        |d| edit_json(d, |v| v["layout"]["cells"][3] = serde_json::json!([4000, 0, 0])),
+        &["hair.json", "layout.cells[3]", "does not fit"],
+    );
+    corrupt(
+        "cell orientation",
+        |d| edit_json(d, |v| v["layout"]["cells"][0] = serde_json::json!([0, 0, 8])),
+        &["hair.json", "cell orientation 8"],
+    );
+    corrupt(
+        "missing cells",
+        |d| edit_json(d, |v| v["layout"]["cells"] = serde_json::json!([[0, 0, 0]])),
+        &["hair.json", "layout.cells", "1 cells"],
+    );
+    corrupt(
         "bundle count",
         |d| edit_json(d, |v| v["layout"]["bundles"] = 5.into()),
         &["hair.json", "layout"],

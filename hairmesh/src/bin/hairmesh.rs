@@ -209,6 +209,16 @@ fn convert(o: &ConvertArgs) -> Result<()> {
         t.layout.curve_slices(),
         if o.f16 { "RGBA16F" } else { "RGBA32F" }
     );
+    println!(
+        "slice layout:   {:?}: {} texels per slice for {} root vertices ({} as 2×2 blocks)",
+        params.layout,
+        t.layout.slice_texels(),
+        hm.layers[0].len(),
+        {
+            let (w, h) = hairmesh::lattice::Lattice::block_slice(hm.faces.len());
+            u64::from(w) * u64::from(h)
+        }
+    );
     Ok(())
 }
 
