@@ -400,6 +400,34 @@ fn main() -> ExitCode {
             ensure!(flips[1] < 0.6 * flips[0], "blended {:.4} vs opaque {:.4}", flips[1], flips[0]);
             Ok(())
         }),
+        GpuTest::new("blended_mode_lets_solid_strands_hide_what_is_behind", Requirements::NONE, |ctx| {
+            // Strands several pixels wide: every fragment is solid, so blended mode (depth prepass,
+            // then LESS_OR_EQUAL) must show the nearest strand exactly as opaque mode does.
+            let dir = tempfile::tempdir()?;
+            let thick = |json: &mut serde_json::Value| {
+                json["characters"][0]["style"] = serde_json::json!({ "width": 0.008, "tip_width": 1.0 });
+            };
+            let mut frames = Vec::new();
+            for mode in ["opaque", "blended"] {
+                let effects = serde_json::json!({ "transparency": mode });
+                let scene = edited_scene(dir.path(), &format!("{mode}.json"), (192, 144), effects, thick)?;
+                frames.push(SceneRenderer::new(ctx, &scene, GenerationPath::Compute)?.render(ctx)?);
+            }
+            ensure!(
+                frames[1].passes.iter().any(|p| p.starts_with("hair depth prepass")),
+                "{:?}",
+                frames[1].passes
+            );
+            let stats = compare(
+                "blended_solid",
+                &frames[1].image,
+                &frames[0].image,
+                Tolerance { mean: 0.01, percentile: (0.99, 0.2) },
+            )
+            .map_err(anyhow::Error::msg)?;
+            eprintln!("  thick strands: blended vs opaque FLIP mean {:.5}", stats.mean);
+            Ok(())
+        }),
         GpuTest::new("the_frame_runs_exactly_the_passes_of_its_graph", Requirements::NONE, |ctx| {
             let dir = tempfile::tempdir()?;
             let scene = load_scene(&small_scene(dir.path(), "small_crowd", 64, 48)?)?;
