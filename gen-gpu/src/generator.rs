@@ -15,7 +15,7 @@
 //! ```
 
 use ash::vk;
-use glam::{DVec3, Mat4, Vec3};
+use glam::{Mat4, Vec3};
 use hairmesh::asset::HairAsset;
 use hairmesh::reference::{LodParams, Projection, ViewParams, bundle_lod};
 
@@ -95,12 +95,7 @@ pub struct FrameInputs {
 impl FrameInputs {
     /// A perspective camera at `eye` looking at the asset's centre (45° vertical field of view).
     pub fn looking_at(asset: &HairAsset, eye: Vec3, width: u32, height: u32) -> Self {
-        let (lo, hi) = asset
-            .bundles
-            .iter()
-            .fold((DVec3::splat(f64::INFINITY), DVec3::splat(f64::NEG_INFINITY)), |(lo, hi), b| {
-                (lo.min(b.bounds_min), hi.max(b.bounds_max))
-            });
+        let (lo, hi) = asset.bounds();
         let centre = (0.5 * (lo + hi)).as_vec3();
         let fov_y = 45f32.to_radians();
         let far = (eye.distance(centre) + (hi - lo).length() as f32) * 2.0;

@@ -217,6 +217,13 @@ impl HairAsset {
         })
     }
 
+    /// Union of the bundles' bounds (object space, with the styling margin).
+    pub fn bounds(&self) -> (DVec3, DVec3) {
+        self.bundles.iter().fold((DVec3::INFINITY, DVec3::NEG_INFINITY), |(lo, hi), b| {
+            (lo.min(b.bounds_min), hi.max(b.bounds_max))
+        })
+    }
+
     pub fn total_strands(&self) -> u64 {
         self.bundles.iter().map(|b| u64::from(b.strands)).sum()
     }

@@ -571,17 +571,10 @@ impl SceneRenderer {
         let lights = self.scene.lights();
         let mut lo = Vec3::splat(f32::INFINITY);
         let mut hi = Vec3::splat(f32::NEG_INFINITY);
-        let mut add_box = |m: Mat4, (a, b): (Vec3, Vec3)| {
-            for k in 0..8 {
-                let p = Vec3::new(
-                    if k & 1 == 0 { a.x } else { b.x },
-                    if k & 2 == 0 { a.y } else { b.y },
-                    if k & 4 == 0 { a.z } else { b.z },
-                );
-                let w = m.transform_point3(p);
-                lo = lo.min(w);
-                hi = hi.max(w);
-            }
+        let mut add_box = |m: Mat4, bounds: (Vec3, Vec3)| {
+            let (a, b) = transformed_box(m, bounds);
+            lo = lo.min(a);
+            hi = hi.max(b);
         };
         for c in &self.characters {
             for b in &self.hairs[c.hair].asset.bundles {
@@ -640,49 +633,14 @@ impl SceneRenderer {
         format!("raster hair ({}, {mode})", self.path)
     }
 
-    /// Blended mode's depth prepass: draws the characters whose strands can cover a whole pixel
-    /// (only those fragments write depth; `hair_depth.frag`), skipping the rest — in a crowd,
-    /// every character far enough away that its widest strand is thinner than a pixel.
-    fn draw_depth_prepass(
-        &self,
-        rec: &mut gen_gpu::Recorder<'_>,
-        generator: &Generator,
-        batch: &[(usize, gen_gpu::FrameBuffers)],
-        stored_params: &[Buffer],
-        view: &CrowdView,
-    ) -> gen_gpu::Result<()> {
-        let eye = view.camera.eye;
-        for (i, frame) in batch {
-            let c = &self.characters[*i];
-            if self.may_cover_pixels(c, view) {
-                let shading = self.shading(c, eye);
-                let extras = DrawExtras { fragment_constants: bytemuck::bytes_of(&shading), buffers: &[] };
-                generator.record_draw_with(rec, &self.hairs[c.hair], frame, self.path, false, extras)?;
-            }
-        }
-        self.draw_stored(rec, generator, stored_params, &[], eye);
-        Ok(())
-    }
-
     /// Whether one of `c`'s strands can be a pixel wide in `view`: its widest strand at the
     /// nearest point of its bounds (conservative; strand LOD widening does not count, as the
-    /// prepass tests each real strand's coverage).
+    /// prepass tests each real strand's coverage). Blended mode's depth prepass draws only
+    /// such characters — in a crowd, the far ones have no fragment that could write depth.
     fn may_cover_pixels(&self, c: &SceneCharacter, view: &CrowdView) -> bool {
         let asset = &self.hairs[c.hair].asset;
-        let (lo, hi) = asset.bundles.iter().fold((Vec3::INFINITY, Vec3::NEG_INFINITY), |(lo, hi), b| {
-            (lo.min(b.bounds_min.as_vec3()), hi.max(b.bounds_max.as_vec3()))
-        });
-        let (mut wlo, mut whi) = (Vec3::INFINITY, Vec3::NEG_INFINITY);
-        for k in 0..8 {
-            let corner = Vec3::new(
-                if k & 1 == 0 { lo.x } else { hi.x },
-                if k & 2 == 0 { lo.y } else { hi.y },
-                if k & 4 == 0 { lo.z } else { hi.z },
-            );
-            let p = c.transform.transform_point3(corner);
-            wlo = wlo.min(p);
-            whi = whi.max(p);
-        }
+        let (lo, hi) = asset.bounds();
+        let (wlo, whi) = transformed_box(c.transform, (lo.as_vec3(), hi.as_vec3()));
         let eye = view.camera.eye;
         let distance = eye.distance(eye.clamp(wlo, whi));
         let scale = (0..3).map(|i| c.transform.col(i).truncate().length()).fold(0.0f32, f32::max);
@@ -694,12 +652,13 @@ impl SceneRenderer {
         pixels.is_nan() || pixels >= 0.5
     }
 
-    /// Draws every character (generated, then stored) with `generator`'s fragment stage.
-    fn draw_characters(
+    /// Draws `batch`'s generated characters, then the stored ones, with `generator`'s fragment
+    /// stage.
+    fn draw_characters<'b>(
         &self,
         rec: &mut gen_gpu::Recorder<'_>,
         generator: &Generator,
-        batch: &[(usize, gen_gpu::FrameBuffers)],
+        batch: impl IntoIterator<Item = &'b (usize, gen_gpu::FrameBuffers)>,
         stored_params: &[Buffer],
         extra: &[(u32, &Buffer)],
         eye: Vec3,
@@ -911,7 +870,8 @@ impl SceneRenderer {
                             lighting[3],
                         ];
                         let drawn = rec.pass(&fill, |rec| {
-                            self.draw_characters(rec, &oit.fill, &frames, stored, &extra, view.camera.eye)
+                            let eye = view.camera.eye;
+                            self.draw_characters(rec, &oit.fill, &frames, stored, &extra, eye)
                         });
                         recorded.push(fill);
                         rec.end_rendering();
@@ -943,7 +903,11 @@ impl SceneRenderer {
                             Some(generator) => {
                                 let name = format!("hair depth prepass ({}, solid fragments)", self.path);
                                 let drawn = rec.pass(&name, |rec| {
-                                    self.draw_depth_prepass(rec, generator, &frames, stored, &view)
+                                    let eye = view.camera.eye;
+                                    let solid = frames
+                                        .iter()
+                                        .filter(|(i, _)| self.may_cover_pixels(&self.characters[*i], &view));
+                                    self.draw_characters(rec, generator, solid, stored, &[], eye)
                                 });
                                 recorded.push(name);
                                 drawn
@@ -1001,4 +965,17 @@ impl SceneRenderer {
             shadow_ms,
         })
     }
+}
+
+/// The axis-aligned box around `bounds` (a box) transformed by `m`.
+fn transformed_box(m: Mat4, (a, b): (Vec3, Vec3)) -> (Vec3, Vec3) {
+    (0..8).fold((Vec3::INFINITY, Vec3::NEG_INFINITY), |(lo, hi), k| {
+        let corner = Vec3::new(
+            if k & 1 == 0 { a.x } else { b.x },
+            if k & 2 == 0 { a.y } else { b.y },
+            if k & 4 == 0 { a.z } else { b.z },
+        );
+        let p = m.transform_point3(corner);
+        (lo.min(p), hi.max(p))
+    })
 }
