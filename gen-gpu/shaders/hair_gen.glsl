@@ -5,12 +5,15 @@
 
 #extension GL_EXT_control_flow_attributes : enable
 
+// Bindings, locations and limits from gen-gpu/src/contract.rs (generated at build time).
+#include "hk_gen_contract.glsl"
+
 // Specialization constants.
 layout(constant_id = 0) const uint MANUAL_FILTERING = 0u; // 1: texelFetch + f32 lerps
 layout(constant_id = 1) const uint CAPTURE = 0u;          // mesh path: also write the capture buffer
 layout(constant_id = 2) const uint EXACT_CUBIC = 0u;      // 1: exact cubic instead of two quadratics
 
-const uint MAX_SEGMENTS_LOG2 = 5u;
+const uint MAX_SEGMENTS_LOG2 = HK_MAX_SEGMENTS_LOG2;
 const uint MAX_SEGMENTS = 1u << MAX_SEGMENTS_LOG2;
 const uint MAX_VERTICES = MAX_SEGMENTS + 1u;
 const uint STRAND_THREADS = 32u;
@@ -51,15 +54,15 @@ struct BundleLod {
     float width_scale;   // min(1/L, N_i)
 };
 
-layout(std430, set = 0, binding = 0) readonly buffer ParamsBuffer { GenParams params; };
-layout(std430, set = 0, binding = 1) readonly buffer BundleBuffer { Bundle bundles[]; };
+layout(std430, set = 0, binding = HK_BINDING_GEN_PARAMS) readonly buffer ParamsBuffer { GenParams params; };
+layout(std430, set = 0, binding = HK_BINDING_BUNDLES) readonly buffer BundleBuffer { Bundle bundles[]; };
 // Root samples as unorm16 pairs (hairmesh::roots::pack_sample).
-layout(std430, set = 0, binding = 2) readonly buffer SampleBuffer { uint samples[]; };
-layout(std430, set = 0, binding = 3) readonly buffer SampleSetBuffer { SampleSetInfo sample_sets[]; };
-layout(set = 0, binding = 4) uniform sampler3D hair_mesh_tex;
-layout(set = 0, binding = 5) uniform sampler3D u_tex;
-layout(set = 0, binding = 6) uniform sampler3D v_tex;
-layout(set = 0, binding = 7) uniform sampler3D w_tex;
+layout(std430, set = 0, binding = HK_BINDING_ROOT_SAMPLES) readonly buffer SampleBuffer { uint samples[]; };
+layout(std430, set = 0, binding = HK_BINDING_SAMPLE_SETS) readonly buffer SampleSetBuffer { SampleSetInfo sample_sets[]; };
+layout(set = 0, binding = HK_BINDING_HAIR_MESH_TEXTURE) uniform sampler3D hair_mesh_tex;
+layout(set = 0, binding = HK_BINDING_U_TEXTURE) uniform sampler3D u_tex;
+layout(set = 0, binding = HK_BINDING_V_TEXTURE) uniform sampler3D v_tex;
+layout(set = 0, binding = HK_BINDING_W_TEXTURE) uniform sampler3D w_tex;
 
 // ---------------------------------------------------------------- hashing (style.rs)
 

@@ -17,8 +17,8 @@ struct DispatchArgs {
 // buffer range; chunk c holds slots [c * chunk_slots, (c + 1) * chunk_slots).
 const uint MAX_CHUNKS = 16u;
 
-layout(std430, set = 0, binding = 8) buffer LodBuffer { BundleLod lods[]; };
-layout(std430, set = 0, binding = 9) buffer OffsetBuffer {
+layout(std430, set = 0, binding = HK_BINDING_BUNDLE_LODS) buffer LodBuffer { BundleLod lods[]; };
+layout(std430, set = 0, binding = HK_BINDING_STRAND_OFFSETS) buffer OffsetBuffer {
     uint total_strands;
     uint generated_strands;    // min(total, capacity)
     uint pad0;
@@ -29,10 +29,10 @@ layout(std430, set = 0, binding = 9) buffer OffsetBuffer {
 };
 // The current chunk's window. Per slot: MAX_VERTICES x (vec4(position, width),
 // vec4(tangent, tau)).
-layout(std430, set = 0, binding = 10) buffer StrandVertexBuffer { vec4 strand_vertices[]; };
+layout(std430, set = 0, binding = HK_BINDING_STRAND_VERTICES) buffer StrandVertexBuffer { vec4 strand_vertices[]; };
 // The current chunk's window. Per slot: (bundle, strand index, vertex count, LOD width scale as
 // float bits).
-layout(std430, set = 0, binding = 11) buffer StrandInfoBuffer { uvec4 strand_info[]; };
+layout(std430, set = 0, binding = HK_BINDING_STRAND_INFO) buffer StrandInfoBuffer { uvec4 strand_info[]; };
 
 uint chunk_slots() {
     return params.seed_info.w;

@@ -1,4 +1,6 @@
 #version 460
+#extension GL_GOOGLE_include_directive : require
+#include "hk_gen_contract.glsl"
 // Writes a known integer pattern so tests can check dispatch, indexing and readback exactly.
 layout(local_size_x = 64) in;
 
@@ -7,7 +9,7 @@ layout(push_constant) uniform PatternParams {
     uint seed;
 } params;
 
-layout(std430, set = 0, binding = 0) writeonly buffer Pattern {
+layout(std430, set = 0, binding = HK_BINDING_DIAGNOSTIC_OUTPUT) writeonly buffer Pattern {
     uint values[];
 };
 

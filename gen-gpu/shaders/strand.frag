@@ -1,10 +1,12 @@
 #version 460
+#extension GL_GOOGLE_include_directive : require
+#include "hk_gen_contract.glsl"
 // gen-gpu's own fragment stage for strands (tests, demo, benchmarks): a brown base varied per
 // strand, lit by a fixed Kajiya-Kay diffuse term so the strand direction is visible. The
 // renderer brings its own hair shading through the same inputs.
-layout(location = 0) in vec4 v_position_tau;
-layout(location = 1) in vec4 v_tangent_random;
-layout(location = 2) in vec4 v_coverage_side;
+layout(location = HK_LOCATION_POSITION_TAU) in vec4 v_position_tau;
+layout(location = HK_LOCATION_TANGENT_RANDOM) in vec4 v_tangent_random;
+layout(location = HK_LOCATION_COVERAGE_SIDE) in vec4 v_coverage_side;
 layout(location = 0) out vec4 out_color;
 
 void main() {

@@ -11,9 +11,9 @@
 // both pipelines must compute bit-identical positions.
 invariant gl_Position;
 
-layout(location = 0) out vec4 v_position_tau;
-layout(location = 1) out vec4 v_tangent_random;
-layout(location = 2) out vec4 v_coverage_side;
+layout(location = HK_LOCATION_POSITION_TAU) out vec4 v_position_tau;
+layout(location = HK_LOCATION_TANGENT_RANDOM) out vec4 v_tangent_random;
+layout(location = HK_LOCATION_COVERAGE_SIDE) out vec4 v_coverage_side;
 
 const uint CORNER[6] = uint[6](0u, 1u, 2u, 2u, 1u, 3u);
 

@@ -1,10 +1,11 @@
 #version 460
 #extension GL_GOOGLE_include_directive : require
+#include "hk_gen_contract.glsl"
 // Vertex pulling for strips: six vertices per segment, two triangles
 // (2k, 2k+1, 2k+2) and (2k+2, 2k+1, 2k+3), the same order the mesh shader emits.
 #include "test_strips.glsl"
 
-layout(std430, set = 0, binding = 0) readonly buffer StripVertices {
+layout(std430, set = 0, binding = HK_BINDING_DIAGNOSTIC_OUTPUT) readonly buffer StripVertices {
     vec4 vertices[];
 };
 

@@ -1,12 +1,13 @@
 #version 460
 #extension GL_GOOGLE_include_directive : require
+#include "hk_gen_contract.glsl"
 // Compute path: one thread per strand point writes the point's two strip vertices
 // (position, colour) for `strip_pull.vert` to draw.
 #include "test_strips.glsl"
 
 layout(local_size_x = 64) in;
 
-layout(std430, set = 0, binding = 0) writeonly buffer StripVertices {
+layout(std430, set = 0, binding = HK_BINDING_DIAGNOSTIC_OUTPUT) writeonly buffer StripVertices {
     vec4 vertices[];
 };
 

@@ -263,6 +263,22 @@ impl<'a> Recorder<'a> {
         unsafe { self.device().cmd_pipeline_barrier2(self.cmd, &dep) };
     }
 
+    /// One `vkCmdPipelineBarrier2` with global memory barriers and image barriers (a frame
+    /// graph's derived barriers for one pass). Nothing is recorded for two empty lists.
+    pub fn pipeline_barrier(
+        &self,
+        memory: &[vk::MemoryBarrier2<'_>],
+        images: &[vk::ImageMemoryBarrier2<'_>],
+    ) {
+        if memory.is_empty() && images.is_empty() {
+            return;
+        }
+        let dep = vk::DependencyInfo::default().memory_barriers(memory).image_memory_barriers(images);
+        // SAFETY: recording outside a rendering scope (passes begin and end their own); the
+        // image barriers name live images of this device with whole-image ranges.
+        unsafe { self.device().cmd_pipeline_barrier2(self.cmd, &dep) };
+    }
+
     /// Transitions a whole image between layouts.
     pub fn image_barrier(
         &self,
@@ -392,11 +408,29 @@ impl<'a> Recorder<'a> {
         unsafe { self.device().cmd_fill_buffer(self.cmd, buffer.raw, 0, vk::WHOLE_SIZE, value) };
     }
 
-    /// Writes up to 64 KiB of data into a buffer (vkCmdUpdateBuffer).
-    pub fn update_buffer(&self, buffer: &Buffer, offset: u64, data: &[u8]) {
-        // SAFETY: recording outside rendering; offset and size are multiples of 4 within the
-        // buffer (the caller passes whole u32 words).
+    /// Writes up to 64 KiB of data into a buffer (vkCmdUpdateBuffer). Offset and size must be
+    /// multiples of 4, the data non-empty and within the buffer; anything else is refused with
+    /// [`GpuError::BadUpload`] before it reaches the driver.
+    pub fn update_buffer(&self, buffer: &Buffer, offset: u64, data: &[u8]) -> Result<()> {
+        let size = data.len() as u64;
+        let problem = if data.is_empty() {
+            Some("no data")
+        } else if !offset.is_multiple_of(4) || !size.is_multiple_of(4) {
+            Some("offset and size must be multiples of 4")
+        } else if size > 65_536 {
+            Some("more than 65536 bytes (use a staging copy)")
+        } else if offset.checked_add(size).is_none_or(|end| end > buffer.size()) {
+            Some("past the end of the buffer")
+        } else {
+            None
+        };
+        if let Some(why) = problem {
+            return Err(GpuError::BadUpload { name: buffer.name().into(), offset, size, why });
+        }
+        // SAFETY: recording outside rendering; offset and size were checked above (multiples of
+        // 4, at most 64 KiB, inside the buffer), as vkCmdUpdateBuffer requires.
         unsafe { self.device().cmd_update_buffer(self.cmd, buffer.raw, offset, data) };
+        Ok(())
     }
 
     pub fn end_rendering(&self) {

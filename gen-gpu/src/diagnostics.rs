@@ -2,6 +2,7 @@
 //! paths. They prove the plumbing (dispatch, push descriptors, task/mesh pipelines, vertex
 //! pulling, readback, timing) on a device before real hair is drawn, and back `hairkit demo`.
 
+use crate::contract::binding::DIAGNOSTIC_OUTPUT;
 use ash::vk;
 
 use crate::{
@@ -33,7 +34,7 @@ pub fn write_pattern(ctx: &Context, count: u32, seed: u32) -> Result<Vec<u32>> {
         &ComputePipelineDesc {
             name: "pattern",
             shader: &shaders::PATTERN_COMP,
-            bindings: &[Binding::storage_buffer(0, vk::ShaderStageFlags::COMPUTE)],
+            bindings: &[Binding::storage_buffer(DIAGNOSTIC_OUTPUT, vk::ShaderStageFlags::COMPUTE)],
             push_constant_size: size_of::<PatternParams>() as u32,
             specialization: &[],
         },
@@ -44,7 +45,7 @@ pub fn write_pattern(ctx: &Context, count: u32, seed: u32) -> Result<Vec<u32>> {
     ctx.submit("pattern", |rec| {
         rec.pass("write pattern", |rec| {
             rec.bind_pipeline(&pipeline);
-            rec.push_storage_buffers(&pipeline, &[(0, &out)]);
+            rec.push_storage_buffers(&pipeline, &[(DIAGNOSTIC_OUTPUT, &out)]);
             rec.push_constants(&pipeline, &PatternParams { count, seed });
             rec.dispatch(count.div_ceil(group), 1, 1);
         });
@@ -117,7 +118,7 @@ pub fn draw_test_strips(
             location: MemoryLocation::GpuToCpu,
         },
     )?;
-    let draw_bindings = [Binding::storage_buffer(0, vk::ShaderStageFlags::VERTEX)];
+    let draw_bindings = [Binding::storage_buffer(DIAGNOSTIC_OUTPUT, vk::ShaderStageFlags::VERTEX)];
     let graphics = |name, stages, bindings| {
         Pipeline::graphics(
             ctx,
@@ -184,7 +185,7 @@ pub fn draw_test_strips(
                 &ComputePipelineDesc {
                     name: "test strips generate",
                     shader: &shaders::TEST_STRIPS_COMP,
-                    bindings: &[Binding::storage_buffer(0, vk::ShaderStageFlags::COMPUTE)],
+                    bindings: &[Binding::storage_buffer(DIAGNOSTIC_OUTPUT, vk::ShaderStageFlags::COMPUTE)],
                     push_constant_size: size_of::<TestStripParams>() as u32,
                     specialization: &[],
                 },
@@ -235,7 +236,7 @@ pub fn draw_test_strips(
             Prepared::Compute { generate, draw, vertices } => {
                 rec.pass("generate (compute)", |rec| {
                     rec.bind_pipeline(generate);
-                    rec.push_storage_buffers(generate, &[(0, vertices)]);
+                    rec.push_storage_buffers(generate, &[(DIAGNOSTIC_OUTPUT, vertices)]);
                     rec.push_constants(generate, &params);
                     let threads = strands * TEST_STRIP_POINTS;
                     rec.dispatch(threads.div_ceil(shaders::TEST_STRIPS_COMP.workgroup_size[0]), 1, 1);
@@ -247,7 +248,7 @@ pub fn draw_test_strips(
                 rec.pass("raster (vertex pulling)", |rec| {
                     rec.begin_rendering(&color, clear, Some(&depth));
                     rec.bind_pipeline(draw);
-                    rec.push_storage_buffers(draw, &[(0, vertices)]);
+                    rec.push_storage_buffers(draw, &[(DIAGNOSTIC_OUTPUT, vertices)]);
                     rec.push_constants(draw, &params);
                     rec.draw(strands * (TEST_STRIP_POINTS - 1) * 6, 1);
                     rec.end_rendering();
@@ -372,7 +373,9 @@ pub fn draw_hair(
     let ((), timings) = ctx.submit(&format!("hair ({path})"), |rec| {
         if path == GenerationPath::Compute {
             generator.record_lod(rec, hair, &frame);
+            crate::Generator::barrier_after_lod(rec);
             generator.record_generate(rec, hair, &frame);
+            crate::Generator::barrier_after_generate(rec);
         }
         target.begin(rec);
         let name = match path {

@@ -58,9 +58,7 @@ pub struct DrawExtras<'a> {
     pub buffers: &'a [(u32, &'a Buffer)],
 }
 
-/// Where the fragment stage's push constants begin (bytes before it belong to the
-/// pre-raster stages).
-pub const FRAGMENT_PUSH_OFFSET: u32 = 16;
+pub use crate::contract::FRAGMENT_PUSH_OFFSET;
 
 /// Pipeline variants (specialization constants of `hair_gen.glsl`) and the fragment stage.
 #[derive(Clone, Copy, Debug, Default)]
@@ -137,9 +135,10 @@ pub(crate) struct GenParams {
     viewport: [f32; 4],
 }
 
-/// Vertices per strand slot and bytes per vertex in the strand buffer (`hair_outputs.glsl`).
-pub const MAX_VERTICES: u64 = 33;
-pub const VERTEX_BYTES: u64 = 32;
+pub use crate::contract::{MAX_VERTICES, VERTEX_BYTES};
+
+// One vertex-LOD cap for the CPU reference and the GPU: a strand slot holds 2^E + 1 vertices.
+const _: () = assert!(crate::contract::MAX_SEGMENTS_LOG2 == hairmesh::reference::MAX_SEGMENTS_LOG2);
 /// Chunks of strand slots (`MAX_CHUNKS` in `hair_outputs.glsl`).
 pub const MAX_CHUNKS: u64 = 16;
 const DISPATCH_ARGS_OFFSET: u64 = 16;
@@ -241,17 +240,22 @@ const MESH_THREADS: u32 = 32;
 pub const COLOR_FORMAT: vk::Format = vk::Format::R8G8B8A8_UNORM;
 pub const DEPTH_FORMAT: vk::Format = vk::Format::D32_SFLOAT;
 
+/// Set 0 of every strand pipeline ([`crate::contract`]) plus the fragment stage's own buffers.
 fn bindings(extra: &[u32]) -> Vec<Binding> {
+    use crate::contract::binding as b;
     let all = vk::ShaderStageFlags::ALL;
-    let mut b: Vec<Binding> = (0..4).map(|i| Binding::storage_buffer(i, all)).collect();
-    b.extend((4..8).map(|i| Binding {
+    let buffers = [b::GEN_PARAMS, b::BUNDLES, b::ROOT_SAMPLES, b::SAMPLE_SETS];
+    let textures = [b::HAIR_MESH_TEXTURE, b::U_TEXTURE, b::V_TEXTURE, b::W_TEXTURE];
+    let outputs = [b::BUNDLE_LODS, b::STRAND_OFFSETS, b::STRAND_VERTICES, b::STRAND_INFO];
+    let mut list: Vec<Binding> = buffers.iter().map(|&i| Binding::storage_buffer(i, all)).collect();
+    list.extend(textures.iter().map(|&i| Binding {
         binding: i,
         ty: vk::DescriptorType::COMBINED_IMAGE_SAMPLER,
         stages: all,
     }));
-    b.extend((8..12).map(|i| Binding::storage_buffer(i, all)));
-    b.extend(extra.iter().map(|&i| Binding::storage_buffer(i, all)));
-    b
+    list.extend(outputs.iter().map(|&i| Binding::storage_buffer(i, all)));
+    list.extend(extra.iter().map(|&i| Binding::storage_buffer(i, all)));
+    list
 }
 
 impl Generator {
@@ -409,33 +413,35 @@ impl Generator {
         chunk: u64,
         extra: &[(u32, &Buffer)],
     ) {
+        use crate::contract::binding as b;
         let whole = vk::WHOLE_SIZE;
         let first = chunk * frame.chunk_slots;
         let slots = frame.chunk_slots.min(frame.capacity - first.min(frame.capacity)).max(1);
         let mut buffers = vec![
-            (0, &frame.params, 0, whole),
-            (1, &hair.bundles, 0, whole),
-            (2, &hair.samples, 0, whole),
-            (3, &hair.sample_sets, 0, whole),
-            (8, &frame.lods, 0, whole),
-            (9, &frame.offsets, 0, whole),
-            (10, &frame.strand_vertices, first * SLOT_BYTES, slots * SLOT_BYTES),
-            (11, &frame.strand_info, first * 16, slots * 16),
+            (b::GEN_PARAMS, &frame.params, 0, whole),
+            (b::BUNDLES, &hair.bundles, 0, whole),
+            (b::ROOT_SAMPLES, &hair.samples, 0, whole),
+            (b::SAMPLE_SETS, &hair.sample_sets, 0, whole),
+            (b::BUNDLE_LODS, &frame.lods, 0, whole),
+            (b::STRAND_OFFSETS, &frame.offsets, 0, whole),
+            (b::STRAND_VERTICES, &frame.strand_vertices, first * SLOT_BYTES, slots * SLOT_BYTES),
+            (b::STRAND_INFO, &frame.strand_info, first * 16, slots * 16),
         ];
         buffers.extend(extra.iter().map(|(b, buf)| (*b, *buf, 0, whole)));
         rec.push_descriptors_ranged(
             pipeline,
             &buffers,
             &[
-                (4, &hair.hair_mesh, &hair.sampler),
-                (5, &hair.u, &hair.sampler),
-                (6, &hair.v, &hair.sampler),
-                (7, &hair.w, &hair.sampler),
+                (b::HAIR_MESH_TEXTURE, &hair.hair_mesh, &hair.sampler),
+                (b::U_TEXTURE, &hair.u, &hair.sampler),
+                (b::V_TEXTURE, &hair.v, &hair.sampler),
+                (b::W_TEXTURE, &hair.w, &hair.sampler),
             ],
         );
     }
 
-    /// Compute path pass 1: LOD per bundle and the prefix sum with indirect arguments.
+    /// Compute path pass 1: LOD per bundle and the prefix sum with indirect arguments. What reads
+    /// them must be ordered after it: by a frame graph, or by [`Self::barrier_after_lod`].
     pub fn record_lod(&self, rec: &mut Recorder<'_>, hair: &GpuHair, frame: &FrameBuffers) {
         let compute = (vk::PipelineStageFlags2::COMPUTE_SHADER, vk::AccessFlags2::SHADER_STORAGE_WRITE);
         let read = vk::AccessFlags2::SHADER_STORAGE_READ | vk::AccessFlags2::SHADER_STORAGE_WRITE;
@@ -450,20 +456,29 @@ impl Generator {
             self.push_all(rec, &self.scan, hair, frame, 0, &[]);
             rec.dispatch(1, 1, 1);
         });
+    }
+
+    /// Makes [`Self::record_lod`]'s outputs (LOD, offsets, indirect arguments) visible to the
+    /// generate pass and to draws. For callers without a frame graph (a graph derives this from
+    /// the passes' declared reads and writes).
+    pub fn barrier_after_lod(rec: &Recorder<'_>) {
         rec.memory_barrier(
-            compute,
+            (vk::PipelineStageFlags2::COMPUTE_SHADER, vk::AccessFlags2::SHADER_STORAGE_WRITE),
             (
                 vk::PipelineStageFlags2::DRAW_INDIRECT
                     | vk::PipelineStageFlags2::COMPUTE_SHADER
                     | vk::PipelineStageFlags2::VERTEX_SHADER
                     | vk::PipelineStageFlags2::TASK_SHADER_EXT
                     | vk::PipelineStageFlags2::MESH_SHADER_EXT,
-                vk::AccessFlags2::INDIRECT_COMMAND_READ | read,
+                vk::AccessFlags2::INDIRECT_COMMAND_READ
+                    | vk::AccessFlags2::SHADER_STORAGE_READ
+                    | vk::AccessFlags2::SHADER_STORAGE_WRITE,
             ),
         );
     }
 
-    /// Compute path pass 2: every strand's vertices into the strand buffer.
+    /// Compute path pass 2: every strand's vertices into the strand buffer (ordered before its
+    /// readers by a frame graph or [`Self::barrier_after_generate`]).
     pub fn record_generate(&self, rec: &mut Recorder<'_>, hair: &GpuHair, frame: &FrameBuffers) {
         rec.pass("generate (compute)", |rec| {
             rec.bind_pipeline(&self.generate);
@@ -473,6 +488,11 @@ impl Generator {
                 rec.dispatch_indirect(&frame.offsets, DISPATCH_ARGS_OFFSET + 12 * chunk);
             }
         });
+    }
+
+    /// Makes [`Self::record_generate`]'s strands visible to vertex pulling and copies. For
+    /// callers without a frame graph.
+    pub fn barrier_after_generate(rec: &Recorder<'_>) {
         rec.memory_barrier(
             (vk::PipelineStageFlags2::COMPUTE_SHADER, vk::AccessFlags2::SHADER_STORAGE_WRITE),
             (
@@ -580,8 +600,10 @@ impl Generator {
         let target = crate::diagnostics::RenderTarget::new(ctx, 64, 64)?;
         let ((), timings) = ctx.submit(&format!("capture ({path})"), |rec| {
             self.record_lod(rec, hair, &frame);
+            Self::barrier_after_lod(rec);
             if path == GenerationPath::Compute {
                 self.record_generate(rec, hair, &frame);
+                Self::barrier_after_generate(rec);
             }
             target.begin(rec);
             let drawn =
@@ -678,7 +700,7 @@ fn params(hair: &GpuHair, inputs: &FrameInputs, capacity: u64, chunk_slots: u64)
         ],
         counts: [
             hair.bundle_count,
-            lod.max_segments_log2.min(5),
+            lod.max_segments_log2.min(crate::contract::MAX_SEGMENTS_LOG2),
             asset.square_sets.len() as u32,
             asset.triangle_sets.len() as u32,
         ],

@@ -155,11 +155,12 @@ impl crate::Generator {
         for chunk in 0..stored.chunks {
             let first = chunk * stored.chunk_slots;
             let slots = stored.chunk_slots.min(stored.strands - first);
+            use crate::contract::binding as b;
             let mut buffers = vec![
-                (0, params, 0, whole),
-                (9, &stored.offsets, 0, whole),
-                (10, &stored.vertices, first * SLOT_BYTES, slots * SLOT_BYTES),
-                (11, &stored.info, first * 16, slots * 16),
+                (b::GEN_PARAMS, params, 0, whole),
+                (b::STRAND_OFFSETS, &stored.offsets, 0, whole),
+                (b::STRAND_VERTICES, &stored.vertices, first * SLOT_BYTES, slots * SLOT_BYTES),
+                (b::STRAND_INFO, &stored.info, first * 16, slots * 16),
             ];
             buffers.extend(extras.buffers.iter().map(|(b, buf)| (*b, *buf, 0, whole)));
             rec.push_descriptors_ranged(pipeline, &buffers, &[]);

@@ -14,7 +14,7 @@ use hairmesh::roots::{EliminationParams, SampleDomain, progressive_samples};
 use hairmesh::style::Style;
 
 fn lee_perry_smith() -> std::path::PathBuf {
-    Path::new(env!("CARGO_MANIFEST_DIR")).join("../../shared/testdata/heads/LeePerrySmith/LeePerrySmith.glb")
+    Path::new(env!("CARGO_MANIFEST_DIR")).join("../tests/data/heads/LeePerrySmith/LeePerrySmith.glb")
 }
 
 fn convert(c: &mut Criterion) {

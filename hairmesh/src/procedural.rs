@@ -1,4 +1,4 @@
-//! Meshes the project makes itself, so the demo runs on a fresh clone without `../shared`.
+//! Meshes the project makes itself, so the demo needs no downloaded files.
 
 use std::f64::consts::PI;
 use std::path::Path;

@@ -44,6 +44,12 @@ pub enum Projection {
     Orthographic { height: f64 },
 }
 
+/// The vertex-LOD cap `E`: a strand has at most `2^E` segments (`2^E + 1` vertices). The GPU
+/// generator's strand slots hold exactly `2^E + 1` vertices, so the CPU reference and the GPU
+/// share this one constant (gen-gpu asserts it at compile time and writes it into its GLSL
+/// contract header); a larger [`LodParams::max_segments_log2`] is clamped to it on both sides.
+pub const MAX_SEGMENTS_LOG2: u32 = 5;
+
 /// LOD controls.
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
 pub struct LodParams {
@@ -53,7 +59,7 @@ pub struct LodParams {
     pub strand_alpha: f64,
     /// Quality knob α of vertex LOD.
     pub vertex_alpha: f64,
-    /// `E`: at most `2^E` segments per strand.
+    /// `E`: at most `2^E` segments per strand, clamped to [`MAX_SEGMENTS_LOG2`].
     pub max_segments_log2: u32,
     /// λ: width of the morph band in LOD levels.
     pub morph_band: f64,
@@ -61,7 +67,13 @@ pub struct LodParams {
 
 impl Default for LodParams {
     fn default() -> Self {
-        Self { enabled: true, strand_alpha: 1.0, vertex_alpha: 1.0, max_segments_log2: 5, morph_band: 1.0 }
+        Self {
+            enabled: true,
+            strand_alpha: 1.0,
+            vertex_alpha: 1.0,
+            max_segments_log2: MAX_SEGMENTS_LOG2,
+            morph_band: 1.0,
+        }
     }
 }
 
@@ -102,7 +114,7 @@ pub fn detail_level(h: f64, d: f64, alpha: f64, view: &ViewParams) -> f64 {
 /// LOD of bundle `b` seen from `view`.
 pub fn bundle_lod(asset: &HairAsset, bundle: u32, view: &ViewParams, lod: &LodParams) -> BundleLod {
     let info = &asset.bundles[bundle as usize];
-    let e_max = lod.max_segments_log2.min(10);
+    let e_max = lod.max_segments_log2.min(MAX_SEGMENTS_LOG2);
     if !lod.enabled {
         return BundleLod {
             strand_detail: 1.0,

@@ -34,7 +34,7 @@ fn the_committed_head_cap_is_what_the_generator_writes() {
 fn convert_and_info_on_the_readme_examples() {
     let dir = tempfile::tempdir().expect("temp dir");
     let out = dir.path().join("lee");
-    let lee = repo("../shared/testdata/heads/LeePerrySmith/LeePerrySmith.glb");
+    let lee = repo("tests/data/heads/LeePerrySmith/LeePerrySmith.glb");
     let (ok, stdout, stderr) = hairmesh(&[
         "convert",
         &lee,
@@ -54,11 +54,9 @@ fn convert_and_info_on_the_readme_examples() {
     let (ok, stdout, stderr) = hairmesh(&["info", out.to_str().expect("utf-8")]);
     assert!(ok, "{stderr}");
     assert!(stdout.contains("square set 0") && stdout.contains("F16"), "{stdout}");
-    let (ok, stdout, _) =
-        hairmesh(&["info", &repo("../shared/testdata/strands/tressfx/v4/Ratboy_mohawk.tfx")]);
+    let (ok, stdout, _) = hairmesh(&["info", &repo("tests/data/strands/tressfx/v4/Ratboy_mohawk.tfx")]);
     assert!(ok && stdout.contains("2228"), "{stdout}");
-    let (ok, stdout, _) =
-        hairmesh(&["info", &repo("../shared/testdata/strands/tressfx/v4/Ratboy_mohawk.tfxbone")]);
+    let (ok, stdout, _) = hairmesh(&["info", &repo("tests/data/strands/tressfx/v4/Ratboy_mohawk.tfxbone")]);
     assert!(ok && stdout.contains("bones:"), "{stdout}");
 }
 

@@ -1,4 +1,4 @@
-//! Explicit strand files from `../shared/testdata` and hostile ones.
+//! Explicit strand files from `tests/data` and hostile ones.
 
 use std::path::{Path, PathBuf};
 

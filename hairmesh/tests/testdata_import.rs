@@ -1,4 +1,4 @@
-//! Every glTF and head in `../shared/testdata` either imports or fails with the documented error.
+//! Every glTF and head in `tests/data` either imports or fails with the documented error.
 
 use std::path::{Path, PathBuf};
 

@@ -4,8 +4,9 @@
 // depth would hide every strand behind it, so thin hair would look sparser than it is. The
 // colour pass then blends every fragment in front of (or at) the nearest solid one.
 #extension GL_GOOGLE_include_directive : require
+#include "hk_gen_contract.glsl"
 
-layout(location = 2) in vec4 v_coverage_side;
+layout(location = HK_LOCATION_COVERAGE_SIDE) in vec4 v_coverage_side;
 
 #include "shading_constants.glsl"
 

@@ -2,13 +2,13 @@
 // OIT fill: shade the fragment and append it to its pixel's list; no colour is written. A full
 // pool drops the fragment and counts it (the image degrades, it never hangs or shows garbage).
 #extension GL_GOOGLE_include_directive : require
-#include "hair_shading.glsl"
+#include "hair_fragment.glsl"
 #include "oit.glsl"
 
 layout(early_fragment_tests) in;
 
 void main() {
-    vec4 color = shade_hair();
+    vec4 color = shade_hair_fragment();
     if (color.a <= 0.0) {
         return;
     }

@@ -1,16 +1,32 @@
-// Hair shading shared by the opaque and the OIT fragment stages (Scheuermann 2004, after
-// Kajiya-Kay 1989): a Kajiya-Kay diffuse term blended with a scaled-and-biased Lambert term,
-// plus two shifted specular lobes: the primary (light colour) shifted toward the tip, the
-// secondary (tinted by the hair colour, with sparkle from per-strand noise) shifted toward the
-// root. The strands arrive in the character's object space and are shaded in world space.
-
-layout(location = 0) in vec4 v_position_tau;
-layout(location = 1) in vec4 v_tangent_random;
-layout(location = 2) in vec4 v_coverage_side;
-
-#include "shading_constants.glsl"
+// Hair shading (Scheuermann 2004, after Kajiya-Kay 1989) as a function of explicit inputs, so
+// fragment stages (hair.frag, hair_oit.frag) and compute passes (a software rasterizer's
+// resolve, a volume raymarch) shade alike: a Kajiya-Kay diffuse term blended with a
+// scaled-and-biased Lambert term, plus two shifted specular lobes: the primary (light colour)
+// shifted toward the tip, the secondary (tinted by the hair colour, with sparkle from per-strand
+// noise) shifted toward the root. The sample arrives in the character's object space and is
+// shaded in world space. Needs lighting.glsl's buffers (the lights and their shadow maps).
 
 #include "lighting.glsl"
+
+// One point of a strand, in the character's object space.
+struct HairSample {
+    vec3 position;
+    float tau;            // strand parameter: 0 at the root, 1 at the tip
+    vec3 tangent;         // need not be normalized
+    float strand_random;  // per-strand random in [0, 1)
+    float coverage;       // the strand's pixel coverage (alpha before opacity)
+};
+
+// How a character's hair is shaded (frame.rs `Shading`, minus the pre-raster bytes).
+struct HairMaterial {
+    mat4 model;              // object -> world
+    vec3 eye;                // world-space eye
+    uint light_count;
+    vec4 hair_color;         // rgb base colour (linear); w: per-strand variation
+    vec4 specular_shift;     // x primary shift, y secondary shift, z primary exponent, w secondary exponent
+    vec4 specular_strength;  // x primary, y secondary, z ambient, w sparkle
+    float opacity;           // of one strand (1 = opaque)
+};
 
 float hash(float x) {
     return fract(sin(x * 12.9898) * 43758.5453);
@@ -24,34 +40,31 @@ float strand_specular(vec3 tangent, vec3 h, float exponent) {
     return dir_atten * pow(sin_th, exponent);
 }
 
-// Premultiplied colour of this fragment; alpha is the strand's pixel coverage (coverage AA).
-vec4 shade_hair() {
-    vec3 p = (shading.model * vec4(v_position_tau.xyz, 1.0)).xyz;
-    float tau = v_position_tau.w;
-    vec3 t = normalize(mat3(shading.model) * v_tangent_random.xyz);
-    float strand_rand = v_tangent_random.w;
-    vec3 v = normalize(shading.eye.xyz - p);
+// Premultiplied colour of one hair sample; alpha is its coverage times the strand opacity.
+vec4 shade_hair(HairSample s, HairMaterial m) {
+    vec3 p = (m.model * vec4(s.position, 1.0)).xyz;
+    vec3 t = normalize(mat3(m.model) * s.tangent);
+    vec3 v = normalize(m.eye - p);
     // A normal for the strip: the view direction made perpendicular to the strand.
     vec3 n = normalize(v - t * dot(t, v) + vec3(1e-6));
 
-    vec3 base = shading.hair_color.rgb * (1.0 + shading.hair_color.w * (strand_rand - 0.5));
-    vec3 t1 = normalize(t + shading.specular_shift.x * n);
-    vec3 t2 = normalize(t + shading.specular_shift.y * n);
-    float sparkle = mix(1.0, hash(strand_rand * 97.0 + floor(tau * 40.0)), shading.specular_strength.w);
+    vec3 base = m.hair_color.rgb * (1.0 + m.hair_color.w * (s.strand_random - 0.5));
+    vec3 t1 = normalize(t + m.specular_shift.x * n);
+    vec3 t2 = normalize(t + m.specular_shift.y * n);
+    float sparkle = mix(1.0, hash(s.strand_random * 97.0 + floor(s.tau * 40.0)), m.specular_strength.w);
 
-    vec3 color = base * shading.specular_strength.z;
-    uint light_count = uint(shading.eye.w);
-    for (uint i = 0u; i < light_count; ++i) {
+    vec3 color = base * m.specular_strength.z;
+    for (uint i = 0u; i < m.light_count; ++i) {
         vec3 l = light_direction(i, p);
         vec3 h = normalize(l + v);
         float t_dot_l = dot(t, l);
         float kajiya = sqrt(max(0.0, 1.0 - t_dot_l * t_dot_l));
         float lambert = clamp(mix(0.25, 1.0, dot(n, l)), 0.0, 1.0);
         vec3 diffuse = base * mix(lambert, kajiya, 0.5);
-        vec3 primary = vec3(shading.specular_strength.x * strand_specular(t1, h, shading.specular_shift.z));
-        vec3 secondary = base * shading.specular_strength.y * sparkle * strand_specular(t2, h, shading.specular_shift.w);
+        vec3 primary = vec3(m.specular_strength.x * strand_specular(t1, h, m.specular_shift.z));
+        vec3 secondary = base * m.specular_strength.y * sparkle * strand_specular(t2, h, m.specular_shift.w);
         color += lights[i].color.rgb * light_transmittance(i, p) * (diffuse + primary + secondary);
     }
-    float alpha = clamp(v_coverage_side.x, 0.0, 1.0) * shading.hair_opacity.x;
+    float alpha = clamp(s.coverage, 0.0, 1.0) * m.opacity;
     return vec4(color * alpha, alpha);
 }

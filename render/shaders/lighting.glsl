@@ -3,6 +3,8 @@
 // hair depth per texel and the opacity accumulated up to the end of each of three layers behind
 // it; and the nearest occluder depth per texel, which shadows whatever lies behind it.
 
+#include "hk_render_contract.glsl"
+
 struct SceneLight {
     vec4 vector;      // xyz: direction toward the light (w = 0) or its position (w = 1)
     vec4 color;       // rgb radiance
@@ -12,10 +14,10 @@ struct SceneLight {
     vec4 depth;       // x near, y far, z 1 = perspective (point light), else orthographic
 };
 
-layout(std430, set = 0, binding = 15) readonly buffer ShadowDepth { float shadow_depth[]; };
-layout(std430, set = 0, binding = 16) readonly buffer ShadowOpacity { vec4 shadow_opacity[]; };
-layout(std430, set = 0, binding = 17) readonly buffer Lights { SceneLight lights[]; };
-layout(std430, set = 0, binding = 18) readonly buffer OccluderDepth { float occluder_depth[]; };
+layout(std430, set = 0, binding = HK_BINDING_SHADOW_DEPTH) readonly buffer ShadowDepth { float shadow_depth[]; };
+layout(std430, set = 0, binding = HK_BINDING_SHADOW_OPACITY) readonly buffer ShadowOpacity { vec4 shadow_opacity[]; };
+layout(std430, set = 0, binding = HK_BINDING_LIGHTS) readonly buffer Lights { SceneLight lights[]; };
+layout(std430, set = 0, binding = HK_BINDING_OCCLUDER_DEPTH) readonly buffer OccluderDepth { float occluder_depth[]; };
 
 // Direction toward light `i` from the world point p.
 vec3 light_direction(uint i, vec3 p) {

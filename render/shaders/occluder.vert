@@ -1,9 +1,11 @@
 #version 460
+#extension GL_GOOGLE_include_directive : require
+#include "hk_render_contract.glsl"
 // Occluder meshes (scalp, body) pulled from storage buffers: indexed triangles, world-space
 // position and normal out. Also the vertex stage of the occluder shadow depth pass.
-layout(std430, set = 0, binding = 0) readonly buffer Positions { vec4 positions[]; };
-layout(std430, set = 0, binding = 1) readonly buffer Normals { vec4 normals[]; };
-layout(std430, set = 0, binding = 2) readonly buffer Indices { uint indices[]; };
+layout(std430, set = 0, binding = HK_BINDING_OCCLUDER_POSITIONS) readonly buffer Positions { vec4 positions[]; };
+layout(std430, set = 0, binding = HK_BINDING_OCCLUDER_NORMALS) readonly buffer Normals { vec4 normals[]; };
+layout(std430, set = 0, binding = HK_BINDING_OCCLUDER_INDICES) readonly buffer Indices { uint indices[]; };
 
 layout(push_constant) uniform Occluder {
     mat4 model;       // object -> world

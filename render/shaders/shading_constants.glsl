@@ -1,8 +1,9 @@
 // The hair fragment stages' push constants (frame.rs `Shading`), shared by the opaque, OIT and
 // depth-prepass stages.
-// Bytes 0-15 belong to the pre-raster stages (gen-gpu's FRAGMENT_PUSH_OFFSET).
+// Bytes before HK_FRAGMENT_PUSH_OFFSET belong to the pre-raster stages (gen-gpu's contract).
+#include "hk_gen_contract.glsl"
 layout(push_constant) uniform Shading {
-    layout(offset = 16) mat4 model;          // the character's object -> world transform
+    layout(offset = HK_FRAGMENT_PUSH_OFFSET) mat4 model;          // the character's object -> world transform
     vec4 eye;                                // xyz world eye; w: number of lights
     vec4 hair_color;                         // rgb base colour (linear); w: per-strand variation
     vec4 specular_shift;                     // x primary shift, y secondary shift, z primary exponent, w secondary exponent

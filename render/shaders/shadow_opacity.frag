@@ -1,12 +1,15 @@
 #version 460
+#extension GL_GOOGLE_include_directive : require
+#include "hk_gen_contract.glsl"
+#include "hk_render_contract.glsl"
 // Deep opacity map, opacity pass: every hair fragment adds its opacity to each layer whose end
 // lies beyond it, measured from the nearest hair depth of its texel (additive blending into an
 // RGBA32F target: x, y, z = cumulative opacity up to the end of layers 1, 2, 3).
-layout(location = 2) in vec4 v_coverage_side;
+layout(location = HK_LOCATION_COVERAGE_SIDE) in vec4 v_coverage_side;
 layout(location = 0) out vec4 out_opacity;
 
 layout(push_constant) uniform Layers {
-    layout(offset = 16) vec4 ends;   // xyz: layer ends (world units); w: map size
+    layout(offset = HK_FRAGMENT_PUSH_OFFSET) vec4 ends;   // xyz: layer ends (world units); w: map size
     uvec4 map;                       // x: first texel of this light's maps in the depth buffer
     vec4 depth;                      // x near, y far, z 1 = perspective (else orthographic)
 } layers;
@@ -18,7 +21,7 @@ float linear_depth(float z) {
     return layers.depth.z > 0.5 ? n * f / (f - z * (f - n)) : n + z * (f - n);
 }
 
-layout(std430, set = 0, binding = 15) readonly buffer ShadowDepth { float shadow_depth[]; };
+layout(std430, set = 0, binding = HK_BINDING_SHADOW_DEPTH) readonly buffer ShadowDepth { float shadow_depth[]; };
 
 // Opacity of one strand fragment before coverage.
 const float STRAND_OPACITY = 0.5;

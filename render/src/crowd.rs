@@ -2,28 +2,12 @@
 //! the renderer's frame graph: every pass is labelled and timed.
 
 use gen_gpu::diagnostics::RenderTarget;
-use gen_gpu::{
-    Context, FrameBuffers, FrameInputs, FrameTimings, GenerationPath, GenerationStats, Generator, GpuHair,
-};
-use glam::{Mat4, Vec3};
-use hairmesh::reference::{LodParams, Projection, ViewParams};
+use gen_gpu::{Context, FrameBuffers, FrameTimings, GenerationPath, GenerationStats, Generator, GpuHair};
+use hairmesh::reference::LodParams;
 
 use crate::RgbaImage;
 
-/// One character: which uploaded hair, and where (object → world).
-#[derive(Clone, Copy, Debug)]
-pub struct Character {
-    pub hair: usize,
-    pub transform: Mat4,
-}
-
-/// A perspective camera.
-#[derive(Clone, Copy, Debug)]
-pub struct Camera {
-    pub eye: Vec3,
-    pub target: Vec3,
-    pub fov_y: f32,
-}
+pub use crate::camera::{Camera, Character, FAR, NEAR, character_inputs, view_proj};
 
 /// What a crowd frame produced.
 #[derive(Debug)]
@@ -31,42 +15,6 @@ pub struct CrowdFrame {
     pub image: RgbaImage,
     pub timings: FrameTimings,
     pub stats: GenerationStats,
-}
-
-/// Near and far planes of every perspective camera (world units). Depth output is linearized
-/// with them.
-pub const NEAR: f32 = 0.01;
-pub const FAR: f32 = 1000.0;
-
-/// World space → Vulkan clip space (y down, depth in [0, 1]) of `camera`.
-pub fn view_proj(camera: &Camera, width: u32, height: u32) -> Mat4 {
-    let aspect = width as f32 / height.max(1) as f32;
-    let proj = Mat4::perspective_rh(camera.fov_y, aspect, NEAR, FAR);
-    let flip = Mat4::from_scale(Vec3::new(1.0, -1.0, 1.0));
-    flip * proj * Mat4::look_at_rh(camera.eye, camera.target, Vec3::Y)
-}
-
-/// The per-character generation inputs: the camera moved into the character's object space.
-pub fn character_inputs(
-    camera: &Camera,
-    character: &Character,
-    width: u32,
-    height: u32,
-    lod: LodParams,
-) -> FrameInputs {
-    let object_eye = character.transform.inverse().transform_point3(camera.eye);
-    // LOD distances are measured in object space; a uniformly scaled character scales them.
-    FrameInputs {
-        view_proj: view_proj(camera, width, height) * character.transform,
-        view: ViewParams {
-            eye: object_eye.as_dvec3(),
-            vertical_resolution: f64::from(height),
-            projection: Projection::Perspective { fov_y: f64::from(camera.fov_y) },
-        },
-        lod,
-        viewport: [width, height],
-        cull: true,
-    }
 }
 
 /// How a crowd frame is drawn.
@@ -130,9 +78,13 @@ pub fn render_prepared(
             rec.pass("generate", |rec| {
                 for (c, frame) in characters.iter().zip(frames) {
                     generator.record_lod(rec, &hairs[c.hair], frame);
-                    if path == GenerationPath::Compute {
+                }
+                Generator::barrier_after_lod(rec);
+                if path == GenerationPath::Compute {
+                    for (c, frame) in characters.iter().zip(frames) {
                         generator.record_generate(rec, &hairs[c.hair], frame);
                     }
+                    Generator::barrier_after_generate(rec);
                 }
             });
         }

@@ -1,81 +1,40 @@
-//! Rendering a scene: the frame graph built from the scene's effects, hair uploaded once per
-//! asset and style, strands generated on the fly every frame, shaded by `hair.frag` into a
-//! linear RGBA16F target (MSAA in opaque mode when asked), occluder meshes drawn first.
+//! Rendering a scene: hair uploaded once per asset and style, then per frame a [`FrameGraph`]
+//! planned from the scene's effects ([`SceneRenderer::plan`]) and run pass by pass
+//! ([`crate::passes`]): shadow maps (cached while the casters do not change), LOD and
+//! generation per character, occluders, the hair raster in the scene's transparency mode, the
+//! copy out. The graph's declarations give the barriers, the timing scopes and `--print-graph`.
 
 use std::collections::HashMap;
-use std::fmt;
+use std::sync::Mutex;
 
 use gen_gpu::{
-    Binding, Buffer, BufferDesc, Context, DrawExtras, FragmentStage, FrameTimings, GenerationPath,
-    GenerationStats, Generator, GeneratorOptions, GpuHair, GraphicsPipelineDesc, GraphicsStages, Pipeline,
-    TexturePrecision, vk,
+    Binding, Buffer, BufferDesc, Context, FragmentStage, FrameBuffers, FrameInputs, FrameTimings,
+    GenerationPath, GenerationStats, Generator, GeneratorOptions, GpuHair, GraphicsPipelineDesc,
+    GraphicsStages, Image, MemoryLocation, Pipeline, TexturePrecision, vk,
 };
 use glam::{Mat4, Vec3, Vec4};
 use hairmesh::reference::LodParams;
 
 use crate::RgbaImage;
-use crate::crowd::{Camera, Character, CrowdView, character_inputs};
-use crate::occluder::{LIGHTING_BINDINGS, OccluderMesh, OccluderPipelines, occluder_push};
-use crate::scene::{Light, LoadedScene, SceneError, Transparency, merged_style};
-use crate::shadow::{LightView, ShadowAtlas, ShadowLight, ShadowPipelines};
+use crate::camera::{Camera, Character, character_inputs};
+use crate::contract::{OIT_BINDINGS, OIT_FILL_BINDINGS, binding};
+use crate::crowd::CrowdView;
+use crate::graph::{Access, FrameGraph, GraphRun, Res, TransientPool};
+use crate::instance::{CharacterHair, SceneInstance};
+use crate::occluder::{LIGHTING_BINDINGS, OccluderMesh, OccluderPipelines};
+use crate::passes::ScenePass;
+use crate::scene::{Light, LoadedScene, Transparency};
+use crate::shadow::{ShadowAtlas, ShadowPipelines};
 use crate::target::{LinearFrame, SCENE_COLOR_FORMAT, SceneTarget};
 
-/// The SPIR-V of this crate's shaders.
-pub mod shaders {
-    pub use shader_build::{ShaderSpirv, ShaderStage};
-    include!(concat!(env!("OUT_DIR"), "/shaders.rs"));
-}
+pub use crate::error::RenderError;
+pub use crate::shaders;
 
-#[derive(Debug, thiserror::Error)]
-pub enum RenderError {
-    #[error(transparent)]
-    Scene(#[from] SceneError),
-    #[error("{path}: {source}")]
-    Asset {
-        path: std::path::PathBuf,
-        #[source]
-        source: hairmesh::HairMeshError,
-    },
-    #[error(transparent)]
-    Gpu(#[from] gen_gpu::GpuError),
-    #[error("{path}: lights[{light}]: {message}")]
-    Light { path: std::path::PathBuf, light: usize, message: String },
-}
-
-/// One pass of the frame graph.
-#[derive(Clone, Debug, PartialEq, Eq)]
-pub struct PassNode {
-    pub name: String,
-    /// What it reads and writes, for `--print-graph`.
-    pub reads: Vec<String>,
-    pub writes: Vec<String>,
-}
-
-/// The passes a scene needs, in order: only what its effects ask for.
-#[derive(Clone, Debug, PartialEq, Eq)]
-pub struct FrameGraph {
-    pub passes: Vec<PassNode>,
-}
-
-impl fmt::Display for FrameGraph {
-    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        for (i, p) in self.passes.iter().enumerate() {
-            writeln!(
-                f,
-                "{i:>2}. {:<32} reads [{}] writes [{}]",
-                p.name,
-                p.reads.join(", "),
-                p.writes.join(", ")
-            )?;
-        }
-        Ok(())
-    }
-}
-
-/// `Shading` push constants of `hair.frag` (after the 16 pre-raster bytes).
+/// `Shading` push constants of the hair fragment stages (after the pre-raster bytes; see
+/// `shading_constants.glsl`).
 #[repr(C)]
 #[derive(Clone, Copy, Debug, bytemuck::Pod, bytemuck::Zeroable)]
-struct Shading {
+pub(crate) struct Shading {
     model: [f32; 16],
     eye: [f32; 4],
     hair_color: [f32; 4],
@@ -96,64 +55,65 @@ struct GpuLight {
     depth: [f32; 4],
 }
 
-/// Bindings of the OIT buffers (`oit.glsl`) and the lighting (`lighting.glsl`).
-const OIT_FILL_BINDINGS: [u32; 7] = [12, 13, 14, 15, 16, 17, 18];
-const OIT_BINDINGS: [u32; 3] = [12, 13, 14];
-const OIT_NODE_BYTES: u64 = 16;
+pub(crate) const OIT_NODE_BYTES: u64 = 16;
 /// Strand-buffer bytes one submission of a frame may hold (characters beyond it go to the next
 /// batch): a 100-character crowd with LOD off needs gigabytes otherwise.
 pub const BATCH_BYTES: u64 = 1 << 30;
 
 /// Order-independent transparency: the fill generator (hair_oit.frag) and the resolve pass.
-struct Oit {
-    fill: Generator,
-    resolve: Pipeline,
-    k: u32,
-    nodes_per_pixel: f32,
+pub(crate) struct Oit {
+    pub(crate) fill: Generator,
+    pub(crate) resolve: Pipeline,
+    pub(crate) k: u32,
+    pub(crate) nodes_per_pixel: f32,
 }
 
-struct SceneCharacter {
-    hair: usize,
-    transform: Mat4,
-    color: [f32; 3],
-    variation: f32,
+pub(crate) struct SceneCharacter {
+    pub(crate) hair: usize,
+    pub(crate) transform: Mat4,
+    pub(crate) color: [f32; 3],
+    pub(crate) variation: f32,
 }
 
 /// An occluder mesh placed in the world.
-struct SceneOccluder {
-    mesh: usize,
-    transform: Mat4,
-    color: [f32; 3],
+pub(crate) struct SceneOccluder {
+    pub(crate) mesh: usize,
+    pub(crate) transform: Mat4,
+    pub(crate) color: [f32; 3],
 }
 
 /// Everything a scene needs on the GPU, built once and rendered many times.
 pub struct SceneRenderer {
-    generator: Generator,
+    pub(crate) generator: Generator,
     /// Blended mode: the solid-fragment depth prepass (`hair_depth.frag`).
-    depth_prepass: Option<Generator>,
-    oit: Option<Oit>,
-    /// Shadow pipelines and the maps of the first frame (the scene is static).
-    shadow: Option<(ShadowPipelines, std::sync::Mutex<Option<ShadowAtlas>>)>,
-    /// Bound at 15, 16 and 18 when the scene has no shadows (never read then).
+    pub(crate) depth_prepass: Option<Generator>,
+    pub(crate) oit: Option<Oit>,
+    /// Shadow pipelines, when some light casts shadows.
+    pub(crate) shadow: Option<ShadowPipelines>,
+    /// The shadow maps of the first frame (the casters and lights are static).
+    shadow_cache: Mutex<Option<ShadowAtlas>>,
+    /// The frames' transient resources, reused from frame to frame.
+    pool: Mutex<TransientPool>,
+    /// Bound at the shadow bindings when the scene has no shadows (never read then).
     no_shadow: [Buffer; 3],
     /// Occluder pipelines (only when some character has an occluder), meshes and placements.
-    occluder_pipes: Option<OccluderPipelines>,
-    meshes: Vec<OccluderMesh>,
-    occluders: Vec<SceneOccluder>,
-    hairs: Vec<GpuHair>,
+    pub(crate) occluder_pipes: Option<OccluderPipelines>,
+    pub(crate) meshes: Vec<OccluderMesh>,
+    pub(crate) occluders: Vec<SceneOccluder>,
+    pub(crate) hairs: Vec<GpuHair>,
     /// Characters whose hair is generated.
-    characters: Vec<SceneCharacter>,
+    pub(crate) characters: Vec<SceneCharacter>,
     /// Explicit strands uploaded once, and the characters drawing them.
-    stored: Vec<gen_gpu::StoredStrands>,
-    stored_characters: Vec<SceneCharacter>,
-    scene: LoadedScene,
-    path: GenerationPath,
+    pub(crate) stored: Vec<gen_gpu::StoredStrands>,
+    pub(crate) stored_characters: Vec<SceneCharacter>,
+    pub(crate) scene: LoadedScene,
+    pub(crate) path: GenerationPath,
     /// See [`BATCH_BYTES`].
     batch_bytes: u64,
 }
 
-impl fmt::Debug for SceneRenderer {
-    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+impl std::fmt::Debug for SceneRenderer {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
         f.debug_struct("SceneRenderer")
             .field("scene", &self.scene.path)
             .field("hairs", &self.hairs.len())
@@ -172,6 +132,8 @@ pub struct RenderedFrame {
     pub stats: GenerationStats,
     /// The passes recorded, by name, in order.
     pub passes: Vec<String>,
+    /// The graph this frame ran (its runnable passes are [`Self::passes`]).
+    pub graph: FrameGraph<()>,
     /// OIT: fragments dropped because the node pool was full (`None` in opaque mode).
     pub oit_overflow: Option<u64>,
     /// OIT: nodes in the pool.
@@ -182,8 +144,86 @@ pub struct RenderedFrame {
     pub shadow_ms: Option<f64>,
 }
 
+/// The resources of a planned frame, as the graph names them.
+#[derive(Clone, Debug)]
+pub(crate) struct FrameIds {
+    pub(crate) color: Res,
+    pub(crate) depth: Res,
+    pub(crate) resolve: Option<(Res, Res)>,
+    pub(crate) readback: Res,
+    pub(crate) lights: Res,
+    pub(crate) oit_lists: Res,
+    pub(crate) occluder_meshes: Res,
+    /// Per generated character: its hair asset, LOD result and strands.
+    pub(crate) hair: Vec<Res>,
+    pub(crate) lod: Vec<Res>,
+    pub(crate) strands: Vec<Res>,
+    pub(crate) stored: Vec<Res>,
+    pub(crate) shadow: Option<crate::passes::shadow::ShadowIds>,
+}
+
+impl FrameIds {
+    /// The attachments a pass rendering into the scene target writes.
+    pub(crate) fn target_writes(&self) -> Vec<(Res, Access)> {
+        let mut w = vec![(self.color, Access::ColorAttachment), (self.depth, Access::DepthAttachment)];
+        if let Some((c, d)) = self.resolve {
+            w.push((c, Access::ColorAttachment));
+            w.push((d, Access::DepthAttachment));
+        }
+        w
+    }
+}
+
+/// A frame planned for one camera: its graph, the resource names, the batches of characters
+/// (one submission each) and the generation inputs.
+#[derive(Debug)]
+pub struct FramePlan {
+    pub graph: FrameGraph<ScenePass>,
+    pub(crate) ids: FrameIds,
+    /// Generated characters per batch submission, and the submission of the first batch.
+    pub(crate) batches: Vec<Vec<usize>>,
+    pub(crate) first_batch_submission: usize,
+    pub(crate) view: CrowdView,
+    pub(crate) inputs: Vec<FrameInputs>,
+    pub(crate) shadow_cached: bool,
+}
+
+/// What the passes of one submission read: the frame's resources and the current batch's
+/// generated strands.
+pub(crate) struct FrameState<'a> {
+    pub(crate) plan: &'a FramePlan,
+    pub(crate) target: &'a SceneTarget,
+    pub(crate) lighting: [(u32, &'a Buffer); 4],
+    pub(crate) oit: Option<&'a OitBuffers>,
+    /// This batch's characters and their frame buffers.
+    pub(crate) frames: &'a [(usize, FrameBuffers)],
+    /// Parameters of the stored-strand characters (drawn with the last batch).
+    pub(crate) stored_params: &'a [Buffer],
+}
+
+/// The OIT lists of one frame.
+#[derive(Debug)]
+pub(crate) struct OitBuffers {
+    pub(crate) heads: Buffer,
+    pub(crate) nodes: Buffer,
+    pub(crate) counters: Buffer,
+    pub(crate) pool: u64,
+}
+
 impl SceneRenderer {
+    /// Loads every file `scene` names ([`SceneInstance::load`]) and sets the scene up on the GPU.
     pub fn new(ctx: &Context, scene: &LoadedScene, path: GenerationPath) -> Result<Self, RenderError> {
+        Self::from_instance(ctx, &SceneInstance::load(scene)?, path)
+    }
+
+    /// Sets up a scene whose characters are in memory (no file is read): pipelines for its
+    /// effects, one upload per distinct hair and occluder mesh.
+    pub fn from_instance(
+        ctx: &Context,
+        instance: &SceneInstance,
+        path: GenerationPath,
+    ) -> Result<Self, RenderError> {
+        let scene = &instance.settings;
         let effects = scene.scene.effects;
         let generator = Generator::with_options(
             ctx,
@@ -275,77 +315,62 @@ impl SceneRenderer {
         } else {
             None
         };
-        // One upload per (asset, style): characters sharing both share the GPU hair.
-        let mut keys: HashMap<(std::path::PathBuf, String), usize> = HashMap::new();
+        // One upload per key (asset and style): characters sharing both share the GPU hair.
+        let mut keys: HashMap<&str, usize> = HashMap::new();
         let mut hairs = Vec::new();
         let mut characters = Vec::new();
         let mut stored = Vec::new();
         let mut stored_characters = Vec::new();
-        let mut mesh_keys: HashMap<std::path::PathBuf, usize> = HashMap::new();
+        let mut mesh_keys: HashMap<&str, usize> = HashMap::new();
         let mut meshes = Vec::new();
         let mut occluders = Vec::new();
-        for (i, c) in scene.scene.characters.iter().enumerate() {
+        for c in &instance.characters {
             if let Some(o) = &c.occluder {
-                let mesh_path = scene.resolve(&o.mesh);
-                let mesh = match mesh_keys.get(&mesh_path) {
+                let mesh = match mesh_keys.get(o.key.as_str()) {
                     Some(&m) => m,
                     None => {
-                        meshes.push(OccluderMesh::load(ctx, &mesh_path)?);
-                        mesh_keys.insert(mesh_path, meshes.len() - 1);
+                        meshes.push(OccluderMesh::upload(ctx, &o.geometry)?);
+                        mesh_keys.insert(&o.key, meshes.len() - 1);
                         meshes.len() - 1
                     }
                 };
-                occluders.push(SceneOccluder {
-                    mesh,
-                    transform: c.transform.matrix() * o.transform.matrix(),
-                    color: o.color,
-                });
+                occluders.push(SceneOccluder { mesh, transform: o.transform, color: o.color });
             }
-            let path = scene.hair_path(c);
-            if matches!(path.extension().and_then(|e| e.to_str()), Some("tfx" | "hair")) {
-                let set = hairmesh::strands::load_strands(&path)
-                    .map_err(|source| RenderError::Asset { path: path.clone(), source })?;
-                let (lo, hi) = set.bounds().unwrap_or_default();
-                let width = c.strand_width.unwrap_or((hi - lo).length() / 2000.0);
-                stored.push(gen_gpu::StoredStrands::upload(
-                    ctx,
-                    &set.points,
-                    &set.strand_points,
-                    width,
-                    0.3,
-                )?);
-                stored_characters.push(SceneCharacter {
-                    hair: stored.len() - 1,
-                    transform: c.transform.matrix(),
-                    color: c.color,
-                    variation: c.color_variation,
-                });
-                continue;
-            }
-            let key = (path.clone(), c.style.as_ref().map(|s| s.to_string()).unwrap_or_default());
-            let hair = match keys.get(&key) {
-                Some(&h) => h,
-                None => {
-                    let (mut asset, _) = hairmesh::asset_io::read_asset(&path)
-                        .map_err(|source| RenderError::Asset { path: path.clone(), source })?;
-                    asset.style = merged_style(&scene.path, i, &asset.style, c.style.as_ref())?;
-                    hairs.push(GpuHair::upload(ctx, &asset, TexturePrecision::Auto)?);
-                    keys.insert(key, hairs.len() - 1);
-                    hairs.len() - 1
+            match &c.hair {
+                CharacterHair::Stored { strands, width } => {
+                    stored.push(gen_gpu::StoredStrands::upload(
+                        ctx,
+                        &strands.points,
+                        &strands.strand_points,
+                        *width,
+                        0.3,
+                    )?);
+                    stored_characters.push(SceneCharacter {
+                        hair: stored.len() - 1,
+                        transform: c.transform,
+                        color: c.color,
+                        variation: c.color_variation,
+                    });
                 }
-            };
-            characters.push(SceneCharacter {
-                hair,
-                transform: c.transform.matrix(),
-                color: c.color,
-                variation: c.color_variation,
-            });
+                CharacterHair::Generated(asset) => {
+                    let hair = match keys.get(c.key.as_str()) {
+                        Some(&h) => h,
+                        None => {
+                            hairs.push(GpuHair::upload(ctx, asset, TexturePrecision::Auto)?);
+                            keys.insert(&c.key, hairs.len() - 1);
+                            hairs.len() - 1
+                        }
+                    };
+                    characters.push(SceneCharacter {
+                        hair,
+                        transform: c.transform,
+                        color: c.color,
+                        variation: c.color_variation,
+                    });
+                }
+            }
         }
-        let shadow = if scene.shadow_lights().is_empty() {
-            None
-        } else {
-            Some((ShadowPipelines::new(ctx)?, std::sync::Mutex::new(None)))
-        };
+        let shadow = if scene.shadow_lights().is_empty() { None } else { Some(ShadowPipelines::new(ctx)?) };
         let no_shadow = [
             Buffer::new(ctx, "no shadow depth", BufferDesc::storage(16))?,
             Buffer::new(ctx, "no shadow opacity", BufferDesc::storage(16))?,
@@ -361,6 +386,8 @@ impl SceneRenderer {
             depth_prepass,
             oit,
             shadow,
+            shadow_cache: Mutex::new(None),
+            pool: Mutex::new(TransientPool::default()),
             no_shadow,
             occluder_pipes,
             meshes,
@@ -380,7 +407,7 @@ impl SceneRenderer {
         self.view_from(Vec3::from_array(c.eye), Vec3::from_array(c.target))
     }
 
-    fn view_from(&self, eye: Vec3, target: Vec3) -> CrowdView {
+    pub(crate) fn view_from(&self, eye: Vec3, target: Vec3) -> CrowdView {
         let s = &self.scene.scene;
         CrowdView {
             camera: Camera { eye, target, fov_y: s.camera.fov_y_degrees.to_radians() },
@@ -403,117 +430,98 @@ impl SceneRenderer {
         self
     }
 
-    /// The passes this scene's frame runs (built from its effects).
-    pub fn graph(&self) -> FrameGraph {
-        let mut passes = Vec::new();
-        if self.shadow.is_some() {
-            let has_occluders = !self.occluders.is_empty();
-            let mut casters: Vec<String> =
-                self.characters.iter().map(|c| format!("hair {}", c.hair)).collect();
-            casters.extend((0..self.stored_characters.len()).map(|i| format!("stored strands {i}")));
-            for (i, light) in self.scene.shadow_lights().into_iter().enumerate() {
-                let names = crate::shadow::light_pass_names(i, has_occluders);
-                let mut names = names.into_iter();
-                let mut node = |reads: Vec<String>, writes: Vec<String>| PassNode {
-                    name: names.next().unwrap_or_default(),
-                    reads,
-                    writes,
-                };
-                let strands = format!("light {light} strands");
-                passes.push(node(casters.clone(), vec![strands.clone()]));
-                if has_occluders {
-                    passes
-                        .push(node(vec!["occluder meshes".into()], vec![format!("occluder depth map {i}")]));
-                }
-                passes.push(node(vec![strands.clone()], vec![format!("hair depth map {i}")]));
-                passes.push(node(
-                    vec![strands, format!("hair depth map {i}")],
-                    vec![format!("deep opacity map {i} (cached after the first frame)")],
-                ));
-            }
-        }
-        for (i, c) in self.characters.iter().enumerate() {
-            passes.push(PassNode {
-                name: format!("lod+cull character {i}"),
-                reads: vec![format!("hair {}", c.hair), "camera".into()],
-                writes: vec![format!("lod {i}")],
-            });
-            if self.path == GenerationPath::Compute {
-                passes.push(PassNode {
-                    name: format!("generate character {i}"),
-                    reads: vec![format!("hair {}", c.hair), format!("lod {i}")],
-                    writes: vec![format!("strands {i}")],
-                });
-            }
-        }
-        let mut reads: Vec<String> = (0..self.characters.len())
-            .map(|i| {
-                if self.path == GenerationPath::Compute { format!("strands {i}") } else { format!("lod {i}") }
-            })
-            .collect();
-        reads.extend((0..self.stored_characters.len()).map(|i| format!("stored strands {i}")));
-        reads.push("lights".into());
-        if self.shadow.is_some() {
-            reads.push("shadow maps".into());
-        }
-        let target = |msaa: bool| {
-            if msaa {
-                vec![format!("colour ×{}", self.scene.scene.effects.msaa), "depth".into()]
-            } else {
-                vec!["colour".into(), "depth".into()]
-            }
-        };
-        let msaa = self.scene.scene.effects.msaa > 1;
-        if self.oit.is_some() {
-            passes.push(PassNode {
-                name: "clear OIT lists".into(),
-                reads: vec![],
-                writes: vec!["OIT lists".into()],
-            });
-        }
-        if !self.occluders.is_empty() {
-            let mut occluder_reads = vec!["occluder meshes".to_owned(), "lights".into()];
-            if self.shadow.is_some() {
-                occluder_reads.push("shadow maps".into());
-            }
-            passes.push(PassNode { name: "occluders".into(), reads: occluder_reads, writes: target(msaa) });
-        }
-        if self.oit.is_some() {
-            reads.push("depth".into());
-            passes.push(PassNode {
-                name: format!("raster hair ({}, OIT fill)", self.path),
-                reads,
-                writes: vec!["OIT lists".into()],
-            });
-            passes.push(PassNode {
-                name: "OIT resolve".into(),
-                reads: vec!["OIT lists".into()],
-                writes: target(false),
-            });
-        } else {
-            if self.depth_prepass.is_some() {
-                passes.push(PassNode {
-                    name: format!("hair depth prepass ({}, solid fragments)", self.path),
-                    reads: reads.clone(),
-                    writes: vec!["depth".into()],
-                });
-                reads.push("depth".into());
-            }
-            passes.push(PassNode { name: self.raster_pass_name(), reads, writes: target(msaa) });
-        }
-        passes.push(PassNode {
-            name: "copy out".into(),
-            reads: if msaa {
-                vec!["colour (resolved)".into(), "depth (resolved)".into()]
-            } else {
-                target(false)
-            },
-            writes: vec!["image".into()],
-        });
-        FrameGraph { passes }
+    /// The graph the next frame from the scene's camera runs (passes whose results are cached
+    /// are marked so).
+    pub fn graph(&self) -> FrameGraph<()> {
+        self.plan(self.view()).graph.outline()
     }
 
-    fn shading(&self, c: &SceneCharacter, eye: Vec3) -> Shading {
+    fn shadows_cached(&self) -> bool {
+        self.shadow_cache.lock().unwrap_or_else(|e| e.into_inner()).is_some()
+    }
+
+    /// Plans a frame seen through `view`: the passes the scene's effects ask for, in order,
+    /// with what each reads and writes.
+    pub fn plan(&self, view: CrowdView) -> FramePlan {
+        let mut g: FrameGraph<ScenePass> = FrameGraph::default();
+        let effects = self.scene.scene.effects;
+        let msaa = self.oit.is_none() && effects.msaa > 1;
+        let (color, depth) = if msaa {
+            (g.image(format!("colour ×{}", effects.msaa)), g.image(format!("depth ×{}", effects.msaa)))
+        } else {
+            (g.image("colour"), g.image("depth"))
+        };
+        let resolve = msaa.then(|| (g.image("colour (resolved)"), g.image("depth (resolved)")));
+        let readback = g.buffer("image");
+        let lights = g.buffer("lights");
+        let oit_lists = g.buffer("OIT lists");
+        let occluder_meshes = g.buffer("occluder meshes");
+        let hair: Vec<Res> = (0..self.hairs.len()).map(|h| g.buffer(format!("hair {h}"))).collect();
+        let character_hair: Vec<Res> = self.characters.iter().map(|c| hair[c.hair]).collect();
+        let lod = (0..self.characters.len()).map(|i| g.buffer(format!("lod {i}"))).collect();
+        let strands = (0..self.characters.len()).map(|i| g.buffer(format!("strands {i}"))).collect();
+        let stored: Vec<Res> =
+            (0..self.stored_characters.len()).map(|i| g.buffer(format!("stored strands {i}"))).collect();
+        let shadow_cached = self.shadows_cached();
+        let shadow = self
+            .shadow
+            .as_ref()
+            .map(|_| crate::passes::shadow::declare(self, &mut g, &character_hair, &stored));
+        let ids = FrameIds {
+            color,
+            depth,
+            resolve,
+            readback,
+            lights,
+            oit_lists,
+            occluder_meshes,
+            hair: character_hair,
+            lod,
+            strands,
+            stored,
+            shadow,
+        };
+        if let Some(s) = &ids.shadow {
+            crate::passes::shadow::plan(self, &mut g, &ids, s, shadow_cached);
+        }
+        let inputs: Vec<FrameInputs> = self
+            .characters
+            .iter()
+            .map(|c| {
+                let character = Character { hair: c.hair, transform: c.transform };
+                character_inputs(&view.camera, &character, view.width, view.height, view.lod)
+            })
+            .collect();
+        let batches = self.batches(&inputs);
+        let first_batch_submission = usize::from(ids.shadow.is_some());
+        for (k, batch) in batches.iter().enumerate() {
+            let submission = first_batch_submission + k;
+            crate::passes::frame_batch(self, &mut g, &ids, batch, submission, k == 0, k + 1 == batches.len());
+        }
+        FramePlan { graph: g, ids, batches, first_batch_submission, view, inputs, shadow_cached }
+    }
+
+    /// Characters in batches whose strand buffers fit `batch_bytes`, so a crowd never holds
+    /// every character's strands at once (at least one character per batch; one empty batch
+    /// when there are none).
+    fn batches(&self, inputs: &[FrameInputs]) -> Vec<Vec<usize>> {
+        let mut batches: Vec<Vec<usize>> = vec![Vec::new()];
+        let mut batch_bytes = 0;
+        for (i, (c, inputs)) in self.characters.iter().zip(inputs).enumerate() {
+            let bytes = Generator::frame_bytes(&self.hairs[c.hair], inputs);
+            if batch_bytes + bytes > self.batch_bytes && batches.last().is_some_and(|b| !b.is_empty()) {
+                batches.push(Vec::new());
+                batch_bytes = 0;
+            }
+            batch_bytes += bytes;
+            if let Some(b) = batches.last_mut() {
+                b.push(i);
+            }
+        }
+        batches
+    }
+
+    pub(crate) fn shading(&self, c: &SceneCharacter, eye: Vec3) -> Shading {
         Shading {
             model: c.transform.to_cols_array(),
             eye: eye.extend(self.scene.lights().len() as f32).to_array(),
@@ -564,71 +572,8 @@ impl SceneRenderer {
             .collect()
     }
 
-    /// Deep opacity maps of every shadow-casting light over the world bounds of every
-    /// character and occluder.
-    fn render_shadow_maps(&self, ctx: &Context, pipes: &ShadowPipelines) -> Result<ShadowAtlas, RenderError> {
-        let s = &self.scene.scene;
-        let lights = self.scene.lights();
-        let mut lo = Vec3::splat(f32::INFINITY);
-        let mut hi = Vec3::splat(f32::NEG_INFINITY);
-        let mut add_box = |m: Mat4, bounds: (Vec3, Vec3)| {
-            let (a, b) = transformed_box(m, bounds);
-            lo = lo.min(a);
-            hi = hi.max(b);
-        };
-        for c in &self.characters {
-            for b in &self.hairs[c.hair].asset.bundles {
-                add_box(c.transform, (b.bounds_min.as_vec3(), b.bounds_max.as_vec3()));
-            }
-        }
-        for c in &self.stored_characters {
-            add_box(c.transform, self.stored[c.hair].bounds);
-        }
-        for o in &self.occluders {
-            add_box(o.transform, self.meshes[o.mesh].bounds);
-        }
-        let generated: Vec<(usize, Mat4)> = self.characters.iter().map(|c| (c.hair, c.transform)).collect();
-        let stored: Vec<(usize, Mat4)> =
-            self.stored_characters.iter().map(|c| (c.hair, c.transform)).collect();
-        let occluders: Vec<(usize, Mat4)> = self.occluders.iter().map(|o| (o.mesh, o.transform)).collect();
-        let casters = crate::shadow::ShadowCasters {
-            hairs: &self.hairs,
-            generated: &generated,
-            stored: &self.stored,
-            stored_characters: &stored,
-            meshes: &self.meshes,
-            occluders: &occluders,
-            occluder_pipelines: self.occluder_pipes.as_ref(),
-        };
-        let settings = crate::shadow::ShadowSettings {
-            size: s.effects.shadow_map_size,
-            layer_fractions: s.effects.shadow_layers,
-            lod: self.view().lod,
-        };
-        let shadow_lights = self
-            .scene
-            .shadow_lights()
-            .into_iter()
-            .map(|i| {
-                let light = match lights[i] {
-                    Light::Directional { direction, .. } => {
-                        ShadowLight::Directional(Vec3::from_array(direction))
-                    }
-                    Light::Point { position, .. } => ShadowLight::Point(Vec3::from_array(position)),
-                };
-                let view = LightView::new(light, (lo, hi)).map_err(|message| RenderError::Light {
-                    path: self.scene.path.clone(),
-                    light: i,
-                    message,
-                })?;
-                Ok((light, view))
-            })
-            .collect::<Result<Vec<_>, RenderError>>()?;
-        Ok(crate::shadow::render_shadow_maps(ctx, pipes, &casters, &shadow_lights, settings)?)
-    }
-
     /// `raster hair (compute, opaque)` / `(…, blended)`.
-    fn raster_pass_name(&self) -> String {
+    pub(crate) fn raster_pass_name(&self) -> String {
         let mode = if self.depth_prepass.is_some() { "blended" } else { "opaque" };
         format!("raster hair ({}, {mode})", self.path)
     }
@@ -637,7 +582,7 @@ impl SceneRenderer {
     /// nearest point of its bounds (conservative; strand LOD widening does not count, as the
     /// prepass tests each real strand's coverage). Blended mode's depth prepass draws only
     /// such characters — in a crowd, the far ones have no fragment that could write depth.
-    fn may_cover_pixels(&self, c: &SceneCharacter, view: &CrowdView) -> bool {
+    pub(crate) fn may_cover_pixels(&self, c: &SceneCharacter, view: &CrowdView) -> bool {
         let asset = &self.hairs[c.hair].asset;
         let (lo, hi) = asset.bounds();
         let (wlo, whi) = transformed_box(c.transform, (lo.as_vec3(), hi.as_vec3()));
@@ -652,43 +597,6 @@ impl SceneRenderer {
         pixels.is_nan() || pixels >= 0.5
     }
 
-    /// Draws `batch`'s generated characters, then the stored ones, with `generator`'s fragment
-    /// stage.
-    fn draw_characters<'b>(
-        &self,
-        rec: &mut gen_gpu::Recorder<'_>,
-        generator: &Generator,
-        batch: impl IntoIterator<Item = &'b (usize, gen_gpu::FrameBuffers)>,
-        stored_params: &[Buffer],
-        extra: &[(u32, &Buffer)],
-        eye: Vec3,
-    ) -> gen_gpu::Result<()> {
-        for (i, frame) in batch {
-            let c = &self.characters[*i];
-            let shading = self.shading(c, eye);
-            let extras = DrawExtras { fragment_constants: bytemuck::bytes_of(&shading), buffers: extra };
-            generator.record_draw_with(rec, &self.hairs[c.hair], frame, self.path, false, extras)?;
-        }
-        self.draw_stored(rec, generator, stored_params, extra, eye);
-        Ok(())
-    }
-
-    /// Draws the explicit-strand characters with `generator`'s fragment stage.
-    fn draw_stored(
-        &self,
-        rec: &mut gen_gpu::Recorder<'_>,
-        generator: &Generator,
-        params: &[Buffer],
-        extra: &[(u32, &Buffer)],
-        eye: Vec3,
-    ) {
-        for (c, params) in self.stored_characters.iter().zip(params) {
-            let shading = self.shading(c, eye);
-            let extras = DrawExtras { fragment_constants: bytemuck::bytes_of(&shading), buffers: extra };
-            generator.record_draw_stored(rec, &self.stored[c.hair], params, extras);
-        }
-    }
-
     /// Renders one frame.
     pub fn render(&self, ctx: &Context) -> Result<RenderedFrame, RenderError> {
         self.render_from(ctx, Vec3::from_array(self.scene.scene.camera.eye))
@@ -701,274 +609,177 @@ impl SceneRenderer {
     }
 
     /// Renders one frame from a camera at `eye` looking at `target` (e.g. a point of the
-    /// scene's camera path, [`LoadedScene::camera_at`]).
+    /// scene's camera path, [`LoadedScene::camera_at`]): plans its graph and runs it.
     pub fn render_camera(
         &self,
         ctx: &Context,
         eye: Vec3,
         target: Vec3,
     ) -> Result<RenderedFrame, RenderError> {
-        let view = self.view_from(eye, target);
-        let graph = self.graph();
-        let mut recorded = Vec::new();
-        // Shadow maps: computed on the first frame, then reused (static characters and lights).
-        let mut shadow_cached = false;
+        let plan = self.plan(self.view_from(eye, target));
+        let mut pool = self.pool.lock().unwrap_or_else(|e| e.into_inner());
+        let mut run = GraphRun::new(&plan.graph);
+        let mut timings = FrameTimings::default();
+        // Shadow maps: rendered by their own submission on the first frame, then reused.
+        let mut shadow_cache = self.shadow_cache.lock().unwrap_or_else(|e| e.into_inner());
         let mut shadow_ms = None;
-        let shadow_guard = match &self.shadow {
-            Some((pipes, cache)) => {
-                let mut guard = cache.lock().unwrap_or_else(|e| e.into_inner());
-                if guard.is_some() {
-                    shadow_cached = true;
-                } else {
-                    let atlas = self.render_shadow_maps(ctx, pipes)?;
-                    // The submission is the root scope; its children are the passes.
-                    shadow_ms = atlas.timings.pass_ms("shadow maps");
-                    recorded
-                        .extend(atlas.timings.passes.iter().filter(|p| p.depth == 1).map(|p| p.name.clone()));
-                    *guard = Some(atlas);
-                }
-                Some(guard)
-            }
-            None => None,
-        };
-        let atlas = shadow_guard.as_ref().and_then(|g| g.as_ref());
+        if let (Some(ids), false) = (&plan.ids.shadow, plan.shadow_cached) {
+            let shadow = crate::passes::shadow::prepare(self, ctx, &plan)?;
+            let images = shadow.images(ids);
+            let ((), t) = ctx.submit("shadow maps", |rec| {
+                run.record_submission(rec, 0, &|r| images.get(&r).copied(), |rec, pass, run| {
+                    crate::passes::shadow::record(self, rec, pass, &shadow, run)
+                })
+            })?;
+            shadow_ms = t.pass_ms("shadow maps");
+            timings.passes.extend(t.passes);
+            timings.cpu_wait_ms += t.cpu_wait_ms;
+            *shadow_cache = Some(shadow.into_atlas());
+        }
+        let atlas = shadow_cache.as_ref();
+        let view = plan.view;
         let light_data = self.light_data(atlas);
         let light_bytes: &[u8] = bytemuck::cast_slice(&light_data);
-        let lights = ctx.create_buffer_with_data(
+        let mut lights = pool.buffer(
+            ctx,
             "scene lights",
-            BufferDesc::storage(light_bytes.len() as u64),
-            light_bytes,
+            BufferDesc::storage(light_bytes.len().max(16) as u64).location(MemoryLocation::CpuToGpu),
         )?;
-        let lighting: [(u32, &Buffer); 4] = match atlas {
-            Some(a) => [(15, &a.depth), (16, &a.opacity), (17, &lights), (18, &a.occluder_depth)],
+        match lights.mapped_mut() {
+            Some(m) => m[..light_bytes.len()].copy_from_slice(light_bytes),
             None => {
-                [(15, &self.no_shadow[0]), (16, &self.no_shadow[1]), (17, &lights), (18, &self.no_shadow[2])]
-            }
-        };
-        let characters: Vec<Character> =
-            self.characters.iter().map(|c| Character { hair: c.hair, transform: c.transform }).collect();
-        let inputs: Vec<gen_gpu::FrameInputs> = characters
-            .iter()
-            .map(|c| character_inputs(&view.camera, c, view.width, view.height, view.lod))
-            .collect();
-        // Characters are generated and drawn in batches whose strand buffers fit
-        // `BATCH_BYTES`, so a crowd never holds every character's strands at once.
-        let mut batches: Vec<Vec<usize>> = vec![Vec::new()];
-        let mut batch_bytes = 0;
-        for (i, (c, inputs)) in characters.iter().zip(&inputs).enumerate() {
-            let bytes = Generator::frame_bytes(&self.hairs[c.hair], inputs);
-            if batch_bytes + bytes > self.batch_bytes && batches.last().is_some_and(|b| !b.is_empty()) {
-                batches.push(Vec::new());
-                batch_bytes = 0;
-            }
-            batch_bytes += bytes;
-            if let Some(b) = batches.last_mut() {
-                b.push(i);
+                lights = ctx.create_buffer_with_data(
+                    "scene lights",
+                    BufferDesc::storage(light_bytes.len() as u64),
+                    light_bytes,
+                )?;
             }
         }
+        let lighting: [(u32, &Buffer); 4] = match atlas {
+            Some(a) => [
+                (binding::SHADOW_DEPTH, &a.depth),
+                (binding::SHADOW_OPACITY, &a.opacity),
+                (binding::LIGHTS, &lights),
+                (binding::OCCLUDER_DEPTH, &a.occluder_depth),
+            ],
+            None => [
+                (binding::SHADOW_DEPTH, &self.no_shadow[0]),
+                (binding::SHADOW_OPACITY, &self.no_shadow[1]),
+                (binding::LIGHTS, &lights),
+                (binding::OCCLUDER_DEPTH, &self.no_shadow[2]),
+            ],
+        };
         let stored_params = self
             .stored_characters
             .iter()
             .map(|c| {
                 let character = Character { hair: c.hair, transform: c.transform };
                 let inputs = character_inputs(&view.camera, &character, view.width, view.height, view.lod);
-                // The fill and the opaque generators share the parameter layout.
+                // Every hair generator shares the parameter layout.
                 self.generator.stored_params(ctx, &self.stored[c.hair], &inputs)
             })
             .collect::<gen_gpu::Result<Vec<_>>>()?;
         let samples = if self.oit.is_some() { 1 } else { self.scene.scene.effects.msaa };
-        let target = SceneTarget::new(ctx, view.width, view.height, samples)?;
+        let scene_target = SceneTarget::new(ctx, &mut pool, view.width, view.height, samples)?;
         // The OIT node pool is bounded by the output size and the storage-buffer range.
         let oit_buffers = match &self.oit {
             Some(oit) => {
                 let pixels = u64::from(view.width) * u64::from(view.height);
                 let range = u64::from(ctx.capabilities().max_storage_buffer_range) / OIT_NODE_BYTES;
-                let pool = ((pixels as f64 * f64::from(oit.nodes_per_pixel)) as u64)
+                let nodes = ((pixels as f64 * f64::from(oit.nodes_per_pixel)) as u64)
                     .clamp(1, range.min(u64::from(u32::MAX - 1)));
-                Some((
-                    Buffer::new(ctx, "OIT heads", BufferDesc::storage(pixels * 4))?,
-                    Buffer::new(ctx, "OIT nodes", BufferDesc::storage(pool * OIT_NODE_BYTES))?,
-                    Buffer::new(ctx, "OIT counters", BufferDesc::storage(16))?,
-                    pool,
-                ))
+                Some(OitBuffers {
+                    heads: pool.buffer(ctx, "OIT heads", BufferDesc::storage(pixels * 4))?,
+                    nodes: pool.buffer(ctx, "OIT nodes", BufferDesc::storage(nodes * OIT_NODE_BYTES))?,
+                    counters: pool.buffer(ctx, "OIT counters", BufferDesc::storage(16))?,
+                    pool: nodes,
+                })
             }
             None => None,
         };
-        let view_proj = crate::crowd::view_proj(&view.camera, view.width, view.height);
-        let background = self.scene.scene.output.background;
-        let mut timings = FrameTimings::default();
+        let mut images: HashMap<Res, &Image> = HashMap::new();
+        images.insert(plan.ids.color, &scene_target.color);
+        images.insert(plan.ids.depth, &scene_target.depth);
+        if let (Some((c, d)), Some((ci, di))) = (plan.ids.resolve, &scene_target.resolve) {
+            images.insert(c, ci);
+            images.insert(d, di);
+        }
         let mut stats = GenerationStats::default();
         stats.strands += self.stored_characters.iter().map(|c| self.stored[c.hair].strands).sum::<u64>();
-        let batch_count = batches.len();
-        for (k, batch) in batches.iter().enumerate() {
-            let (first, last) = (k == 0, k + 1 == batch_count);
+        let batch_count = plan.batches.len();
+        for (k, batch) in plan.batches.iter().enumerate() {
             let frames = batch
                 .iter()
-                .map(|&i| Ok((i, self.generator.prepare(ctx, &self.hairs[characters[i].hair], &inputs[i])?)))
+                .map(|&i| {
+                    Ok((
+                        i,
+                        self.generator.prepare(ctx, &self.hairs[self.characters[i].hair], &plan.inputs[i])?,
+                    ))
+                })
                 .collect::<gen_gpu::Result<Vec<_>>>()?;
-            let no_stored: &[Buffer] = &[];
-            // Explicit strands are drawn with the last batch.
-            let stored = if last { &stored_params[..] } else { no_stored };
-            let ((), batch_timings) = ctx.submit("scene frame", |rec| {
-                for (i, frame) in &frames {
-                    let hair = &self.hairs[characters[*i].hair];
-                    rec.pass(&format!("lod+cull character {i}"), |rec| {
-                        self.generator.record_lod(rec, hair, frame);
-                    });
-                    recorded.push(format!("lod+cull character {i}"));
-                    if self.path == GenerationPath::Compute {
-                        rec.pass(&format!("generate character {i}"), |rec| {
-                            self.generator.record_generate(rec, hair, frame);
-                        });
-                        recorded.push(format!("generate character {i}"));
-                    }
-                }
-                if let (true, Some((heads, _, counters, pool))) = (first, &oit_buffers) {
-                    rec.pass("clear OIT lists", |rec| {
-                        rec.fill_buffer(heads, u32::MAX);
-                        let init = [0u32, *pool as u32, 0, view.width];
-                        rec.update_buffer(counters, 0, bytemuck::cast_slice(&init));
-                    });
-                    recorded.push("clear OIT lists".to_owned());
-                    rec.memory_barrier(
-                        (
-                            vk::PipelineStageFlags2::CLEAR | vk::PipelineStageFlags2::COPY,
-                            vk::AccessFlags2::TRANSFER_WRITE,
-                        ),
-                        (
-                            vk::PipelineStageFlags2::FRAGMENT_SHADER,
-                            vk::AccessFlags2::SHADER_STORAGE_READ | vk::AccessFlags2::SHADER_STORAGE_WRITE,
-                        ),
-                    );
-                }
-                if first {
-                    target.begin(rec, background);
-                } else {
-                    target.begin_load(rec);
-                }
-                if let (true, Some(pipes)) = (first, &self.occluder_pipes) {
-                    rec.pass("occluders", |rec| {
-                        let light_count = self.scene.lights().len();
-                        for o in &self.occluders {
-                            let push =
-                                occluder_push(o.transform, view_proj, view.camera.eye, light_count, o.color);
-                            self.meshes[o.mesh].record_draw(rec, &pipes.shade, &push, &lighting);
-                        }
-                    });
-                    recorded.push("occluders".to_owned());
-                }
-                let drawn = match (&self.oit, &oit_buffers) {
-                    (Some(oit), Some((heads, nodes, counters, _))) => {
-                        let fill = format!("raster hair ({}, OIT fill)", self.path);
-                        let extra = [
-                            (12, heads),
-                            (13, nodes),
-                            (14, counters),
-                            lighting[0],
-                            lighting[1],
-                            lighting[2],
-                            lighting[3],
-                        ];
-                        let drawn = rec.pass(&fill, |rec| {
-                            let eye = view.camera.eye;
-                            self.draw_characters(rec, &oit.fill, &frames, stored, &extra, eye)
-                        });
-                        recorded.push(fill);
-                        rec.end_rendering();
-                        if last {
-                            rec.memory_barrier(
-                                (
-                                    vk::PipelineStageFlags2::FRAGMENT_SHADER,
-                                    vk::AccessFlags2::SHADER_STORAGE_WRITE,
-                                ),
-                                (
-                                    vk::PipelineStageFlags2::FRAGMENT_SHADER,
-                                    vk::AccessFlags2::SHADER_STORAGE_READ,
-                                ),
-                            );
-                            rec.pass("OIT resolve", |rec| {
-                                target.begin_load(rec);
-                                rec.bind_pipeline(&oit.resolve);
-                                rec.push_storage_buffers(&oit.resolve, &extra[..3]);
-                                rec.push_constants(&oit.resolve, &oit.k);
-                                rec.draw(3, 1);
-                                rec.end_rendering();
-                            });
-                            recorded.push("OIT resolve".to_owned());
-                        }
-                        drawn
-                    }
-                    _ => {
-                        let prepass = match &self.depth_prepass {
-                            Some(generator) => {
-                                let name = format!("hair depth prepass ({}, solid fragments)", self.path);
-                                let drawn = rec.pass(&name, |rec| {
-                                    let eye = view.camera.eye;
-                                    let solid = frames
-                                        .iter()
-                                        .filter(|(i, _)| self.may_cover_pixels(&self.characters[*i], &view));
-                                    self.draw_characters(rec, generator, solid, stored, &[], eye)
-                                });
-                                recorded.push(name);
-                                drawn
-                            }
-                            None => Ok(()),
-                        };
-                        let raster = self.raster_pass_name();
-                        let drawn = rec.pass(&raster, |rec| {
-                            self.draw_characters(
-                                rec,
-                                &self.generator,
-                                &frames,
-                                stored,
-                                &lighting,
-                                view.camera.eye,
-                            )
-                        });
-                        recorded.push(raster);
-                        rec.end_rendering();
-                        prepass.and(drawn)
-                    }
-                };
-                if last {
-                    rec.pass("copy out", |rec| target.copy_out(rec));
-                    recorded.push("copy out".into());
-                }
-                drawn
+            let last = k + 1 == batch_count;
+            let state = FrameState {
+                plan: &plan,
+                target: &scene_target,
+                lighting,
+                oit: oit_buffers.as_ref(),
+                frames: &frames,
+                stored_params: if last { &stored_params } else { &[] },
+            };
+            let submission = plan.first_batch_submission + k;
+            let ((), t) = ctx.submit("scene frame", |rec| {
+                run.record_submission(rec, submission, &|r| images.get(&r).copied(), |rec, pass, run| {
+                    crate::passes::record(self, rec, pass, &state, run)
+                })
             })?;
-            timings.passes.extend(batch_timings.passes);
-            timings.cpu_wait_ms += batch_timings.cpu_wait_ms;
+            timings.passes.extend(t.passes);
+            timings.cpu_wait_ms += t.cpu_wait_ms;
             for (i, frame) in &frames {
-                stats += self.generator.stats(ctx, &self.hairs[characters[*i].hair], frame)?;
+                stats += self.generator.stats(ctx, &self.hairs[self.characters[*i].hair], frame)?;
             }
         }
-        if !shadow_cached && batch_count == 1 {
-            debug_assert_eq!(recorded, graph.passes.iter().map(|p| p.name.clone()).collect::<Vec<_>>());
-        }
         let (oit_overflow, oit_pool) = match &oit_buffers {
-            Some((_, _, counters, pool)) => {
-                let c: Vec<u32> = bytemuck::pod_collect_to_vec(&ctx.read_buffer(counters, 16)?);
-                (Some(u64::from(c[2])), Some(*pool))
+            Some(b) => {
+                let c: Vec<u32> = bytemuck::pod_collect_to_vec(&ctx.read_buffer(&b.counters, 16)?);
+                (Some(u64::from(c[2])), Some(b.pool))
             }
             None => (None, None),
         };
-        let linear = target.read(ctx)?;
+        let linear = scene_target.read(ctx)?;
+        let passes = run.ran;
+        // Every submission has waited for its fence: the transient resources can be reused.
+        scene_target.give_back(&mut pool);
+        if let Some(b) = oit_buffers {
+            pool.give_back_buffer(b.heads);
+            pool.give_back_buffer(b.nodes);
+            pool.give_back_buffer(b.counters);
+        }
+        if lights.mapped().is_some() {
+            pool.give_back_buffer(lights);
+        }
         Ok(RenderedFrame {
             image: linear.to_srgb8(),
             linear,
             timings,
             stats,
-            passes: recorded,
+            passes,
+            graph: plan.graph.outline(),
             oit_overflow,
             oit_pool,
-            shadow_cached,
+            shadow_cached: plan.shadow_cached,
             shadow_ms,
         })
+    }
+
+    /// Resources the pool has created so far (a steady scene stops creating after its first
+    /// frame).
+    pub fn transient_resources_created(&self) -> usize {
+        self.pool.lock().unwrap_or_else(|e| e.into_inner()).created
     }
 }
 
 /// The axis-aligned box around `bounds` (a box) transformed by `m`.
-fn transformed_box(m: Mat4, (a, b): (Vec3, Vec3)) -> (Vec3, Vec3) {
+pub(crate) fn transformed_box(m: Mat4, (a, b): (Vec3, Vec3)) -> (Vec3, Vec3) {
     (0..8).fold((Vec3::INFINITY, Vec3::NEG_INFINITY), |(lo, hi), k| {
         let corner = Vec3::new(
             if k & 1 == 0 { a.x } else { b.x },

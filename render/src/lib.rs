@@ -5,14 +5,36 @@
 //! gen-gpu's placeholder shading for benchmarks ([`crowd`]), and the `hairkit`, `hair-render`
 //! and `hair-bench` commands.
 
+pub mod camera;
+pub mod contract;
 pub mod crowd;
 pub mod crowd_scenes;
+pub mod error;
 pub mod frame;
+pub mod graph;
+pub mod instance;
 pub mod occluder;
 pub mod output;
+pub mod passes;
 pub mod plots;
 pub mod scene;
 pub mod shadow;
 pub mod target;
 
+pub use error::RenderError;
 pub use gen_gpu::diagnostics::RgbaImage;
+
+/// The SPIR-V of this crate's shaders, compiled from `render/shaders` at build time.
+pub mod shaders {
+    pub use shader_build::{ShaderSpirv, ShaderStage};
+    include!(concat!(env!("OUT_DIR"), "/shaders.rs"));
+}
+
+// render's consumer bindings follow gen-gpu's own.
+const _: () = {
+    let mut i = 0;
+    while i < contract::OIT_FILL_BINDINGS.len() {
+        assert!(contract::OIT_FILL_BINDINGS[i] >= gen_gpu::contract::binding::FIRST_CONSUMER);
+        i += 1;
+    }
+};

@@ -8,7 +8,7 @@ use gen_gpu::{Binding, Buffer, BufferDesc, Context, GraphicsPipelineDesc, Graphi
 use glam::{DVec3, Mat4, Vec3};
 use hairmesh::scalp::ScalpSelector;
 
-use crate::frame::shaders;
+use crate::shaders;
 
 /// Largest occluder accepted (triangles), so a hostile file cannot exhaust GPU memory.
 pub const MAX_OCCLUDER_TRIANGLES: usize = 4 << 20;
@@ -50,19 +50,33 @@ fn smooth_normals(positions: &[DVec3], indices: &[u32]) -> Vec<DVec3> {
     normals.into_iter().map(|n| n.try_normalize().unwrap_or(DVec3::Y)).collect()
 }
 
-impl OccluderMesh {
-    /// Loads a glTF/GLB or OBJ mesh (every face; polygons fanned into triangles) and uploads it.
-    pub fn load(ctx: &Context, path: &Path) -> Result<Self, crate::frame::RenderError> {
-        let asset_error = |source| crate::frame::RenderError::Asset { path: path.to_owned(), source };
+/// An occluder mesh on the CPU, ready to upload: triangles with smooth normals.
+#[derive(Clone, Debug, PartialEq)]
+pub struct OccluderGeometry {
+    pub positions: Vec<[f32; 4]>,
+    pub normals: Vec<[f32; 4]>,
+    pub indices: Vec<u32>,
+    /// Object-space bounds.
+    pub bounds: (Vec3, Vec3),
+}
+
+impl OccluderGeometry {
+    /// Loads a glTF/GLB or OBJ mesh (every face; polygons fanned into triangles).
+    pub fn load(path: &Path) -> Result<Self, crate::RenderError> {
+        let asset_error = |source| crate::RenderError::Asset { path: path.to_owned(), source };
         let mesh = hairmesh::import::load_scalp(path, &ScalpSelector::All).map_err(asset_error)?;
+        Self::from_mesh(&mesh).map_err(|message| {
+            asset_error(hairmesh::HairMeshError::Format { path: path.to_owned(), message })
+        })
+    }
+
+    /// Fans `mesh`'s faces into triangles and computes smooth normals.
+    pub fn from_mesh(mesh: &hairmesh::ScalpMesh) -> Result<Self, String> {
         let triangles: usize = mesh.faces.iter().map(|f| f.len().saturating_sub(2)).sum();
         if triangles > MAX_OCCLUDER_TRIANGLES {
-            return Err(asset_error(hairmesh::HairMeshError::Format {
-                path: path.to_owned(),
-                message: format!(
-                    "{triangles} triangles (an occluder may have at most {MAX_OCCLUDER_TRIANGLES})"
-                ),
-            }));
+            return Err(format!(
+                "{triangles} triangles (an occluder may have at most {MAX_OCCLUDER_TRIANGLES})"
+            ));
         }
         let mut indices = Vec::with_capacity(triangles * 3);
         for face in &mesh.faces {
@@ -74,20 +88,42 @@ impl OccluderMesh {
         let vec4s =
             |v: &[DVec3]| -> Vec<[f32; 4]> { v.iter().map(|p| p.as_vec3().extend(1.0).to_array()).collect() };
         let (lo, hi) = mesh.bounds().unwrap_or_default();
+        Ok(Self {
+            positions: vec4s(&mesh.positions),
+            normals: vec4s(&normals),
+            indices,
+            bounds: (lo.as_vec3(), hi.as_vec3()),
+        })
+    }
+}
+
+impl OccluderMesh {
+    /// Loads a glTF/GLB or OBJ mesh (every face; polygons fanned into triangles) and uploads it.
+    pub fn load(ctx: &Context, path: &Path) -> Result<Self, crate::RenderError> {
+        Ok(Self::upload(ctx, &OccluderGeometry::load(path)?)?)
+    }
+
+    /// Uploads a mesh.
+    pub fn upload(ctx: &Context, geometry: &OccluderGeometry) -> gen_gpu::Result<Self> {
         let upload = |name: &str, bytes: &[u8]| {
-            ctx.create_buffer_with_data(name, BufferDesc::storage(bytes.len() as u64), bytes)
+            ctx.create_buffer_with_data(name, BufferDesc::storage(bytes.len().max(4) as u64), bytes)
         };
         Ok(Self {
-            positions: upload("occluder positions", bytemuck::cast_slice(&vec4s(&mesh.positions)))?,
-            normals: upload("occluder normals", bytemuck::cast_slice(&vec4s(&normals)))?,
-            indices: upload("occluder indices", bytemuck::cast_slice(&indices))?,
-            index_count: indices.len() as u32,
-            bounds: (lo.as_vec3(), hi.as_vec3()),
+            positions: upload("occluder positions", bytemuck::cast_slice(&geometry.positions))?,
+            normals: upload("occluder normals", bytemuck::cast_slice(&geometry.normals))?,
+            indices: upload("occluder indices", bytemuck::cast_slice(&geometry.indices))?,
+            index_count: geometry.indices.len() as u32,
+            bounds: geometry.bounds,
         })
     }
 
     fn buffers(&self) -> [(u32, &Buffer); 3] {
-        [(0, &self.positions), (1, &self.normals), (2, &self.indices)]
+        use crate::contract::binding as b;
+        [
+            (b::OCCLUDER_POSITIONS, &self.positions),
+            (b::OCCLUDER_NORMALS, &self.normals),
+            (b::OCCLUDER_INDICES, &self.indices),
+        ]
     }
 
     /// Records the draw with `pipeline` (bound here) and the given lighting buffers.
@@ -107,8 +143,7 @@ impl OccluderMesh {
     }
 }
 
-/// The lighting bindings of `lighting.glsl`: shadow depth, opacity, lights, occluder depth.
-pub const LIGHTING_BINDINGS: [u32; 4] = [15, 16, 17, 18];
+pub use crate::contract::LIGHTING_BINDINGS;
 
 /// The occluder pipelines: shaded into the scene target, and depth-only into shadow maps.
 pub struct OccluderPipelines {
@@ -125,7 +160,8 @@ impl std::fmt::Debug for OccluderPipelines {
 impl OccluderPipelines {
     pub fn new(ctx: &Context, color_format: vk::Format, samples: u32) -> gen_gpu::Result<Self> {
         let stages = vk::ShaderStageFlags::VERTEX | vk::ShaderStageFlags::FRAGMENT;
-        let bindings: Vec<Binding> = [0, 1, 2]
+        use crate::contract::binding as b;
+        let bindings: Vec<Binding> = [b::OCCLUDER_POSITIONS, b::OCCLUDER_NORMALS, b::OCCLUDER_INDICES]
             .into_iter()
             .chain(LIGHTING_BINDINGS)
             .map(|b| Binding::storage_buffer(b, stages))

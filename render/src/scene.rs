@@ -184,12 +184,17 @@ fn skin() -> [f32; 3] {
     [0.3, 0.19, 0.14]
 }
 
+/// A character's hair colour when the scene names none (linear RGB, a mid brown).
+pub const DEFAULT_HAIR_COLOR: [f32; 3] = [0.073, 0.024, 0.007];
+/// Per-strand colour variation when the scene names none.
+pub const DEFAULT_COLOR_VARIATION: f32 = 0.3;
+
 fn brown() -> [f32; 3] {
-    [0.073, 0.024, 0.007]
+    DEFAULT_HAIR_COLOR
 }
 
 fn default_variation() -> f32 {
-    0.3
+    DEFAULT_COLOR_VARIATION
 }
 
 #[derive(Clone, Copy, Debug, Default, Deserialize, Serialize, PartialEq, Eq)]

@@ -5,17 +5,13 @@
 //! hair per texel, an opacity pass accumulates opacity into three layers behind it, and an
 //! occluder depth pass keeps the nearest occluder (scalp, body), which shadows everything behind
 //! it. The maps of all lights share three buffers (`lighting.glsl` indexes them per light). A
-//! static scene's maps are computed once and cached.
+//! static scene's maps are computed once and cached. The passes are in [`crate::passes::shadow`].
 
-use gen_gpu::{
-    Blend, Buffer, BufferDesc, Context, DrawExtras, FragmentStage, FrameInputs, FrameTimings, GenerationPath,
-    Generator, GeneratorOptions, GpuHair, Image, ImageDesc, Recorder, StoredStrands, vk,
-};
+use gen_gpu::{Blend, Buffer, Context, FragmentStage, FrameInputs, Generator, GeneratorOptions, vk};
 use glam::{Mat4, Vec3};
 use hairmesh::reference::{LodParams, Projection, ViewParams};
 
-use crate::frame::shaders;
-use crate::occluder::{OccluderMesh, OccluderPipelines};
+use crate::shaders;
 
 /// A shadow-casting light.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -106,24 +102,12 @@ pub struct ShadowAtlas {
     /// Per shadow-casting light, in the order they were given.
     pub lights: Vec<LightShadow>,
     pub size: u32,
-    pub timings: FrameTimings,
-}
-
-/// The passes [`render_shadow_maps`] records for shadow-casting light `i`.
-pub fn light_pass_names(i: usize, occluders: bool) -> Vec<String> {
-    let mut names = vec![format!("shadow {i}: generate in the light's view")];
-    if occluders {
-        names.push(format!("shadow {i}: occluder depth"));
-    }
-    names.push(format!("shadow {i}: hair depth"));
-    names.push(format!("shadow {i}: opacity"));
-    names
 }
 
 /// The two generators of the shadow passes.
 pub struct ShadowPipelines {
-    depth: Generator,
-    opacity: Generator,
+    pub depth: Generator,
+    pub opacity: Generator,
 }
 
 impl std::fmt::Debug for ShadowPipelines {
@@ -132,7 +116,7 @@ impl std::fmt::Debug for ShadowPipelines {
     }
 }
 
-const OPACITY_FORMAT: vk::Format = vk::Format::R32G32B32A32_SFLOAT;
+pub const OPACITY_FORMAT: vk::Format = vk::Format::R32G32B32A32_SFLOAT;
 
 impl ShadowPipelines {
     pub fn new(ctx: &Context) -> gen_gpu::Result<Self> {
@@ -161,7 +145,7 @@ impl ShadowPipelines {
                     depth_write: false,
                     depth_compare: vk::CompareOp::LESS,
                     color_write: true,
-                    extra_bindings: &[15],
+                    extra_bindings: &[crate::contract::binding::SHADOW_DEPTH],
                 }),
                 color_format: Some(OPACITY_FORMAT),
                 ..GeneratorOptions::default()
@@ -171,20 +155,7 @@ impl ShadowPipelines {
     }
 }
 
-/// What the shadow passes draw: generated characters `(hair, transform)`, stored ones and
-/// occluders `(mesh, transform)`.
-#[derive(Debug)]
-pub struct ShadowCasters<'a> {
-    pub hairs: &'a [GpuHair],
-    pub generated: &'a [(usize, Mat4)],
-    pub stored: &'a [StoredStrands],
-    pub stored_characters: &'a [(usize, Mat4)],
-    pub meshes: &'a [OccluderMesh],
-    pub occluders: &'a [(usize, Mat4)],
-    pub occluder_pipelines: Option<&'a OccluderPipelines>,
-}
-
-fn light_inputs(
+pub fn light_inputs(
     view: &LightView,
     light: ShadowLight,
     transform: Mat4,
@@ -220,241 +191,4 @@ pub struct ShadowSettings {
     /// box's radius.
     pub layer_fractions: [f32; 3],
     pub lod: LodParams,
-}
-
-/// Renders the deep opacity maps and occluder depth maps of every light in `lights` over the
-/// world box `bounds`, in one submission. `views` are the lights' [`LightView`]s.
-pub fn render_shadow_maps(
-    ctx: &Context,
-    pipes: &ShadowPipelines,
-    casters: &ShadowCasters<'_>,
-    lights: &[(ShadowLight, LightView)],
-    settings: ShadowSettings,
-) -> gen_gpu::Result<ShadowAtlas> {
-    let ShadowSettings { size, layer_fractions, lod } = settings;
-    let texels = u64::from(size) * u64::from(size);
-    let light_count = lights.len().max(1) as u64;
-    let depth = Buffer::new(ctx, "shadow depth maps", BufferDesc::storage(texels * 4 * light_count))?;
-    let opacity = Buffer::new(ctx, "shadow opacity maps", BufferDesc::storage(texels * 16 * light_count))?;
-    let occluder_depth =
-        Buffer::new(ctx, "occluder depth maps", BufferDesc::storage(texels * 4 * light_count))?;
-    let usage = vk::ImageUsageFlags::COLOR_ATTACHMENT | vk::ImageUsageFlags::TRANSFER_SRC;
-    let dummy =
-        Image::new(ctx, "shadow depth pass colour", ImageDesc::d2(size, size, gen_gpu::COLOR_FORMAT, usage))?;
-    let opacity_image = Image::new(ctx, "shadow opacity", ImageDesc::d2(size, size, OPACITY_FORMAT, usage))?;
-    let depth_desc = ImageDesc::d2(
-        size,
-        size,
-        gen_gpu::DEPTH_FORMAT,
-        vk::ImageUsageFlags::DEPTH_STENCIL_ATTACHMENT | vk::ImageUsageFlags::TRANSFER_SRC,
-    );
-    let depth_image = Image::new(ctx, "shadow depth", depth_desc)?;
-    let has_occluders = !casters.occluders.is_empty() && casters.occluder_pipelines.is_some();
-
-    struct PerLight {
-        shadow: LightShadow,
-        frames: Vec<gen_gpu::FrameBuffers>,
-        stored_params: Vec<Buffer>,
-    }
-    let per_light = lights
-        .iter()
-        .enumerate()
-        .map(|(i, &(light, view))| {
-            let inputs: Vec<FrameInputs> =
-                casters.generated.iter().map(|(_, m)| light_inputs(&view, light, *m, size, lod)).collect();
-            let frames = casters
-                .generated
-                .iter()
-                .zip(&inputs)
-                .map(|((h, _), i)| pipes.depth.prepare(ctx, &casters.hairs[*h], i))
-                .collect::<gen_gpu::Result<Vec<_>>>()?;
-            let stored_params = casters
-                .stored_characters
-                .iter()
-                .map(|(s, m)| {
-                    let i = light_inputs(&view, light, *m, size, lod);
-                    pipes.depth.stored_params(ctx, &casters.stored[*s], &i)
-                })
-                .collect::<gen_gpu::Result<Vec<_>>>()?;
-            Ok(PerLight {
-                shadow: LightShadow {
-                    light_view_proj: view.view_proj,
-                    depth_params: view.depth_params(),
-                    layer_ends: layer_fractions.map(|f| f.max(1e-6) * view.radius),
-                    first_texel: texels * i as u64,
-                    // Three texels' worth (a texel spans about 2r / size at the casters).
-                    occluder_bias: 6.0 * view.radius / size as f32,
-                },
-                frames,
-                stored_params,
-            })
-        })
-        .collect::<gen_gpu::Result<Vec<_>>>()?;
-
-    let top = (vk::PipelineStageFlags2::TOP_OF_PIPE, vk::AccessFlags2::NONE);
-    let color_out =
-        (vk::PipelineStageFlags2::COLOR_ATTACHMENT_OUTPUT, vk::AccessFlags2::COLOR_ATTACHMENT_WRITE);
-    let depth_out = (
-        vk::PipelineStageFlags2::EARLY_FRAGMENT_TESTS | vk::PipelineStageFlags2::LATE_FRAGMENT_TESTS,
-        vk::AccessFlags2::DEPTH_STENCIL_ATTACHMENT_WRITE | vk::AccessFlags2::DEPTH_STENCIL_ATTACHMENT_READ,
-    );
-    let copy_read = (vk::PipelineStageFlags2::COPY, vk::AccessFlags2::TRANSFER_READ);
-    let copy_write = (vk::PipelineStageFlags2::COPY, vk::AccessFlags2::TRANSFER_WRITE);
-    let draw = |rec: &mut Recorder<'_>,
-                generator: &Generator,
-                light: &PerLight,
-                extras: DrawExtras<'_>|
-     -> gen_gpu::Result<()> {
-        for ((h, _), frame) in casters.generated.iter().zip(&light.frames) {
-            generator.record_draw_with(
-                rec,
-                &casters.hairs[*h],
-                frame,
-                GenerationPath::Compute,
-                false,
-                extras,
-            )?;
-        }
-        for ((s, _), params) in casters.stored_characters.iter().zip(&light.stored_params) {
-            generator.record_draw_stored(rec, &casters.stored[*s], params, extras);
-        }
-        Ok(())
-    };
-    // The depth image is written by each depth pass and copied out; these move it between the
-    // two uses (it starts undefined).
-    let to_attachment = |rec: &Recorder<'_>, first: bool| {
-        let (from, src) = if first {
-            (vk::ImageLayout::UNDEFINED, top)
-        } else {
-            (vk::ImageLayout::TRANSFER_SRC_OPTIMAL, copy_read)
-        };
-        rec.image_barrier(&depth_image, (from, vk::ImageLayout::DEPTH_ATTACHMENT_OPTIMAL), src, depth_out);
-    };
-    let to_copy = |rec: &Recorder<'_>| {
-        rec.image_barrier(
-            &depth_image,
-            (vk::ImageLayout::DEPTH_ATTACHMENT_OPTIMAL, vk::ImageLayout::TRANSFER_SRC_OPTIMAL),
-            depth_out,
-            copy_read,
-        );
-    };
-    let ((), timings) = ctx.submit("shadow maps", |rec| {
-        rec.image_barrier(
-            &dummy,
-            (vk::ImageLayout::UNDEFINED, vk::ImageLayout::COLOR_ATTACHMENT_OPTIMAL),
-            top,
-            color_out,
-        );
-        if !has_occluders {
-            // Nothing occludes: every texel at the far plane.
-            rec.fill_buffer(&occluder_depth, 1f32.to_bits());
-        }
-        let mut depth_first_use = true;
-        for (i, light) in per_light.iter().enumerate() {
-            let names = light_pass_names(i, has_occluders);
-            let mut names = names.iter();
-            let mut next_name = || names.next().map(String::as_str).unwrap_or("shadow");
-            rec.pass(next_name(), |rec| {
-                for ((h, _), frame) in casters.generated.iter().zip(&light.frames) {
-                    pipes.depth.record_lod(rec, &casters.hairs[*h], frame);
-                    pipes.depth.record_generate(rec, &casters.hairs[*h], frame);
-                }
-            });
-            let offset = light.shadow.first_texel * 4;
-            if let (true, Some(occluder_pipes)) = (has_occluders, casters.occluder_pipelines) {
-                rec.pass(next_name(), |rec| {
-                    to_attachment(rec, depth_first_use);
-                    depth_first_use = false;
-                    rec.begin_rendering(&dummy, [0.0; 4], Some(&depth_image));
-                    for (mesh, model) in casters.occluders {
-                        let push = crate::occluder::occluder_push(
-                            *model,
-                            light.shadow.light_view_proj,
-                            Vec3::ZERO,
-                            0,
-                            [0.0; 3],
-                        );
-                        casters.meshes[*mesh].record_draw(rec, &occluder_pipes.shadow, &push, &[]);
-                    }
-                    rec.end_rendering();
-                    to_copy(rec);
-                    rec.copy_image_to_buffer_at(&depth_image, &occluder_depth, offset);
-                });
-            }
-            rec.pass(next_name(), |rec| {
-                to_attachment(rec, depth_first_use);
-                depth_first_use = false;
-                rec.begin_rendering(&dummy, [0.0; 4], Some(&depth_image));
-                let drawn = draw(rec, &pipes.depth, light, DrawExtras::default());
-                rec.end_rendering();
-                to_copy(rec);
-                rec.copy_image_to_buffer_at(&depth_image, &depth, offset);
-                drawn
-            })?;
-            rec.memory_barrier(
-                copy_write,
-                (vk::PipelineStageFlags2::FRAGMENT_SHADER, vk::AccessFlags2::SHADER_STORAGE_READ),
-            );
-            rec.pass(next_name(), |rec| {
-                let first = i == 0;
-                rec.image_barrier(
-                    &opacity_image,
-                    (
-                        if first {
-                            vk::ImageLayout::UNDEFINED
-                        } else {
-                            vk::ImageLayout::TRANSFER_SRC_OPTIMAL
-                        },
-                        vk::ImageLayout::COLOR_ATTACHMENT_OPTIMAL,
-                    ),
-                    if first { top } else { copy_read },
-                    color_out,
-                );
-                to_attachment(rec, false);
-                rec.begin_rendering(&opacity_image, [0.0; 4], Some(&depth_image));
-                let extra = [(15, &depth)];
-                let ends = light.shadow.layer_ends;
-                let [near, far, perspective, _] = light.shadow.depth_params;
-                let constants: [u32; 12] = [
-                    ends[0].to_bits(),
-                    ends[1].to_bits(),
-                    ends[2].to_bits(),
-                    (size as f32).to_bits(),
-                    light.shadow.first_texel as u32,
-                    0,
-                    0,
-                    0,
-                    near.to_bits(),
-                    far.to_bits(),
-                    perspective.to_bits(),
-                    0,
-                ];
-                let drawn = draw(
-                    rec,
-                    &pipes.opacity,
-                    light,
-                    DrawExtras { fragment_constants: bytemuck::cast_slice(&constants), buffers: &extra },
-                );
-                rec.end_rendering();
-                rec.image_barrier(
-                    &opacity_image,
-                    (vk::ImageLayout::COLOR_ATTACHMENT_OPTIMAL, vk::ImageLayout::TRANSFER_SRC_OPTIMAL),
-                    color_out,
-                    copy_read,
-                );
-                rec.copy_image_to_buffer_at(&opacity_image, &opacity, light.shadow.first_texel * 16);
-                to_copy(rec);
-                drawn
-            })?;
-        }
-        Ok(())
-    })?;
-    Ok(ShadowAtlas {
-        depth,
-        opacity,
-        occluder_depth,
-        lights: per_light.into_iter().map(|l| l.shadow).collect(),
-        size,
-        timings,
-    })
 }

@@ -5,6 +5,7 @@
 use gen_gpu::{Attachments, Buffer, BufferDesc, Context, Image, ImageDesc, MemoryLocation, Recorder, vk};
 
 use crate::RgbaImage;
+use crate::graph::TransientPool;
 
 /// Colour format of the scene passes: linear, enough range for highlights, no banding.
 pub const SCENE_COLOR_FORMAT: vk::Format = vk::Format::R16G16B16A16_SFLOAT;
@@ -52,65 +53,50 @@ impl LinearFrame {
 }
 
 /// Colour + depth attachments (multisampled with single-sample resolves when `samples > 1`)
-/// and their readback buffers.
+/// and their readback buffers. Layouts and barriers are the frame graph's: the target only
+/// begins rendering and copies out.
 #[derive(Debug)]
 pub struct SceneTarget {
-    color: Image,
-    depth: Image,
+    pub color: Image,
+    pub depth: Image,
     /// Single-sample resolves of a multisampled target.
-    resolve: Option<(Image, Image)>,
-    color_readback: Buffer,
-    depth_readback: Buffer,
+    pub resolve: Option<(Image, Image)>,
+    pub color_readback: Buffer,
+    pub depth_readback: Buffer,
     width: u32,
     height: u32,
 }
 
-const COLOR: (vk::PipelineStageFlags2, vk::AccessFlags2) = (
-    vk::PipelineStageFlags2::COLOR_ATTACHMENT_OUTPUT,
-    vk::AccessFlags2::from_raw(
-        vk::AccessFlags2::COLOR_ATTACHMENT_WRITE.as_raw() | vk::AccessFlags2::COLOR_ATTACHMENT_READ.as_raw(),
-    ),
-);
-const DEPTH: (vk::PipelineStageFlags2, vk::AccessFlags2) = (
-    vk::PipelineStageFlags2::from_raw(
-        vk::PipelineStageFlags2::EARLY_FRAGMENT_TESTS.as_raw()
-            | vk::PipelineStageFlags2::LATE_FRAGMENT_TESTS.as_raw()
-            // Depth resolves happen in the colour-attachment-output stage.
-            | vk::PipelineStageFlags2::COLOR_ATTACHMENT_OUTPUT.as_raw(),
-    ),
-    vk::AccessFlags2::from_raw(
-        vk::AccessFlags2::DEPTH_STENCIL_ATTACHMENT_WRITE.as_raw()
-            | vk::AccessFlags2::DEPTH_STENCIL_ATTACHMENT_READ.as_raw(),
-    ),
-);
-const COPY_READ: (vk::PipelineStageFlags2, vk::AccessFlags2) =
-    (vk::PipelineStageFlags2::COPY, vk::AccessFlags2::TRANSFER_READ);
-const TOP: (vk::PipelineStageFlags2, vk::AccessFlags2) =
-    (vk::PipelineStageFlags2::TOP_OF_PIPE, vk::AccessFlags2::NONE);
-
 impl SceneTarget {
-    pub fn new(ctx: &Context, width: u32, height: u32, samples: u32) -> gen_gpu::Result<Self> {
+    /// Takes the target's images and buffers from `pool` (created the first time).
+    pub fn new(
+        ctx: &Context,
+        pool: &mut TransientPool,
+        width: u32,
+        height: u32,
+        samples: u32,
+    ) -> gen_gpu::Result<Self> {
         let color_usage = vk::ImageUsageFlags::COLOR_ATTACHMENT | vk::ImageUsageFlags::TRANSFER_SRC;
         let depth_usage = vk::ImageUsageFlags::DEPTH_STENCIL_ATTACHMENT | vk::ImageUsageFlags::TRANSFER_SRC;
         let samples = samples.max(1);
-        let color = Image::new(
+        let color = pool.image(
             ctx,
             "scene colour",
             ImageDesc::d2(width, height, SCENE_COLOR_FORMAT, color_usage).with_samples(samples),
         )?;
-        let depth = Image::new(
+        let depth = pool.image(
             ctx,
             "scene depth",
             ImageDesc::d2(width, height, gen_gpu::DEPTH_FORMAT, depth_usage).with_samples(samples),
         )?;
         let resolve = if samples > 1 {
             Some((
-                Image::new(
+                pool.image(
                     ctx,
                     "scene colour (resolved)",
                     ImageDesc::d2(width, height, SCENE_COLOR_FORMAT, color_usage),
                 )?,
-                Image::new(
+                pool.image(
                     ctx,
                     "scene depth (resolved)",
                     ImageDesc::d2(width, height, gen_gpu::DEPTH_FORMAT, depth_usage),
@@ -120,8 +106,8 @@ impl SceneTarget {
             None
         };
         let pixels = u64::from(width) * u64::from(height);
-        let readback = |name, bytes| {
-            Buffer::new(
+        let mut readback = |name, bytes| {
+            pool.buffer(
                 ctx,
                 name,
                 BufferDesc {
@@ -131,74 +117,48 @@ impl SceneTarget {
                 },
             )
         };
-        Ok(Self {
-            color,
-            depth,
-            resolve,
-            color_readback: readback("scene colour readback", 8)?,
-            depth_readback: readback("scene depth readback", 4)?,
-            width,
-            height,
-        })
+        let color_readback = readback("scene colour readback", 8)?;
+        let depth_readback = readback("scene depth readback", 4)?;
+        Ok(Self { color, depth, resolve, color_readback, depth_readback, width, height })
     }
 
-    fn images(&self) -> impl Iterator<Item = (&Image, bool)> {
-        let resolved = self.resolve.iter().flat_map(|(c, d)| [(c, false), (d, true)]);
-        [(&self.color, false), (&self.depth, true)].into_iter().chain(resolved)
-    }
-
-    /// Moves every image to its attachment layout and begins rendering cleared to `background`
-    /// (alpha 0, so alpha ends up as the coverage).
-    pub fn begin(&self, rec: &Recorder<'_>, background: [f32; 3]) {
-        for (image, is_depth) in self.images() {
-            let (layout, access) = if is_depth {
-                (vk::ImageLayout::DEPTH_ATTACHMENT_OPTIMAL, DEPTH)
-            } else {
-                (vk::ImageLayout::COLOR_ATTACHMENT_OPTIMAL, COLOR)
-            };
-            rec.image_barrier(image, (vk::ImageLayout::UNDEFINED, layout), TOP, access);
+    /// Returns everything to `pool` for the next frame (after the frame's submissions).
+    pub fn give_back(self, pool: &mut TransientPool) {
+        pool.give_back_image(self.color);
+        pool.give_back_image(self.depth);
+        if let Some((c, d)) = self.resolve {
+            pool.give_back_image(c);
+            pool.give_back_image(d);
         }
-        let [r, g, b] = background;
+        pool.give_back_buffer(self.color_readback);
+        pool.give_back_buffer(self.depth_readback);
+    }
+
+    /// Begins rendering into colour and depth (and their resolves); `clear` clears them to the
+    /// background (alpha 0, so alpha ends up as the coverage) and depth to 1, `None` keeps them.
+    pub fn begin_rendering(&self, rec: &Recorder<'_>, clear: Option<[f32; 3]>) {
         rec.begin_rendering_to(&Attachments {
             color: &self.color,
             color_resolve: self.resolve.as_ref().map(|r| &r.0),
-            clear: Some([r, g, b, 0.0]),
+            clear: clear.map(|[r, g, b]| [r, g, b, 0.0]),
             depth: Some(&self.depth),
             depth_resolve: self.resolve.as_ref().map(|r| &r.1),
-            clear_depth: true,
+            clear_depth: clear.is_some(),
         });
     }
 
-    /// Begins rendering again over what is there (the OIT resolve, later batches of a crowd).
-    pub fn begin_load(&self, rec: &Recorder<'_>) {
-        rec.begin_rendering_to(&Attachments {
-            color: &self.color,
-            color_resolve: self.resolve.as_ref().map(|r| &r.0),
-            clear: None,
-            depth: Some(&self.depth),
-            depth_resolve: self.resolve.as_ref().map(|r| &r.1),
-            clear_depth: false,
-        });
-    }
-
-    /// After rendering ended: copies the (resolved) colour and depth to the readback buffers.
-    pub fn copy_out(&self, rec: &Recorder<'_>) {
-        let (color, depth) = match &self.resolve {
+    /// The single-sample colour and depth images the frame is read from.
+    pub fn output_images(&self) -> (&Image, &Image) {
+        match &self.resolve {
             Some((c, d)) => (c, d),
             None => (&self.color, &self.depth),
-        };
-        rec.image_barrier(
-            color,
-            (vk::ImageLayout::COLOR_ATTACHMENT_OPTIMAL, vk::ImageLayout::TRANSFER_SRC_OPTIMAL),
-            COLOR,
-            COPY_READ,
-        );
-        rec.image_barrier(
-            depth,
-            (vk::ImageLayout::DEPTH_ATTACHMENT_OPTIMAL, vk::ImageLayout::TRANSFER_SRC_OPTIMAL),
-            DEPTH,
-            COPY_READ,
-        );
+        }
+    }
+
+    /// Copies the (resolved) colour and depth to the readback buffers; both images must be in
+    /// TRANSFER_SRC layout (the graph's `copy out` pass declares it).
+    pub fn copy_out(&self, rec: &Recorder<'_>) {
+        let (color, depth) = self.output_images();
         rec.copy_image_to_buffer(color, &self.color_readback);
         rec.copy_image_to_buffer(depth, &self.depth_readback);
     }

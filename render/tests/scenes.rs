@@ -184,13 +184,13 @@ fn main() -> ExitCode {
         }),
         GpuTest::new("sintel_groom_from_tressfx_matches_its_golden_images", Requirements::NONE, |ctx| {
             // The artist's full Sintel groom (11,400 strands × 16 points) on the Sintel bust, read
-            // from ../shared/testdata at run time, the groom drawn as explicit strands. The groom
+            // from tests/data at run time, the groom drawn as explicit strands. The groom
             // is in metres, the bust in centimetres 1.195 m lower (found by matching the groom's
             // roots to the bust's own guide file, sintel_hair.tfx).
             let dir = tempfile::tempdir()?;
-            let groom = repo("../shared/testdata/strands/tressfx/v4/sintel_hair_full_16points.tfx");
-            let bust = repo("../shared/testdata/heads/sintel/sintel_bust.obj");
-            ensure!(groom.is_file(), "{} is missing (clone the project beside shared/)", groom.display());
+            let groom = repo("tests/data/strands/tressfx/v4/sintel_hair_full_16points.tfx");
+            let bust = repo("tests/data/heads/sintel/sintel_bust.obj");
+            ensure!(groom.is_file(), "{} is missing (the repository's test data)", groom.display());
             for (name, effects) in [
                 ("sintel_opaque", serde_json::json!({ "transparency": "opaque" })),
                 ("sintel_oit", serde_json::json!({ "transparency": "oit" })),
@@ -280,15 +280,15 @@ fn main() -> ExitCode {
             Requirements::NONE,
             |ctx| {
                 // A scalp nobody here modelled: the top of the LeePerrySmith head (read from
-                // ../shared/testdata at run time), converted into a hair asset in a temporary
+                // tests/data at run time), converted into a hair asset in a temporary
                 // folder and drawn over the whole head as its occluder, OIT and shadows.
                 use hairmesh::asset::{AssetParams, HairAsset, StrandCount};
                 use hairmesh::hair_mesh::{ExtrudeParams, HairMesh};
                 let dir = tempfile::tempdir()?;
-                let head = repo("../shared/testdata/heads/LeePerrySmith/LeePerrySmith.glb");
+                let head = repo("tests/data/heads/LeePerrySmith/LeePerrySmith.glb");
                 let scalp =
                     hairmesh::import::load_scalp(&head, &hairmesh::ScalpSelector::parse("above:0,1,0,1.5")?)
-                        .with_context(|| format!("{} (clone the project beside shared/)", head.display()))?;
+                        .with_context(|| format!("{} (the repository's test data)", head.display()))?;
                 let hair_mesh = HairMesh::extrude(
                     &scalp,
                     &ExtrudeParams { layers: 4, length: 1.6, droop: 0.5, ..ExtrudeParams::default() },
@@ -428,17 +428,112 @@ fn main() -> ExitCode {
             eprintln!("  thick strands: blended vs opaque FLIP mean {:.5}", stats.mean);
             Ok(())
         }),
-        GpuTest::new("the_frame_runs_exactly_the_passes_of_its_graph", Requirements::NONE, |ctx| {
+        GpuTest::new("an_in_memory_scene_renders_the_image_of_its_file", Requirements::NONE, |ctx| {
+            // The editor's path: the same character built in memory (asset, occluder mesh,
+            // placement) instead of named in the scene file renders the same image, bit for bit.
+            use render::instance::{CharacterHair, CharacterInstance, OccluderInstance, SceneInstance};
             let dir = tempfile::tempdir()?;
+            let effects =
+                serde_json::json!({ "transparency": "opaque", "shadows": true, "shadow_map_size": 128 });
+            let scene = load_scene(&scene_with(dir.path(), "one_character", 160, 120, effects)?)?;
+            let from_file = SceneRenderer::new(ctx, &scene, GenerationPath::Compute)?.render(ctx)?;
+            let desc = &scene.scene.characters[0];
+            let (asset, _) = hairmesh::asset_io::read_asset(&scene.hair_path(desc))?;
+            let occluder = desc.occluder.as_ref().context("the example has an occluder")?;
+            let geometry = render::occluder::OccluderGeometry::load(&scene.resolve(&occluder.mesh))?;
+            let mut instance = SceneInstance::new(scene.clone());
+            instance.characters.push(CharacterInstance {
+                key: "in memory".into(),
+                hair: CharacterHair::Generated(std::sync::Arc::new(asset)),
+                transform: desc.transform.matrix(),
+                color: desc.color,
+                color_variation: desc.color_variation,
+                occluder: Some(OccluderInstance {
+                    key: "head".into(),
+                    geometry: std::sync::Arc::new(geometry),
+                    transform: desc.transform.matrix() * occluder.transform.matrix(),
+                    color: occluder.color,
+                }),
+            });
+            let in_memory =
+                SceneRenderer::from_instance(ctx, &instance, GenerationPath::Compute)?.render(ctx)?;
+            ensure!(from_file.passes == in_memory.passes, "{:?} vs {:?}", from_file.passes, in_memory.passes);
+            ensure!(from_file.image == in_memory.image, "the in-memory scene renders the same pixels");
+            ensure!(from_file.linear.depth == in_memory.linear.depth, "and the same depth");
+            Ok(())
+        }),
+        GpuTest::new("the_frame_runs_exactly_the_passes_of_its_graph", Requirements::NONE, |ctx| {
+            // Every transparency mode, with and without shadows, in one batch and in one batch
+            // per character, on the first frame (shadow maps computed) and the second (cached):
+            // what ran is the graph's runnable passes, in order, and every GPU timing scope of
+            // the frame is one of them (nothing records outside the graph).
+            let dir = tempfile::tempdir()?;
+            for (mode, msaa) in [("opaque", 1), ("opaque", 4), ("blended", 1), ("oit", 1)] {
+                for shadows in [false, true] {
+                    let effects = serde_json::json!({
+                        "transparency": mode, "msaa": msaa, "shadows": shadows, "shadow_map_size": 64
+                    });
+                    let scene = load_scene(&scene_with(dir.path(), "small_crowd", 64, 48, effects)?)?;
+                    for batch_bytes in [render::frame::BATCH_BYTES, 1] {
+                        let renderer = SceneRenderer::new(ctx, &scene, GenerationPath::Compute)?
+                            .with_batch_bytes(batch_bytes);
+                        let case = format!("{mode} ×{msaa}, shadows {shadows}, batch bytes {batch_bytes}");
+                        for frame_index in 0..2 {
+                            let planned = renderer.graph();
+                            let frame = renderer.render(ctx)?;
+                            let runnable = planned.runnable();
+                            ensure!(
+                                frame.passes == runnable,
+                                "{case}: ran {:?}\ngraph {runnable:?}",
+                                frame.passes
+                            );
+                            ensure!(
+                                frame.graph.runnable() == runnable,
+                                "{case}: the frame reports its graph"
+                            );
+                            // Timing scopes: a root per submission, the passes below it.
+                            let scopes: Vec<&str> = frame
+                                .timings
+                                .passes
+                                .iter()
+                                .filter(|p| p.depth == 1)
+                                .map(|p| p.name.as_str())
+                                .collect();
+                            ensure!(scopes == runnable, "{case}: timed {scopes:?}");
+                            let cached: Vec<&str> =
+                                planned.passes.iter().filter(|p| p.cached).map(|p| p.name.as_str()).collect();
+                            let shadow_passes =
+                                planned.passes.iter().filter(|p| p.name.starts_with("shadow")).count();
+                            ensure!((shadow_passes > 0) == shadows, "{case}: {planned}");
+                            // The second frame shows the shadow passes as cached and does not run them.
+                            ensure!(
+                                cached.len() == if frame_index == 1 { shadow_passes } else { 0 },
+                                "{case}, frame {frame_index}: cached {cached:?}"
+                            );
+                            ensure!(frame.shadow_cached == (shadows && frame_index == 1), "{case}");
+                            let text = planned.to_string();
+                            ensure!(
+                                text.contains("[cached: not run]") != cached.is_empty(),
+                                "{case}: {text}"
+                            );
+                            if batch_bytes == 1 {
+                                ensure!(planned.submissions() >= 5, "{case}: one submission per character");
+                            }
+                        }
+                    }
+                }
+            }
             let scene = load_scene(&small_scene(dir.path(), "small_crowd", 64, 48)?)?;
             let renderer = SceneRenderer::new(ctx, &scene, GenerationPath::Compute)?;
-            let graph = renderer.graph();
-            let names: Vec<String> = graph.passes.iter().map(|p| p.name.clone()).collect();
-            let frame = renderer.render(ctx)?;
-            ensure!(frame.passes == names, "recorded {:?}\ngraph {:?}", frame.passes, names);
+            let names = renderer.graph().runnable();
             // No effect asks for shadows: no shadow pass exists or runs.
             ensure!(!names.iter().any(|n| n.contains("shadow")), "{names:?}");
             ensure!(names.iter().filter(|n| n.starts_with("generate character")).count() == 5);
+            // A steady scene reuses its transient resources: nothing new after the first frame.
+            renderer.render(ctx)?;
+            let created = renderer.transient_resources_created();
+            renderer.render(ctx)?;
+            ensure!(renderer.transient_resources_created() == created, "the second frame reuses the pool");
             // Characters sharing an asset and style share one upload (3 distinct here).
             ensure!(format!("{renderer:?}").contains("hairs: 3"), "{renderer:?}");
             Ok(())
@@ -603,9 +698,10 @@ fn main() -> ExitCode {
                 })?;
                 let renderer = SceneRenderer::new(ctx, &scene, GenerationPath::Compute)?;
                 let graph: Vec<String> = renderer.graph().passes.into_iter().map(|p| p.name).collect();
-                // Per casting light: generation, occluder depth (the scalp), hair depth, opacity.
+                // Per casting light: generation, occluder depth (the scalp), hair depth, opacity,
+                // and the three copies into the atlas.
                 let shadow_passes = graph.iter().filter(|n| n.starts_with("shadow")).count();
-                ensure!(shadow_passes == 4 * casters, "{casters} casting lights: {graph:?}");
+                ensure!(shadow_passes == 7 * casters, "{casters} casting lights: {graph:?}");
                 let frame = renderer.render(ctx)?;
                 ensure!(frame.passes == graph, "{:?}", frame.passes);
                 frames.push(frame);

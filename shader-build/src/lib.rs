@@ -7,6 +7,12 @@
 //! `shaders.rs` into `OUT_DIR` with one [`ShaderSpirv`] constant per module (name in upper snake
 //! case: `strips.mesh` → `STRIPS_MESH`) plus `ALL`. Compile errors are shown as
 //! `cargo:warning=file:line: message` and fail the build.
+//!
+//! [`compile_shader_dir_with`] adds a *binding contract*: GLSL headers generated from the
+//! calling crate's Rust constants are written into `OUT_DIR/include` (so `#include` finds them),
+//! every `binding = <number>` literal in the crate's GLSL is refused (bindings come from the
+//! generated macros), and every descriptor binding of every compiled module must be one the
+//! contract declares — a shader that uses an undeclared binding fails the build.
 
 use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
@@ -43,11 +49,59 @@ impl ShaderSpirv {
 
 const STAGE_EXTENSIONS: &[&str] = &["comp", "vert", "frag", "task", "mesh"];
 
+/// A generated GLSL header: `#define` lines written from Rust constants.
+#[derive(Clone, Debug, Default)]
+pub struct GlslHeader {
+    /// File name the shaders `#include`, e.g. `hk_gen_contract.glsl`.
+    pub file_name: String,
+    /// What the header is for (its first comment line).
+    pub title: String,
+    /// `(macro, value)` pairs, written as `#define MACRO VALUEu` (unsigned, as GLSL bindings and
+    /// counts are).
+    pub defines: Vec<(String, u64)>,
+}
+
+impl GlslHeader {
+    /// The header's text.
+    pub fn text(&self) -> String {
+        let guard = self.file_name.replace(['.', '-'], "_").to_uppercase();
+        let mut text = format!(
+            "// {}\n// Generated at build time from Rust constants by shader-build. Do not edit.\n#ifndef {guard}\n#define {guard}\n",
+            self.title
+        );
+        for (name, value) in &self.defines {
+            let _ = writeln!(text, "#define {name} {value}u");
+        }
+        text.push_str("#endif\n");
+        text
+    }
+}
+
+/// The binding contract of a crate's shaders (see the crate docs).
+#[derive(Clone, Debug, Default)]
+pub struct Contract {
+    /// Headers to generate into `OUT_DIR/include`.
+    pub headers: Vec<GlslHeader>,
+    /// More folders to search for `#include`s (a dependency's generated headers).
+    pub include_dirs: Vec<PathBuf>,
+    /// Every descriptor binding (set 0) a module of this crate may use.
+    pub bindings: Vec<u32>,
+}
+
 /// Compiles every stage file in `dir` (relative to the calling crate's manifest) into `OUT_DIR`
 /// and writes `OUT_DIR/shaders.rs`. Call from `build.rs`; panics with the compiler's messages on
 /// failure, which is how a build script reports errors.
 pub fn compile_shader_dir(dir: &str) {
-    if let Err(message) = try_compile_shader_dir(dir) {
+    report(try_compile_shader_dir(dir, None));
+}
+
+/// [`compile_shader_dir`] under a binding [`Contract`].
+pub fn compile_shader_dir_with(dir: &str, contract: &Contract) {
+    report(try_compile_shader_dir(dir, Some(contract)));
+}
+
+fn report(result: Result<(), String>) {
+    if let Err(message) = result {
         for line in message.lines() {
             println!("cargo:warning={line}");
         }
@@ -55,11 +109,77 @@ pub fn compile_shader_dir(dir: &str) {
     }
 }
 
-fn try_compile_shader_dir(dir: &str) -> Result<(), String> {
+/// Where [`compile_shader_dir_with`] writes the generated headers (`OUT_DIR/include`).
+pub fn include_dir() -> Result<PathBuf, String> {
+    Ok(PathBuf::from(std::env::var("OUT_DIR").map_err(|e| e.to_string())?).join("include"))
+}
+
+/// `binding = <digits>` in GLSL source outside comments: bindings must come from the contract's
+/// macros. Returns `(line number, line)` of each.
+pub fn binding_literals(source: &str) -> Vec<(usize, String)> {
+    let mut found = Vec::new();
+    for (number, line) in source.lines().enumerate() {
+        let code = line.split("//").next().unwrap_or("");
+        let mut rest = code;
+        while let Some(at) = rest.find("binding") {
+            let after = rest[at + "binding".len()..].trim_start();
+            if let Some(value) = after.strip_prefix('=')
+                && value.trim_start().starts_with(|c: char| c.is_ascii_digit())
+            {
+                found.push((number + 1, line.trim().to_owned()));
+                break;
+            }
+            rest = &rest[at + "binding".len()..];
+        }
+    }
+    found
+}
+
+fn try_compile_shader_dir(dir: &str, contract: Option<&Contract>) -> Result<(), String> {
     let manifest = PathBuf::from(std::env::var("CARGO_MANIFEST_DIR").map_err(|e| e.to_string())?);
     let out_dir = PathBuf::from(std::env::var("OUT_DIR").map_err(|e| e.to_string())?);
     let src_dir = manifest.join(dir);
     println!("cargo:rerun-if-changed={}", src_dir.display());
+    compile_dir(&src_dir, &out_dir, contract)
+}
+
+fn compile_dir(src_dir: &Path, out_dir: &Path, contract: Option<&Contract>) -> Result<(), String> {
+    let src_dir = src_dir.to_path_buf();
+    let mut include_dirs = vec![src_dir.clone()];
+    if let Some(contract) = contract {
+        let generated = out_dir.join("include");
+        std::fs::create_dir_all(&generated).map_err(|e| format!("{}: {e}", generated.display()))?;
+        for header in &contract.headers {
+            let path = generated.join(&header.file_name);
+            let text = header.text();
+            // Rewritten only when it changes, so dependants do not rebuild for nothing.
+            if std::fs::read_to_string(&path).ok().as_deref() != Some(text.as_str()) {
+                std::fs::write(&path, text).map_err(|e| format!("{}: {e}", path.display()))?;
+            }
+        }
+        include_dirs.push(generated);
+        include_dirs.extend(contract.include_dirs.iter().cloned());
+        let mut literals = String::new();
+        let mut all_sources: Vec<PathBuf> = std::fs::read_dir(&src_dir)
+            .map_err(|e| format!("cannot read shader folder {}: {e}", src_dir.display()))?
+            .filter_map(|e| e.ok().map(|e| e.path()))
+            .filter(|p| p.is_file())
+            .collect();
+        all_sources.sort();
+        for src in all_sources {
+            let text = std::fs::read_to_string(&src).unwrap_or_default();
+            for (line, code) in binding_literals(&text) {
+                let _ = writeln!(
+                    literals,
+                    "{}:{line}: ERROR: a binding number written as a literal (`{code}`); use the contract's macro",
+                    src.display()
+                );
+            }
+        }
+        if !literals.is_empty() {
+            return Err(literals);
+        }
+    }
     let compiler = std::env::var("GLSLANG_VALIDATOR").unwrap_or_else(|_| "glslangValidator".into());
     println!("cargo:rerun-if-env-changed=GLSLANG_VALIDATOR");
 
@@ -83,7 +203,7 @@ fn try_compile_shader_dir(dir: &str) -> Result<(), String> {
         let dep = out_dir.join(format!("{file_name}.d"));
         let output = Command::new(&compiler)
             .args(["-V", "--target-env", "vulkan1.3", "-g"])
-            .arg("-I".to_owned() + &src_dir.display().to_string())
+            .args(include_dirs.iter().map(|d| format!("-I{}", d.display())))
             .arg("--depfile")
             .arg(&dep)
             .arg("-o")
@@ -108,6 +228,18 @@ fn try_compile_shader_dir(dir: &str) -> Result<(), String> {
         }
         let bytes = std::fs::read(&spv).map_err(|e| format!("cannot read {}: {e}", spv.display()))?;
         let info = reflect(&bytes).map_err(|e| format!("{file_name}: {e}"))?;
+        if let Some(contract) = contract {
+            for binding in &info.bindings {
+                if !contract.bindings.contains(binding) {
+                    let _ = writeln!(
+                        errors,
+                        "{}: ERROR: uses descriptor binding {binding}, which the binding contract does not declare (declared: {:?})",
+                        src.display(),
+                        contract.bindings
+                    );
+                }
+            }
+        }
         let const_name = file_name.replace(['.', '-'], "_").to_uppercase();
         let _ = writeln!(
             module,
@@ -141,9 +273,16 @@ fn read_depfile(path: &Path) -> Vec<PathBuf> {
 struct Reflection {
     stage: ShaderStage,
     workgroup_size: [u32; 3],
+    /// Every `Binding` decoration, sorted, without repeats.
+    bindings: Vec<u32>,
 }
 
-/// Reads the entry point's execution model and `LocalSize` from a SPIR-V module.
+/// The descriptor bindings a SPIR-V module declares (its `Binding` decorations), sorted.
+pub fn reflect_bindings(bytes: &[u8]) -> Result<Vec<u32>, String> {
+    reflect(bytes).map(|r| r.bindings)
+}
+
+/// Reads the entry point's execution model, `LocalSize` and bindings from a SPIR-V module.
 fn reflect(bytes: &[u8]) -> Result<Reflection, String> {
     const MAGIC: u32 = 0x0723_0203;
     const OP_ENTRY_POINT: u32 = 15;
@@ -151,6 +290,8 @@ fn reflect(bytes: &[u8]) -> Result<Reflection, String> {
     const OP_EXECUTION_MODE_ID: u32 = 331;
     const OP_CONSTANT: u32 = 43;
     const OP_SPEC_CONSTANT: u32 = 50;
+    const OP_DECORATE: u32 = 71;
+    const DECORATION_BINDING: u32 = 33;
     const MODE_LOCAL_SIZE: u32 = 17;
     const MODE_LOCAL_SIZE_ID: u32 = 38;
     if !bytes.len().is_multiple_of(4) || bytes.len() < 20 {
@@ -167,6 +308,7 @@ fn reflect(bytes: &[u8]) -> Result<Reflection, String> {
     // after the execution modes, so resolve the ids at the end.
     let mut size_ids = None;
     let mut constants = std::collections::HashMap::new();
+    let mut bindings = Vec::new();
     let mut i = 5;
     while i < words.len() {
         let count = (words[i] >> 16) as usize;
@@ -195,6 +337,9 @@ fn reflect(bytes: &[u8]) -> Result<Reflection, String> {
             OP_CONSTANT | OP_SPEC_CONSTANT if operands.len() == 3 => {
                 constants.insert(operands[1], operands[2]);
             }
+            OP_DECORATE if operands.len() >= 3 && operands[1] == DECORATION_BINDING => {
+                bindings.push(operands[2]);
+            }
             _ => {}
         }
         i += count;
@@ -207,7 +352,9 @@ fn reflect(bytes: &[u8]) -> Result<Reflection, String> {
         }
     }
     let stage = stage.ok_or("no OpEntryPoint")?;
-    Ok(Reflection { stage, workgroup_size })
+    bindings.sort_unstable();
+    bindings.dedup();
+    Ok(Reflection { stage, workgroup_size, bindings })
 }
 
 #[cfg(test)]
@@ -227,7 +374,7 @@ mod tests {
             module(&[(5 << 16) | 15, 5, 4, u32::from_le_bytes(*b"main"), 0, (6 << 16) | 16, 4, 17, 64, 2, 1]);
         assert_eq!(
             reflect(&bytes),
-            Ok(Reflection { stage: ShaderStage::Compute, workgroup_size: [64, 2, 1] })
+            Ok(Reflection { stage: ShaderStage::Compute, workgroup_size: [64, 2, 1], bindings: vec![] })
         );
     }
 
@@ -258,8 +405,102 @@ mod tests {
         ]);
         assert_eq!(
             reflect(&bytes),
-            Ok(Reflection { stage: ShaderStage::Compute, workgroup_size: [64, 1, 1] })
+            Ok(Reflection { stage: ShaderStage::Compute, workgroup_size: [64, 1, 1], bindings: vec![] })
         );
+    }
+
+    #[test]
+    fn reflects_bindings() {
+        // OpEntryPoint GLCompute %4 "main"; OpDecorate %9 Binding 12; OpDecorate %9 DescriptorSet 0;
+        // OpDecorate %10 Binding 3
+        let bytes = module(&[
+            (5 << 16) | 15,
+            5,
+            4,
+            u32::from_le_bytes(*b"main"),
+            0,
+            (4 << 16) | 71,
+            9,
+            33,
+            12,
+            (4 << 16) | 71,
+            9,
+            34,
+            0,
+            (4 << 16) | 71,
+            10,
+            33,
+            3,
+        ]);
+        assert_eq!(reflect_bindings(&bytes), Ok(vec![3, 12]));
+    }
+
+    #[test]
+    fn finds_binding_literals_but_not_macros_or_comments() {
+        let source = "layout(std430, set = 0, binding = 12) buffer A { uint a[]; };\n\
+                      layout(set = 0, binding = HK_BINDING_X) uniform sampler3D t;\n\
+                      // an example: binding = 3\n\
+                      layout(binding=7) buffer B { uint b[]; };\n";
+        let found: Vec<usize> = binding_literals(source).into_iter().map(|(line, _)| line).collect();
+        assert_eq!(found, vec![1, 4]);
+    }
+
+    #[test]
+    fn headers_define_every_constant() {
+        let header = GlslHeader {
+            file_name: "hk_test.glsl".into(),
+            title: "test".into(),
+            defines: vec![("HK_A".into(), 3), ("HK_B".into(), 12)],
+        };
+        let text = header.text();
+        assert!(text.contains("#define HK_A 3u\n"));
+        assert!(text.contains("#define HK_B 12u\n"));
+        assert!(text.contains("#ifndef HK_TEST_GLSL"));
+    }
+
+    /// A scratch folder with one shader, compiled under `contract`.
+    fn compile_one(name: &str, source: &str, contract: &Contract) -> Result<(), String> {
+        let root = std::env::temp_dir().join(format!("shader-build-test-{name}-{}", std::process::id()));
+        let (src, out) = (root.join("src"), root.join("out"));
+        std::fs::create_dir_all(&src).map_err(|e| e.to_string())?;
+        std::fs::create_dir_all(&out).map_err(|e| e.to_string())?;
+        std::fs::write(src.join("probe.comp"), source).map_err(|e| e.to_string())?;
+        let result = compile_dir(&src, &out, Some(contract));
+        let _ = std::fs::remove_dir_all(&root);
+        result
+    }
+
+    fn probe_contract() -> Contract {
+        Contract {
+            headers: vec![GlslHeader {
+                file_name: "hk_probe.glsl".into(),
+                title: "probe".into(),
+                defines: vec![("HK_DECLARED".into(), 3), ("HK_UNDECLARED".into(), 42)],
+            }],
+            include_dirs: vec![],
+            bindings: vec![3],
+        }
+    }
+
+    const PROBE: &str = "#version 460\n#extension GL_GOOGLE_include_directive : require\n\
+        #include \"hk_probe.glsl\"\nlayout(local_size_x = 1) in;\n\
+        layout(std430, set = 0, binding = BINDING) buffer Out { uint values[]; };\n\
+        void main() { values[0] = 1u; }\n";
+
+    #[test]
+    fn a_shader_with_an_undeclared_binding_fails_the_build() {
+        if Command::new("glslangValidator").arg("--version").output().is_err() {
+            panic!("glslangValidator is missing: run `cargo xtask setup`");
+        }
+        let contract = probe_contract();
+        compile_one("declared", &PROBE.replace("BINDING", "HK_DECLARED"), &contract)
+            .expect("a declared binding compiles");
+        let undeclared = compile_one("undeclared", &PROBE.replace("BINDING", "HK_UNDECLARED"), &contract)
+            .expect_err("binding 42 is not in the contract");
+        assert!(undeclared.contains("binding 42"), "{undeclared}");
+        let literal = compile_one("literal", &PROBE.replace("BINDING", "3"), &contract)
+            .expect_err("a literal binding is refused");
+        assert!(literal.contains("literal"), "{literal}");
     }
 
     #[test]

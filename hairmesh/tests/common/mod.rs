@@ -34,14 +34,10 @@ pub fn patch(n: u32, origin: DVec3, scale: f64, rng: &mut SplitMix64) -> ScalpMe
     ScalpMesh { positions, uvs: Some(uvs), faces, ..Default::default() }
 }
 
-/// `../shared/testdata`, which CI provides beside the clone.
+/// The repository's real test data (`tests/data`, see its README for origins and licences).
 #[allow(dead_code, reason = "each test binary uses a different part of this module")]
 pub fn testdata() -> PathBuf {
-    let dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../shared/testdata");
-    assert!(
-        dir.is_dir(),
-        "test data folder {} is missing: clone the project beside `shared/`",
-        dir.display()
-    );
+    let dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("../tests/data");
+    assert!(dir.is_dir(), "test data folder {} is missing from the checkout", dir.display());
     dir
 }

@@ -727,9 +727,8 @@ fn effects_table(ctx: &Context, quick: bool, width: u32, height: u32, frames: us
         None,
     )?;
     let groom = Path::new(env!("CARGO_MANIFEST_DIR"))
-        .join("../../shared/testdata/strands/tressfx/v4/sintel_hair_full_16points.tfx");
-    let bust =
-        Path::new(env!("CARGO_MANIFEST_DIR")).join("../../shared/testdata/heads/sintel/sintel_bust.obj");
+        .join("../tests/data/strands/tressfx/v4/sintel_hair_full_16points.tfx");
+    let bust = Path::new(env!("CARGO_MANIFEST_DIR")).join("../tests/data/heads/sintel/sintel_bust.obj");
     let mut scenes = vec![
         (
             format!("{strands}-strand character, opaque"),

@@ -1,0 +1,80 @@
+//! render's side of the generator → consumer contract: the bindings its fragment stages add to
+//! gen-gpu's strand pipelines (from `gen_gpu::contract::binding::FIRST_CONSUMER` on) and the
+//! bindings of its own pipelines (occluder meshes).
+//!
+//! `build.rs` writes these constants into `hk_render_contract.glsl`; render's GLSL takes every
+//! binding from that header or from gen-gpu's `hk_gen_contract.glsl` (literals fail the build,
+//! and so does a binding neither contract declares).
+
+/// Bindings render's fragment stages add to a strand pipeline (set 0), and their own pipelines'.
+pub mod binding {
+    /// OIT: per-pixel list heads (`oit.glsl`).
+    pub const OIT_HEADS: u32 = 12;
+    /// OIT: the node pool.
+    pub const OIT_NODES: u32 = 13;
+    /// OIT: next free node, pool size, overflow count, width.
+    pub const OIT_COUNTERS: u32 = 14;
+    /// Deep opacity maps: nearest hair depth per texel (`lighting.glsl`, `shadow_opacity.frag`).
+    pub const SHADOW_DEPTH: u32 = 15;
+    /// Deep opacity maps: opacity at the end of each layer.
+    pub const SHADOW_OPACITY: u32 = 16;
+    /// The scene's lights (`SceneLight`).
+    pub const LIGHTS: u32 = 17;
+    /// Nearest occluder depth per shadow-map texel.
+    pub const OCCLUDER_DEPTH: u32 = 18;
+    /// Occluder pipelines (their own layout, not a strand pipeline): positions.
+    pub const OCCLUDER_POSITIONS: u32 = 0;
+    /// Occluder pipelines: normals.
+    pub const OCCLUDER_NORMALS: u32 = 1;
+    /// Occluder pipelines: triangle indices.
+    pub const OCCLUDER_INDICES: u32 = 2;
+}
+
+/// The bindings of `lighting.glsl`, in the order the shading binds them.
+pub const LIGHTING_BINDINGS: [u32; 4] =
+    [binding::SHADOW_DEPTH, binding::SHADOW_OPACITY, binding::LIGHTS, binding::OCCLUDER_DEPTH];
+
+/// The OIT buffers (`oit.glsl`).
+pub const OIT_BINDINGS: [u32; 3] = [binding::OIT_HEADS, binding::OIT_NODES, binding::OIT_COUNTERS];
+
+/// The OIT fill stage's buffers: the lists, then the lighting.
+pub const OIT_FILL_BINDINGS: [u32; 7] = [
+    binding::OIT_HEADS,
+    binding::OIT_NODES,
+    binding::OIT_COUNTERS,
+    binding::SHADOW_DEPTH,
+    binding::SHADOW_OPACITY,
+    binding::LIGHTS,
+    binding::OCCLUDER_DEPTH,
+];
+
+/// Every constant of the header, as `(GLSL macro, value)`.
+pub const GLSL_DEFINES: &[(&str, u64)] = &[
+    ("HK_BINDING_OIT_HEADS", binding::OIT_HEADS as u64),
+    ("HK_BINDING_OIT_NODES", binding::OIT_NODES as u64),
+    ("HK_BINDING_OIT_COUNTERS", binding::OIT_COUNTERS as u64),
+    ("HK_BINDING_SHADOW_DEPTH", binding::SHADOW_DEPTH as u64),
+    ("HK_BINDING_SHADOW_OPACITY", binding::SHADOW_OPACITY as u64),
+    ("HK_BINDING_LIGHTS", binding::LIGHTS as u64),
+    ("HK_BINDING_OCCLUDER_DEPTH", binding::OCCLUDER_DEPTH as u64),
+    ("HK_BINDING_OCCLUDER_POSITIONS", binding::OCCLUDER_POSITIONS as u64),
+    ("HK_BINDING_OCCLUDER_NORMALS", binding::OCCLUDER_NORMALS as u64),
+    ("HK_BINDING_OCCLUDER_INDICES", binding::OCCLUDER_INDICES as u64),
+];
+
+/// Every binding a render shader may use.
+pub const BINDINGS: &[u32] = &[
+    binding::OIT_HEADS,
+    binding::OIT_NODES,
+    binding::OIT_COUNTERS,
+    binding::SHADOW_DEPTH,
+    binding::SHADOW_OPACITY,
+    binding::LIGHTS,
+    binding::OCCLUDER_DEPTH,
+    binding::OCCLUDER_POSITIONS,
+    binding::OCCLUDER_NORMALS,
+    binding::OCCLUDER_INDICES,
+];
+
+/// File name of the generated header.
+pub const HEADER_FILE: &str = "hk_render_contract.glsl";

@@ -1,0 +1,20 @@
+//! render's error type.
+
+use crate::scene::SceneError;
+
+/// What can go wrong loading or rendering a scene.
+#[derive(Debug, thiserror::Error)]
+pub enum RenderError {
+    #[error(transparent)]
+    Scene(#[from] SceneError),
+    #[error("{path}: {source}")]
+    Asset {
+        path: std::path::PathBuf,
+        #[source]
+        source: hairmesh::HairMeshError,
+    },
+    #[error(transparent)]
+    Gpu(#[from] gen_gpu::GpuError),
+    #[error("{path}: lights[{light}]: {message}")]
+    Light { path: std::path::PathBuf, light: usize, message: String },
+}

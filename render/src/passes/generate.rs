@@ -1,0 +1,60 @@
+//! LOD + cull and generation of one character's strands for the camera (gen-gpu's compute path
+//! passes; the mesh path generates while it draws and runs only the LOD pass, for statistics and
+//! indirect arguments).
+
+use gen_gpu::{GenerationPath, Recorder};
+
+use super::ScenePass;
+use crate::frame::{FrameIds, FrameState, SceneRenderer};
+use crate::graph::{Access, FrameGraph};
+
+pub(crate) fn plan(
+    r: &SceneRenderer,
+    g: &mut FrameGraph<ScenePass>,
+    ids: &FrameIds,
+    i: usize,
+    submission: usize,
+) {
+    g.pass(format!("lod+cull character {i}"))
+        .read(ids.hair[i], Access::ComputeRead)
+        .write(ids.lod[i], Access::ComputeWrite)
+        .submission(submission)
+        .add(ScenePass::LodCull(i));
+    if r.path == GenerationPath::Compute {
+        g.pass(format!("generate character {i}"))
+            .read(ids.hair[i], Access::ComputeRead)
+            .read(ids.lod[i], Access::ComputeRead)
+            .read(ids.lod[i], Access::IndirectRead)
+            .write(ids.strands[i], Access::ComputeWrite)
+            .submission(submission)
+            .add(ScenePass::Generate(i));
+    }
+}
+
+fn frame<'a>(state: &'a FrameState<'_>, i: usize) -> Option<&'a gen_gpu::FrameBuffers> {
+    state.frames.iter().find(|(c, _)| *c == i).map(|(_, f)| f)
+}
+
+pub(crate) fn record_lod(
+    r: &SceneRenderer,
+    rec: &mut Recorder<'_>,
+    state: &FrameState<'_>,
+    i: usize,
+) -> gen_gpu::Result<()> {
+    if let Some(frame) = frame(state, i) {
+        r.generator.record_lod(rec, &r.hairs[r.characters[i].hair], frame);
+    }
+    Ok(())
+}
+
+pub(crate) fn record_generate(
+    r: &SceneRenderer,
+    rec: &mut Recorder<'_>,
+    state: &FrameState<'_>,
+    i: usize,
+) -> gen_gpu::Result<()> {
+    if let Some(frame) = frame(state, i) {
+        r.generator.record_generate(rec, &r.hairs[r.characters[i].hair], frame);
+    }
+    Ok(())
+}

@@ -1,0 +1,97 @@
+//! The hair raster of opaque and blended transparency: blended mode's depth prepass (only
+//! fragments a strand covers fully write depth, so sub-pixel strands never hide what is behind
+//! them), then the shaded strands blended into the target. Also the strand draw loop the OIT fill
+//! and the shadow passes share.
+
+use gen_gpu::{Buffer, DrawExtras, FrameBuffers, Generator, Recorder};
+use glam::Vec3;
+
+use super::{ScenePass, strand_reads};
+use crate::frame::{FrameIds, FrameState, SceneRenderer};
+use crate::graph::{Access, FrameGraph};
+
+pub(crate) fn plan(
+    r: &SceneRenderer,
+    g: &mut FrameGraph<ScenePass>,
+    ids: &FrameIds,
+    batch: &[usize],
+    last: bool,
+    submission: usize,
+) {
+    let reads = strand_reads(r, ids, batch, last);
+    if r.depth_prepass.is_some() {
+        let mut pass = g.pass(format!("hair depth prepass ({}, solid fragments)", r.path));
+        for &(res, access) in &reads {
+            pass = pass.read(res, access);
+        }
+        for (res, access) in ids.target_writes() {
+            pass = pass.write(res, access);
+        }
+        pass.submission(submission).add(ScenePass::DepthPrepass);
+    }
+    let mut pass = g.pass(r.raster_pass_name()).read(ids.lights, Access::FragmentRead);
+    if let Some(s) = &ids.shadow {
+        pass = pass.read(s.maps, Access::FragmentRead);
+    }
+    for &(res, access) in &reads {
+        pass = pass.read(res, access);
+    }
+    for (res, access) in ids.target_writes() {
+        pass = pass.write(res, access);
+    }
+    pass.submission(submission).add(ScenePass::Raster);
+}
+
+pub(crate) fn record_prepass(
+    r: &SceneRenderer,
+    rec: &mut Recorder<'_>,
+    state: &FrameState<'_>,
+    clear: Option<[f32; 3]>,
+) -> gen_gpu::Result<()> {
+    let Some(generator) = &r.depth_prepass else { return Ok(()) };
+    let view = &state.plan.view;
+    state.target.begin_rendering(rec, clear);
+    let solid = state.frames.iter().filter(|(i, _)| r.may_cover_pixels(&r.characters[*i], view));
+    let drawn = draw_characters(r, rec, generator, solid, state.stored_params, &[], view.camera.eye);
+    rec.end_rendering();
+    drawn
+}
+
+pub(crate) fn record_raster(
+    r: &SceneRenderer,
+    rec: &mut Recorder<'_>,
+    state: &FrameState<'_>,
+    clear: Option<[f32; 3]>,
+) -> gen_gpu::Result<()> {
+    let eye = state.plan.view.camera.eye;
+    state.target.begin_rendering(rec, clear);
+    let drawn =
+        draw_characters(r, rec, &r.generator, state.frames, state.stored_params, &state.lighting, eye);
+    rec.end_rendering();
+    drawn
+}
+
+/// Draws `batch`'s generated characters, then the stored ones, with `generator`'s fragment
+/// stage and its extra buffers.
+pub(crate) fn draw_characters<'b>(
+    r: &SceneRenderer,
+    rec: &mut Recorder<'_>,
+    generator: &Generator,
+    batch: impl IntoIterator<Item = &'b (usize, FrameBuffers)>,
+    stored_params: &[Buffer],
+    extra: &[(u32, &Buffer)],
+    eye: Vec3,
+) -> gen_gpu::Result<()> {
+    for (i, frame) in batch {
+        let c = &r.characters[*i];
+        let shading = r.shading(c, eye);
+        let extras = DrawExtras { fragment_constants: bytemuck::bytes_of(&shading), buffers: extra };
+        generator.record_draw_with(rec, &r.hairs[c.hair], frame, r.path, false, extras)?;
+    }
+    for (c, params) in r.stored_characters.iter().zip(stored_params) {
+        let shading = r.shading(c, eye);
+        let extras = DrawExtras { fragment_constants: bytemuck::bytes_of(&shading), buffers: extra };
+        generator.record_draw_stored(rec, &r.stored[c.hair], params, extras);
+    }
+    Ok(())
+}

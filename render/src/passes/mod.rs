@@ -1,0 +1,127 @@
+//! The passes of a scene frame, one small module each. A pass module has a planning side (the
+//! pass's reads and writes, added to the frame graph) and a recording side (what it records,
+//! given the frame's resources). The executor ([`crate::graph::GraphRun`]) puts the barriers
+//! between them and wraps each in its label and timestamp scope.
+//!
+//! | module | passes |
+//! |---|---|
+//! | [`shadow`] | per shadow-casting light: generate in the light's view, occluder depth, hair depth, opacity, and the copies into the map atlases (cached after the first frame) |
+//! | [`generate`] | per character: LOD + cull (both paths), generate (compute path) |
+//! | [`occluders`] | the occluder meshes, shaded and lit, into the scene target |
+//! | [`hair`] | the hair raster: blended mode's depth prepass, opaque/blended shading |
+//! | [`oit`] | clear the OIT lists, fill them, resolve them |
+//! | [`copy_out`] | the target into the readback buffers |
+
+pub mod copy_out;
+pub mod generate;
+pub mod hair;
+pub mod occluders;
+pub mod oit;
+pub mod shadow;
+
+use gen_gpu::Recorder;
+
+use crate::frame::{FrameIds, FrameState, SceneRenderer};
+use crate::graph::{FrameGraph, GraphRun, PassNode};
+
+/// What a pass of a scene frame records (the payload of its graph node).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum ScenePass {
+    /// Shadow passes ([`shadow`]).
+    Shadow(shadow::ShadowPass),
+    /// LOD + cull of generated character `i`.
+    LodCull(usize),
+    /// Compute-path generation of character `i`.
+    Generate(usize),
+    ClearOit,
+    Occluders,
+    /// Blended mode's solid-fragment depth prepass.
+    DepthPrepass,
+    /// The hair raster (opaque or blended).
+    Raster,
+    OitFill,
+    OitResolve,
+    CopyOut,
+}
+
+/// Plans the passes of one batch of characters (one submission): generation, then (first
+/// batch) the OIT clear and the occluders, the hair raster, and (last batch) the OIT resolve and
+/// the copy out.
+pub(crate) fn frame_batch(
+    r: &SceneRenderer,
+    g: &mut FrameGraph<ScenePass>,
+    ids: &FrameIds,
+    batch: &[usize],
+    submission: usize,
+    first: bool,
+    last: bool,
+) {
+    for &i in batch {
+        generate::plan(r, g, ids, i, submission);
+    }
+    if first && r.oit.is_some() {
+        oit::plan_clear(g, ids, submission);
+    }
+    if first && !r.occluders.is_empty() {
+        occluders::plan(r, g, ids, submission);
+    }
+    if r.oit.is_some() {
+        oit::plan_fill(r, g, ids, batch, last, submission);
+        if last {
+            oit::plan_resolve(g, ids, submission);
+        }
+    } else {
+        hair::plan(r, g, ids, batch, last, submission);
+    }
+    if last {
+        copy_out::plan(g, ids, submission);
+    }
+}
+
+/// Records one pass of a scene frame.
+pub(crate) fn record(
+    r: &SceneRenderer,
+    rec: &mut Recorder<'_>,
+    pass: &PassNode<ScenePass>,
+    state: &FrameState<'_>,
+    run: &GraphRun<'_, ScenePass>,
+) -> gen_gpu::Result<()> {
+    // The first pass that renders into the target clears it.
+    let clear = run.untouched(state.plan.ids.color).then_some(r.scene.scene.output.background);
+    match pass.payload {
+        ScenePass::Shadow(_) => Ok(()),
+        ScenePass::LodCull(i) => generate::record_lod(r, rec, state, i),
+        ScenePass::Generate(i) => generate::record_generate(r, rec, state, i),
+        ScenePass::ClearOit => oit::record_clear(rec, state),
+        ScenePass::Occluders => occluders::record(r, rec, state, clear),
+        ScenePass::DepthPrepass => hair::record_prepass(r, rec, state, clear),
+        ScenePass::Raster => hair::record_raster(r, rec, state, clear),
+        ScenePass::OitFill => oit::record_fill(r, rec, state, clear),
+        ScenePass::OitResolve => oit::record_resolve(r, rec, state),
+        ScenePass::CopyOut => copy_out::record(rec, state),
+    }
+}
+
+/// The strand resources a draw of `batch` (plus the stored strands on the last batch) reads.
+pub(crate) fn strand_reads(
+    r: &SceneRenderer,
+    ids: &FrameIds,
+    batch: &[usize],
+    last: bool,
+) -> Vec<(crate::graph::Res, crate::graph::Access)> {
+    use crate::graph::Access;
+    let mut reads = Vec::new();
+    for &i in batch {
+        reads.push((ids.lod[i], Access::IndirectRead));
+        reads.push((ids.lod[i], Access::PreRasterRead));
+        if r.path == gen_gpu::GenerationPath::Compute {
+            reads.push((ids.strands[i], Access::PreRasterRead));
+        } else {
+            reads.push((ids.hair[i], Access::PreRasterRead));
+        }
+    }
+    if last {
+        reads.extend(ids.stored.iter().map(|&s| (s, Access::PreRasterRead)));
+    }
+    reads
+}

@@ -1,0 +1,43 @@
+//! Occluder meshes (scalps, bodies), shaded and lit (with shadows when the scene has them),
+//! into the scene target before the hair, so they hide what is behind them.
+
+use gen_gpu::Recorder;
+
+use super::ScenePass;
+use crate::frame::{FrameIds, FrameState, SceneRenderer};
+use crate::graph::{Access, FrameGraph};
+use crate::occluder::occluder_push;
+
+pub(crate) fn plan(r: &SceneRenderer, g: &mut FrameGraph<ScenePass>, ids: &FrameIds, submission: usize) {
+    let mut pass = g
+        .pass("occluders")
+        .read(ids.occluder_meshes, Access::PreRasterRead)
+        .read(ids.lights, Access::FragmentRead);
+    if let Some(s) = &ids.shadow {
+        pass = pass.read(s.maps, Access::FragmentRead);
+    }
+    for (res, access) in ids.target_writes() {
+        pass = pass.write(res, access);
+    }
+    let _ = r;
+    pass.submission(submission).add(ScenePass::Occluders);
+}
+
+pub(crate) fn record(
+    r: &SceneRenderer,
+    rec: &mut Recorder<'_>,
+    state: &FrameState<'_>,
+    clear: Option<[f32; 3]>,
+) -> gen_gpu::Result<()> {
+    let Some(pipes) = &r.occluder_pipes else { return Ok(()) };
+    let view = &state.plan.view;
+    let view_proj = crate::camera::view_proj(&view.camera, view.width, view.height);
+    state.target.begin_rendering(rec, clear);
+    let light_count = r.scene.lights().len();
+    for o in &r.occluders {
+        let push = occluder_push(o.transform, view_proj, view.camera.eye, light_count, o.color);
+        r.meshes[o.mesh].record_draw(rec, &pipes.shade, &push, &state.lighting);
+    }
+    rec.end_rendering();
+    Ok(())
+}

@@ -1,0 +1,101 @@
+//! Order-independent transparency (per-pixel linked lists with a k-buffer resolve, as TressFX):
+//! clear the lists, fill them with shaded fragments (depth-tested against the occluders, nothing
+//! written to the target), resolve them over the target. A full node pool drops fragments and
+//! counts them.
+
+use gen_gpu::Recorder;
+
+use super::{ScenePass, strand_reads};
+use crate::contract::binding;
+use crate::frame::{FrameIds, FrameState, SceneRenderer};
+use crate::graph::{Access, FrameGraph};
+
+pub(crate) fn plan_clear(g: &mut FrameGraph<ScenePass>, ids: &FrameIds, submission: usize) {
+    g.pass("clear OIT lists")
+        .write(ids.oit_lists, Access::TransferWrite)
+        .submission(submission)
+        .add(ScenePass::ClearOit);
+}
+
+pub(crate) fn plan_fill(
+    r: &SceneRenderer,
+    g: &mut FrameGraph<ScenePass>,
+    ids: &FrameIds,
+    batch: &[usize],
+    last: bool,
+    submission: usize,
+) {
+    let mut pass =
+        g.pass(format!("raster hair ({}, OIT fill)", r.path)).read(ids.lights, Access::FragmentRead);
+    if let Some(s) = &ids.shadow {
+        pass = pass.read(s.maps, Access::FragmentRead);
+    }
+    for (res, access) in strand_reads(r, ids, batch, last) {
+        pass = pass.read(res, access);
+    }
+    // The target is attached for its depth (occluders hide hair); no colour is written.
+    for (res, access) in ids.target_writes() {
+        pass = pass.write(res, access);
+    }
+    pass.write(ids.oit_lists, Access::FragmentWrite).submission(submission).add(ScenePass::OitFill);
+}
+
+pub(crate) fn plan_resolve(g: &mut FrameGraph<ScenePass>, ids: &FrameIds, submission: usize) {
+    let mut pass = g.pass("OIT resolve").read(ids.oit_lists, Access::FragmentRead);
+    for (res, access) in ids.target_writes() {
+        pass = pass.write(res, access);
+    }
+    pass.submission(submission).add(ScenePass::OitResolve);
+}
+
+pub(crate) fn record_clear(rec: &mut Recorder<'_>, state: &FrameState<'_>) -> gen_gpu::Result<()> {
+    let Some(oit) = state.oit else { return Ok(()) };
+    rec.fill_buffer(&oit.heads, u32::MAX);
+    let init = [0u32, oit.pool as u32, 0, state.plan.view.width];
+    rec.update_buffer(&oit.counters, 0, bytemuck::cast_slice(&init))
+}
+
+/// The fill stage's buffers: the lists, then the lighting.
+fn fill_buffers<'a>(state: &FrameState<'a>) -> Option<[(u32, &'a gen_gpu::Buffer); 7]> {
+    let oit = state.oit?;
+    let l = state.lighting;
+    Some([
+        (binding::OIT_HEADS, &oit.heads),
+        (binding::OIT_NODES, &oit.nodes),
+        (binding::OIT_COUNTERS, &oit.counters),
+        l[0],
+        l[1],
+        l[2],
+        l[3],
+    ])
+}
+
+pub(crate) fn record_fill(
+    r: &SceneRenderer,
+    rec: &mut Recorder<'_>,
+    state: &FrameState<'_>,
+    clear: Option<[f32; 3]>,
+) -> gen_gpu::Result<()> {
+    let (Some(oit), Some(extra)) = (&r.oit, fill_buffers(state)) else { return Ok(()) };
+    let eye = state.plan.view.camera.eye;
+    state.target.begin_rendering(rec, clear);
+    let drawn =
+        super::hair::draw_characters(r, rec, &oit.fill, state.frames, state.stored_params, &extra, eye);
+    rec.end_rendering();
+    drawn
+}
+
+pub(crate) fn record_resolve(
+    r: &SceneRenderer,
+    rec: &mut Recorder<'_>,
+    state: &FrameState<'_>,
+) -> gen_gpu::Result<()> {
+    let (Some(oit), Some(extra)) = (&r.oit, fill_buffers(state)) else { return Ok(()) };
+    state.target.begin_rendering(rec, None);
+    rec.bind_pipeline(&oit.resolve);
+    rec.push_storage_buffers(&oit.resolve, &extra[..3]);
+    rec.push_constants(&oit.resolve, &oit.k);
+    rec.draw(3, 1);
+    rec.end_rendering();
+    Ok(())
+}
