@@ -517,23 +517,29 @@ struct Submission<'a> {
 impl Drop for Submission<'_> {
     fn drop(&mut self) {
         let d = self.ctx.device();
-        let pool = self.ctx.shared.command_pool.lock().unwrap_or_else(|e| e.into_inner());
-        // SAFETY: the fence was waited on (or never submitted), so nothing is in flight.
-        unsafe {
-            if self.fence != vk::Fence::null() {
-                d.destroy_fence(self.fence, None);
+        {
+            let pool = self.ctx.shared.command_pool.lock().unwrap_or_else(|e| e.into_inner());
+            // SAFETY: the fence was waited on (or never submitted), so nothing is in flight.
+            unsafe {
+                if self.fence != vk::Fence::null() {
+                    d.destroy_fence(self.fence, None);
+                }
+                if self.query_pool != vk::QueryPool::null() {
+                    d.destroy_query_pool(self.query_pool, None);
+                }
+                d.free_command_buffers(*pool, &[self.cmd]);
             }
-            if self.query_pool != vk::QueryPool::null() {
-                d.destroy_query_pool(self.query_pool, None);
-            }
-            d.free_command_buffers(*pool, &[self.cmd]);
         }
+        // Resources dropped while this submission was recorded or in flight go now.
+        self.ctx.shared.close_submission();
     }
 }
 
 impl Context {
     /// Records commands with `f`, submits them, waits, and returns `f`'s result with the
-    /// per-pass GPU times. Synchronous, so resources may be dropped as soon as it returns.
+    /// per-pass GPU times. Synchronous, so resources may be dropped as soon as it returns; a
+    /// buffer or image dropped inside `f` (after a command using it was recorded) is destroyed
+    /// only once the submission has completed.
     pub fn submit<R>(
         &self,
         name: &str,
@@ -549,6 +555,9 @@ impl Context {
             // SAFETY: valid pool, externally synchronized by the mutex.
             unsafe { device.allocate_command_buffers(&info) }.call("vkAllocateCommandBuffers")?[0]
         };
+        // From here until the Submission drops (after its fence, or on any error), resources
+        // dropped by the caller are kept alive for the commands that may use them.
+        self.shared.open_submission();
         let mut sub =
             Submission { ctx: self, cmd, fence: vk::Fence::null(), query_pool: vk::QueryPool::null() };
         self.set_name(cmd, name);

@@ -82,6 +82,25 @@ pub(crate) struct DeviceShared {
     pub(crate) caps: Capabilities,
     path: GenerationPath,
     validation: bool,
+    /// Command buffers being recorded or in flight (see [`DeviceShared::retire`]).
+    pub(crate) open_submissions: Mutex<usize>,
+    /// Resources dropped while a submission was open: destroyed when none is.
+    pub(crate) deferred: Mutex<Vec<Retired>>,
+}
+
+/// A resource whose handles outlive its Rust value until no submission can still use it.
+pub(crate) enum Retired {
+    Buffer {
+        raw: vk::Buffer,
+        allocation: Option<gpu_allocator::vulkan::Allocation>,
+        name: String,
+    },
+    Image {
+        raw: vk::Image,
+        view: vk::ImageView,
+        allocation: Option<gpu_allocator::vulkan::Allocation>,
+        name: String,
+    },
 }
 
 impl Drop for DeviceShared {
@@ -104,6 +123,65 @@ impl Drop for DeviceShared {
 }
 
 impl DeviceShared {
+    /// Destroys `resource` now if no submission is open, else when the last open one has
+    /// completed. A buffer dropped by safe code inside a `submit` closure, after a command that
+    /// uses it was recorded, is thus still alive when the queue runs that command.
+    pub(crate) fn retire(&self, resource: Retired) {
+        let open = self.open_submissions.lock().unwrap_or_else(|e| e.into_inner());
+        if *open > 0 {
+            self.deferred.lock().unwrap_or_else(|e| e.into_inner()).push(resource);
+            return;
+        }
+        drop(open);
+        self.destroy(resource);
+    }
+
+    /// Marks a submission as open (recording or in flight).
+    pub(crate) fn open_submission(&self) {
+        *self.open_submissions.lock().unwrap_or_else(|e| e.into_inner()) += 1;
+    }
+
+    /// Marks a submission as completed (its fence waited for, or never submitted) and destroys
+    /// what was retired meanwhile once none is open.
+    pub(crate) fn close_submission(&self) {
+        let mut open = self.open_submissions.lock().unwrap_or_else(|e| e.into_inner());
+        *open = open.saturating_sub(1);
+        if *open > 0 {
+            return;
+        }
+        let retired = std::mem::take(&mut *self.deferred.lock().unwrap_or_else(|e| e.into_inner()));
+        drop(open);
+        for r in retired {
+            self.destroy(r);
+        }
+    }
+
+    /// Number of resources waiting for open submissions (tests).
+    pub(crate) fn deferred_count(&self) -> usize {
+        self.deferred.lock().unwrap_or_else(|e| e.into_inner()).len()
+    }
+
+    fn destroy(&self, resource: Retired) {
+        match resource {
+            Retired::Buffer { raw, allocation, name } => {
+                // SAFETY: no submission is open (checked by the callers), so no recorded or
+                // queued command uses the buffer; memory is freed after the buffer.
+                unsafe { self.device.destroy_buffer(raw, None) };
+                self.free(allocation, &name);
+            }
+            Retired::Image { raw, view, allocation, name } => {
+                // SAFETY: as for buffers; the view goes before its image, memory after both.
+                unsafe {
+                    if view != vk::ImageView::null() {
+                        self.device.destroy_image_view(view, None);
+                    }
+                    self.device.destroy_image(raw, None);
+                }
+                self.free(allocation, &name);
+            }
+        }
+    }
+
     pub(crate) fn allocator(&self) -> MutexGuard<'_, Allocator> {
         // A panic while holding the lock leaves the allocator itself consistent.
         self.allocator.lock().unwrap_or_else(|e| e.into_inner())
@@ -157,6 +235,11 @@ fn device_rank(t: vk::PhysicalDeviceType) -> u32 {
 }
 
 impl Context {
+    /// Buffers and images dropped while a submission was open, waiting for it to complete.
+    pub fn resources_awaiting_submissions(&self) -> usize {
+        self.shared.deferred_count()
+    }
+
     /// Environment variable naming the device (index or name substring).
     pub const DEVICE_ENV: &'static str = "HAIRKIT_DEVICE";
     /// Environment variable that turns validation on (`1`) for [`Validation::FromEnv`].
@@ -338,6 +421,8 @@ impl Context {
                 caps,
                 path,
                 validation,
+                open_submissions: Mutex::new(0),
+                deferred: Mutex::new(Vec::new()),
             }),
         };
         ctx.set_name(queue, "main queue");

@@ -123,10 +123,12 @@ impl Buffer {
 
 impl Drop for Buffer {
     fn drop(&mut self) {
-        // SAFETY: callers wait for submissions using the buffer before dropping it (submits in
-        // this crate are synchronous); the allocation is freed after the buffer is destroyed.
-        unsafe { self.shared.device.destroy_buffer(self.raw, None) };
-        self.shared.free(self.allocation.take(), &self.name);
+        // Destroyed now, or after the open submissions that may use it (DeviceShared::retire).
+        self.shared.retire(crate::context::Retired::Buffer {
+            raw: self.raw,
+            allocation: self.allocation.take(),
+            name: std::mem::take(&mut self.name),
+        });
     }
 }
 
@@ -296,15 +298,13 @@ impl Image {
 
 impl Drop for Image {
     fn drop(&mut self) {
-        // SAFETY: submissions are synchronous, so the image is idle; view before image, memory
-        // after both.
-        unsafe {
-            if self.view != vk::ImageView::null() {
-                self.shared.device.destroy_image_view(self.view, None);
-            }
-            self.shared.device.destroy_image(self.raw, None);
-        }
-        self.shared.free(self.allocation.take(), &self.name);
+        // Destroyed now, or after the open submissions that may use it (DeviceShared::retire).
+        self.shared.retire(crate::context::Retired::Image {
+            raw: self.raw,
+            view: self.view,
+            allocation: self.allocation.take(),
+            name: std::mem::take(&mut self.name),
+        });
     }
 }
 

@@ -8,6 +8,11 @@ use gen_gpu::{GenerationPath, shaders};
 use hairkit_tests::harness::{GpuTest, Requirements, run_checked, run_gpu_tests};
 use hairkit_tests::image_compare::{Tolerance, compare};
 
+/// A check inside a `submit` closure (which returns gen-gpu's error type).
+fn ensure_gpu(ok: bool, what: &str) -> gen_gpu::Result<()> {
+    if ok { Ok(()) } else { Err(gen_gpu::GpuError::Mismatch(what.to_owned())) }
+}
+
 fn main() -> ExitCode {
     run_gpu_tests(vec![
         GpuTest::new("compute_pattern_reads_back_exactly", Requirements::NONE, |ctx| {
@@ -21,6 +26,41 @@ fn main() -> ExitCode {
             }
             Ok(())
         }),
+        GpuTest::new(
+            "a_buffer_dropped_while_recording_lives_until_its_submission_ends",
+            Requirements::NONE,
+            |ctx| {
+                // Safe code records a fill into a buffer, drops the buffer and a second one, then
+                // submits: both must stay alive until the fence (the validation layer would report a
+                // destroyed buffer in a submitted command), and be freed right after.
+                let kept = gen_gpu::Buffer::new(ctx, "kept", gen_gpu::BufferDesc::storage(256))?;
+                let ((), _) = ctx.submit("drop while recording", |rec| {
+                    let doomed = gen_gpu::Buffer::new(ctx, "doomed", gen_gpu::BufferDesc::storage(256))?;
+                    rec.fill_buffer(&doomed, 7);
+                    rec.fill_buffer(&kept, 9);
+                    drop(doomed);
+                    ensure_gpu(ctx.resources_awaiting_submissions() == 1, "the dropped buffer waits")?;
+                    // An update with a bad offset is refused before it reaches the driver.
+                    ensure_gpu(rec.update_buffer(&kept, 2, &[0u8; 4]).is_err(), "misaligned update refused")?;
+                    ensure_gpu(
+                        rec.update_buffer(&kept, 252, &[0u8; 8]).is_err(),
+                        "update past the end refused",
+                    )?;
+                    let transfer = (
+                        gen_gpu::vk::PipelineStageFlags2::ALL_TRANSFER,
+                        gen_gpu::vk::AccessFlags2::TRANSFER_WRITE,
+                    );
+                    rec.memory_barrier(transfer, transfer);
+                    rec.update_buffer(&kept, 0, &[1u8, 0, 0, 0])
+                })?;
+                ensure!(ctx.resources_awaiting_submissions() == 0, "freed after the fence");
+                let bytes = ctx.read_buffer(&kept, 8)?;
+                let words: Vec<u32> =
+                    bytes.chunks_exact(4).map(|w| u32::from_le_bytes([w[0], w[1], w[2], w[3]])).collect();
+                ensure!(words == [1, 9], "the commands ran in order: {words:?}");
+                Ok(())
+            },
+        ),
         GpuTest::new("every_shader_module_is_valid", Requirements::NONE, |ctx| {
             let dir = std::env::temp_dir().join(format!("hairkit-spirv-{}", std::process::id()));
             std::fs::create_dir_all(&dir)?;
