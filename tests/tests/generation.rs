@@ -150,6 +150,34 @@ fn main() -> ExitCode {
             let eyes = [Vec3::new(0.0, 1.7, 0.5), Vec3::new(0.3, 1.8, 3.0)];
             check_oracle(ctx, "head cap", &asset, &eyes, &[full, lod])
         }),
+        GpuTest::new("the_vertex_lod_cap_is_one_for_cpu_and_gpu", Requirements::NONE, move |ctx| {
+            // At the cap, above it (clamped to it on both sides) and below it: the GPU and the
+            // f64 reference generate the same vertex counts and the same strands.
+            let cap = hairmesh::reference::MAX_SEGMENTS_LOG2;
+            ensure!(cap == gen_gpu::contract::MAX_SEGMENTS_LOG2);
+            let asset = head_cap_asset(400, styled(0.1))?;
+            let eye = Vec3::new(0.0, 1.7, 0.5);
+            let at = |e: u32| LodParams { enabled: false, max_segments_log2: e, ..LodParams::default() };
+            let hair = GpuHair::upload(ctx, &asset, TexturePrecision::F32)?;
+            let generator = Generator::new(ctx, Filtering::Manual)?;
+            for e in [3, cap, cap + 1, 10, u32::MAX] {
+                let inputs = inputs_for(&asset, eye, at(e));
+                let capture = generator.capture(ctx, &hair, &inputs, GenerationPath::Compute)?;
+                let vertices = (1usize << e.min(cap)) + 1;
+                ensure!(
+                    capture.strands.iter().all(|s| s.positions.len() == vertices),
+                    "E = {e}: every strand has {vertices} vertices"
+                );
+                let reference = asset.generate_reference(&inputs.view, &inputs.lod);
+                ensure!(
+                    reference.iter().all(|s| s.positions.len() == vertices),
+                    "E = {e}: the reference agrees on {vertices} vertices"
+                );
+                let accuracy = compare_to_reference(&asset, &inputs, &capture)?;
+                ensure!(accuracy.strands == capture.strands.len(), "E = {e}: {accuracy:?}");
+            }
+            check_oracle(ctx, "head cap above the cap", &asset, &[eye], &[at(cap), at(cap + 3)])
+        }),
         GpuTest::new("gpu_matches_cpu_reference_on_lee_perry_smith", Requirements::NONE, move |ctx| {
             let asset = lee_perry_smith_asset(2000, styled(1.0))?;
             let eyes = [Vec3::new(0.0, 6.0, 14.0), Vec3::new(5.0, 8.0, -60.0)];
