@@ -386,7 +386,7 @@ impl<'g, P> GraphRun<'g, P> {
         }
         for (res, access, stages, access_flags, writes) in uses {
             let state = &mut self.states[res.0];
-            let is_image = graph_kind(self.graph, res) == ResKind::Image;
+            let is_image = self.graph.resource_kind(res) == ResKind::Image;
             let layout = if is_image { access.layout() } else { vk::ImageLayout::UNDEFINED };
             let layout_change = is_image && state.layout != layout;
             let needed = layout_change || state.written || writes;
@@ -450,10 +450,6 @@ impl<'g, P> GraphRun<'g, P> {
             rec.pipeline_barrier(&memory, &images);
         }
     }
-}
-
-fn graph_kind<P>(graph: &FrameGraph<P>, res: Res) -> ResKind {
-    graph.resources[res.0].kind
 }
 
 /// Transient GPU resources pooled by name and description and reused from frame to frame (the

@@ -63,7 +63,7 @@ pub(crate) fn frame_batch(
         oit::plan_clear(g, ids, submission);
     }
     if first && !r.occluders.is_empty() {
-        occluders::plan(r, g, ids, submission);
+        occluders::plan(g, ids, submission);
     }
     if r.oit.is_some() {
         oit::plan_fill(r, g, ids, batch, last, submission);

@@ -8,7 +8,7 @@ use crate::frame::{FrameIds, FrameState, SceneRenderer};
 use crate::graph::{Access, FrameGraph};
 use crate::occluder::occluder_push;
 
-pub(crate) fn plan(r: &SceneRenderer, g: &mut FrameGraph<ScenePass>, ids: &FrameIds, submission: usize) {
+pub(crate) fn plan(g: &mut FrameGraph<ScenePass>, ids: &FrameIds, submission: usize) {
     let mut pass = g
         .pass("occluders")
         .read(ids.occluder_meshes, Access::PreRasterRead)
@@ -19,7 +19,6 @@ pub(crate) fn plan(r: &SceneRenderer, g: &mut FrameGraph<ScenePass>, ids: &Frame
     for (res, access) in ids.target_writes() {
         pass = pass.write(res, access);
     }
-    let _ = r;
     pass.submission(submission).add(ScenePass::Occluders);
 }
 
