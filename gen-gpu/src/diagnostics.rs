@@ -6,9 +6,9 @@ use crate::contract::binding::DIAGNOSTIC_OUTPUT;
 use ash::vk;
 
 use crate::{
-    Binding, Buffer, BufferDesc, ComputePipelineDesc, Context, FrameTimings, GenerationPath, GpuError,
-    GraphicsPipelineDesc, GraphicsStages, Image, ImageDesc, MemoryLocation, Pipeline, Recorder, Result,
-    shaders,
+    Binding, Buffer, BufferDesc, COLOR_FORMAT, ComputePipelineDesc, Context, DEPTH_FORMAT, FrameTimings,
+    GenerationPath, GpuError, GraphicsPipelineDesc, GraphicsStages, Image, ImageDesc, MemoryLocation,
+    Pipeline, RenderTarget, Result, RgbaImage, shaders,
 };
 
 /// The hash `pattern.comp` writes, for checking its output exactly on the CPU.
@@ -67,16 +67,6 @@ struct TestStripParams {
 /// Points per test strand (`TEST_STRIP_POINTS` in `test_strips.glsl`).
 pub const TEST_STRIP_POINTS: u32 = 17;
 const STRANDS_PER_TASK_GROUP: u32 = 32;
-use crate::generator::{COLOR_FORMAT, DEPTH_FORMAT};
-
-/// An 8-bit RGBA image read back from the GPU.
-#[derive(Clone, Debug, PartialEq, Eq)]
-pub struct RgbaImage {
-    pub width: u32,
-    pub height: u32,
-    /// Row-major, 4 bytes per pixel, no padding.
-    pub pixels: Vec<u8>,
-}
 
 /// Draws `strands` synthetic strips into a `width`×`height` image through `path`.
 pub fn draw_test_strips(
@@ -267,97 +257,6 @@ pub fn draw_test_strips(
     let pixels = ctx.read_buffer(&readback, readback.size())?;
     Ok((RgbaImage { width, height, pixels }, timings))
 }
-
-/// A colour + depth target of the generator's formats with a readback buffer.
-#[derive(Debug)]
-pub struct RenderTarget {
-    pub color: Image,
-    pub depth: Image,
-    readback: Buffer,
-}
-
-impl RenderTarget {
-    pub fn new(ctx: &Context, width: u32, height: u32) -> Result<Self> {
-        Ok(Self {
-            color: Image::new(
-                ctx,
-                "render target colour",
-                ImageDesc::d2(
-                    width,
-                    height,
-                    COLOR_FORMAT,
-                    vk::ImageUsageFlags::COLOR_ATTACHMENT | vk::ImageUsageFlags::TRANSFER_SRC,
-                ),
-            )?,
-            depth: Image::new(
-                ctx,
-                "render target depth",
-                ImageDesc::d2(width, height, DEPTH_FORMAT, vk::ImageUsageFlags::DEPTH_STENCIL_ATTACHMENT),
-            )?,
-            readback: Buffer::new(
-                ctx,
-                "render target readback",
-                BufferDesc {
-                    size: u64::from(width) * u64::from(height) * 4,
-                    usage: vk::BufferUsageFlags::TRANSFER_DST,
-                    location: MemoryLocation::GpuToCpu,
-                },
-            )?,
-        })
-    }
-
-    /// Transitions both images for rendering and begins rendering with a dark clear colour.
-    pub fn begin(&self, rec: &Recorder<'_>) {
-        let top = (vk::PipelineStageFlags2::TOP_OF_PIPE, vk::AccessFlags2::NONE);
-        rec.image_barrier(
-            &self.color,
-            (vk::ImageLayout::UNDEFINED, vk::ImageLayout::COLOR_ATTACHMENT_OPTIMAL),
-            top,
-            COLOR_ATTACHMENT,
-        );
-        rec.image_barrier(
-            &self.depth,
-            (vk::ImageLayout::UNDEFINED, vk::ImageLayout::DEPTH_ATTACHMENT_OPTIMAL),
-            top,
-            DEPTH_ATTACHMENT,
-        );
-        rec.begin_rendering(&self.color, [0.02, 0.02, 0.03, 1.0], Some(&self.depth));
-    }
-
-    /// After rendering ended: copies the colour image to the readback buffer.
-    pub fn copy_out(&self, rec: &Recorder<'_>) {
-        rec.image_barrier(
-            &self.color,
-            (vk::ImageLayout::COLOR_ATTACHMENT_OPTIMAL, vk::ImageLayout::TRANSFER_SRC_OPTIMAL),
-            COLOR_ATTACHMENT,
-            (vk::PipelineStageFlags2::COPY, vk::AccessFlags2::TRANSFER_READ),
-        );
-        rec.copy_image_to_buffer(&self.color, &self.readback);
-    }
-
-    /// The image copied by [`Self::copy_out`] (after the submission).
-    pub fn read(&self, ctx: &Context) -> Result<RgbaImage> {
-        let e = self.color.desc.extent;
-        Ok(RgbaImage {
-            width: e.width,
-            height: e.height,
-            pixels: ctx.read_buffer(&self.readback, self.readback.size())?,
-        })
-    }
-}
-
-const COLOR_ATTACHMENT: (vk::PipelineStageFlags2, vk::AccessFlags2) =
-    (vk::PipelineStageFlags2::COLOR_ATTACHMENT_OUTPUT, vk::AccessFlags2::COLOR_ATTACHMENT_WRITE);
-const DEPTH_ATTACHMENT: (vk::PipelineStageFlags2, vk::AccessFlags2) = (
-    vk::PipelineStageFlags2::from_raw(
-        vk::PipelineStageFlags2::EARLY_FRAGMENT_TESTS.as_raw()
-            | vk::PipelineStageFlags2::LATE_FRAGMENT_TESTS.as_raw(),
-    ),
-    vk::AccessFlags2::from_raw(
-        vk::AccessFlags2::DEPTH_STENCIL_ATTACHMENT_WRITE.as_raw()
-            | vk::AccessFlags2::DEPTH_STENCIL_ATTACHMENT_READ.as_raw(),
-    ),
-);
 
 /// Generates and draws `hair` through `path` into a `width`×`height` image.
 pub fn draw_hair(

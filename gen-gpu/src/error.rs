@@ -37,7 +37,7 @@ pub enum GpuError {
     Mismatch(String),
     #[error("buffer `{name}` holds {size} bytes; cannot read {requested} bytes from it")]
     OutOfRange { name: String, size: u64, requested: u64 },
-    #[error("update of buffer `{name}` at byte {offset} with {size} bytes refused: {why}")]
+    #[error("upload to `{name}` at byte {offset} with {size} bytes refused: {why}")]
     BadUpload { name: String, offset: u64, size: u64, why: &'static str },
 }
 

@@ -236,9 +236,7 @@ const MESH_OUTPUT_VERTICES: u32 = 66;
 const MESH_OUTPUT_PRIMITIVES: u32 = 64;
 const MESH_THREADS: u32 = 32;
 
-/// Colour and depth formats the generator's draws render into.
-pub const COLOR_FORMAT: vk::Format = vk::Format::R8G8B8A8_UNORM;
-pub const DEPTH_FORMAT: vk::Format = vk::Format::D32_SFLOAT;
+pub use crate::backend::target::{COLOR_FORMAT, DEPTH_FORMAT};
 
 /// Set 0 of every strand pipeline ([`crate::contract`]) plus the fragment stage's own buffers.
 fn bindings(extra: &[u32]) -> Vec<Binding> {
@@ -597,7 +595,7 @@ impl Generator {
         path: GenerationPath,
     ) -> Result<Capture> {
         let frame = self.prepare(ctx, hair, inputs)?;
-        let target = crate::diagnostics::RenderTarget::new(ctx, 64, 64)?;
+        let target = crate::RenderTarget::new(ctx, 64, 64)?;
         let ((), timings) = ctx.submit(&format!("capture ({path})"), |rec| {
             self.record_lod(rec, hair, &frame);
             Self::barrier_after_lod(rec);

@@ -1,11 +1,11 @@
 //! A hair asset on the GPU: the textures, the bundle table and the root sample sets.
 
 use ash::vk;
-use hairmesh::asset::HairAsset;
+use hairmesh::asset::{AssetChange, HairAsset};
 use hairmesh::roots::SampleDomain;
 use hairmesh::texture::Texture3;
 
-use crate::{Buffer, BufferDesc, Context, GpuError, Image, ImageDesc, Result, Sampler};
+use crate::{Buffer, BufferDesc, Context, GpuError, Image, ImageDesc, ImageRegion, Result, Sampler};
 
 /// Texel precision of the uploaded textures.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash)]
@@ -68,20 +68,59 @@ pub struct GpuHair {
     pub asset: HairAsset,
 }
 
+/// Appends one texel's values as `channels` f16 or f32 samples (missing channels are 0).
+fn push_texel(out: &mut Vec<u8>, texel: &[f64], channels: u32, half: bool) {
+    for c in 0..channels as usize {
+        let v = texel.get(c).copied().unwrap_or(0.0);
+        if half {
+            out.extend(half::f16::from_f64(v).to_le_bytes());
+        } else {
+            out.extend((v as f32).to_le_bytes());
+        }
+    }
+}
+
 fn texels(tex: &Texture3, channels: u32, half: bool) -> Vec<u8> {
     let n = tex.channels as usize;
     let mut out = Vec::with_capacity(tex.data.len() / n * channels as usize * if half { 2 } else { 4 });
     for texel in tex.data.chunks_exact(n) {
-        for c in 0..channels as usize {
-            let v = texel.get(c).copied().unwrap_or(0.0);
-            if half {
-                out.extend(half::f16::from_f64(v).to_le_bytes());
-            } else {
-                out.extend((v as f32).to_le_bytes());
-            }
-        }
+        push_texel(&mut out, texel, channels, half);
     }
     out
+}
+
+/// Bundle `b`'s entry of the GPU bundle table.
+fn gpu_bundle(asset: &HairAsset, b: usize) -> GpuBundle {
+    let squares = asset.square_sets.len() as u32;
+    let triangles = asset.triangle_sets.len() as u32;
+    let info = &asset.bundles[b];
+    let (domain, set) = match info.domain {
+        SampleDomain::Square => (0, b as u32 % squares.max(1)),
+        SampleDomain::Triangle => (1, squares + b as u32 % triangles.max(1)),
+    };
+    let symmetry = u32::from(asset.root_symmetry(b as u32));
+    let cell = &asset.textures.layout.cells[b];
+    let cell = cell.x | (cell.y << 14) | (u32::from(cell.orientation.code()) << 28);
+    let lo = info.bounds_min.as_vec3();
+    let hi = info.bounds_max.as_vec3();
+    GpuBundle {
+        bounds_min: [lo.x, lo.y, lo.z, info.face_size() as f32],
+        bounds_max: [hi.x, hi.y, hi.z, info.length as f32],
+        info: [info.strands, domain | (symmetry << 1), set, cell],
+    }
+}
+
+/// What [`GpuHair::update`] sent to the GPU.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct HairUpdate {
+    /// Texel columns (one texel of the slice through every slice) rewritten per texture.
+    pub texel_columns: u64,
+    /// Copy regions per texture (runs of neighbouring texels in a row).
+    pub regions: u64,
+    /// Bundle-table entries rewritten.
+    pub bundles: u64,
+    /// Bytes uploaded, textures and table together.
+    pub bytes: u64,
 }
 
 impl GpuHair {
@@ -143,29 +182,7 @@ impl GpuHair {
             set_info.push([points.len() as u32, set.points.len() as u32]);
             points.extend(set.points.iter().map(|p| hairmesh::roots::pack_sample(*p)));
         }
-        let squares = asset.square_sets.len() as u32;
-        let triangles = asset.triangle_sets.len() as u32;
-        let gpu_bundles: Vec<GpuBundle> = asset
-            .bundles
-            .iter()
-            .enumerate()
-            .map(|(b, info)| {
-                let (domain, set) = match info.domain {
-                    SampleDomain::Square => (0, b as u32 % squares.max(1)),
-                    SampleDomain::Triangle => (1, squares + b as u32 % triangles.max(1)),
-                };
-                let symmetry = u32::from(asset.root_symmetry(b as u32));
-                let cell = &t.layout.cells[b];
-                let cell = cell.x | (cell.y << 14) | (u32::from(cell.orientation.code()) << 28);
-                let lo = info.bounds_min.as_vec3();
-                let hi = info.bounds_max.as_vec3();
-                GpuBundle {
-                    bounds_min: [lo.x, lo.y, lo.z, info.face_size() as f32],
-                    bounds_max: [hi.x, hi.y, hi.z, info.length as f32],
-                    info: [info.strands, domain | (symmetry << 1), set, cell],
-                }
-            })
-            .collect();
+        let gpu_bundles: Vec<GpuBundle> = (0..asset.bundles.len()).map(|b| gpu_bundle(asset, b)).collect();
         let storage = |bytes: &[u8]| BufferDesc::storage(bytes.len().max(16) as u64);
         let bundle_bytes: &[u8] = bytemuck::cast_slice(&gpu_bundles);
         let sample_bytes: &[u8] = bytemuck::cast_slice(&points);
@@ -196,6 +213,101 @@ impl GpuHair {
             },
             asset: asset.clone(),
         })
+    }
+
+    /// Brings the GPU copy up to date with an edit of its asset ([`HairAsset::move_vertices`]):
+    /// uploads only the texel columns and bundle-table entries `change` names. The change must
+    /// start at the revision this copy holds and end at `asset`'s (merge several with
+    /// [`AssetChange::then`]); an asset whose layout, normalization, bundles or sample sets
+    /// differ from the uploaded one needs [`Self::upload`] instead. Both are refused with
+    /// [`GpuError::Mismatch`], leaving the copy as it was.
+    pub fn update(&mut self, ctx: &Context, asset: &HairAsset, change: &AssetChange) -> Result<HairUpdate> {
+        let (old, new) = (&self.asset, asset);
+        if change.since != old.revision() || change.revision != new.revision() {
+            return Err(GpuError::Mismatch(format!(
+                "the GPU hair holds revision {} and the asset is at {}, but the change covers {}..{}: \
+                 pass every change in order (AssetChange::then merges them) or upload again",
+                old.revision(),
+                new.revision(),
+                change.since,
+                change.revision
+            )));
+        }
+        let (ot, nt) = (&old.textures, &new.textures);
+        if ot.layout != nt.layout
+            || ot.normalization != nt.normalization
+            || old.bundles.len() != new.bundles.len()
+            || old.square_sets != new.square_sets
+            || old.triangle_sets != new.triangle_sets
+        {
+            return Err(GpuError::Mismatch(
+                "the asset's layout, normalization, bundles or sample sets changed: upload it again".into(),
+            ));
+        }
+        let slice = nt.layout.slice_texels();
+        if let Some(t) = change.texels.iter().find(|&&t| u64::from(t) >= slice) {
+            return Err(GpuError::Mismatch(format!("changed texel {t} is outside the {slice}-texel slice")));
+        }
+        if let Some(b) = change.bundles.iter().find(|&&b| b as usize >= new.bundles.len()) {
+            return Err(GpuError::Mismatch(format!("changed bundle {b} of {}", new.bundles.len())));
+        }
+        // Runs of neighbouring texels in one row: (x, y, length).
+        let width = nt.layout.width;
+        let mut runs: Vec<(u32, u32, u32)> = Vec::new();
+        let mut sorted = change.texels.clone();
+        sorted.sort_unstable();
+        sorted.dedup();
+        for &t in &sorted {
+            let (x, y) = (t % width, t / width);
+            match runs.last_mut() {
+                Some((rx, ry, n)) if *ry == y && *rx + *n == x => *n += 1,
+                _ => runs.push((x, y, 1)),
+            }
+        }
+        let half = self.precision == TexturePrecision::F16;
+        let mut report = HairUpdate {
+            texel_columns: sorted.len() as u64,
+            regions: runs.len() as u64,
+            ..Default::default()
+        };
+        // The uv texture holds the rest pose's root uvs, which edits keep.
+        for (image, tex, channels) in [
+            (&self.hair_mesh, &nt.hair_mesh, 4),
+            (&self.w, &nt.w, 1),
+            (&self.u, &nt.u, 4),
+            (&self.v, &nt.v, 4),
+        ] {
+            let mut data = Vec::new();
+            let regions: Vec<ImageRegion> = runs
+                .iter()
+                .map(|&(x0, y, n)| {
+                    for z in 0..tex.depth {
+                        for x in x0..x0 + n {
+                            push_texel(&mut data, tex.texel(x, y, z), channels, half);
+                        }
+                    }
+                    ImageRegion { offset: [x0, y, 0], extent: [n, 1, tex.depth] }
+                })
+                .collect();
+            let texel_bytes = u64::from(channels) * if half { 2 } else { 4 };
+            ctx.write_image_regions(image, &regions, texel_bytes, &data)?;
+            report.bytes += data.len() as u64;
+        }
+        for &b in &change.bundles {
+            let entry = gpu_bundle(new, b as usize);
+            let at = u64::from(b) * size_of::<GpuBundle>() as u64;
+            ctx.write_buffer(&mut self.bundles, at, bytemuck::bytes_of(&entry))?;
+            report.bundles += 1;
+            report.bytes += size_of::<GpuBundle>() as u64;
+        }
+        self.asset = asset.clone();
+        Ok(report)
+    }
+
+    /// The revision of the asset this copy holds ([`HairAsset::revision`]): what caches built
+    /// from it (shadow maps, volumes) are keyed by.
+    pub fn revision(&self) -> u64 {
+        self.asset.revision()
     }
 
     /// The root uv texture (2D). Resident for styling keyed on uv; today's styling ops do not

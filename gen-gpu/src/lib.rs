@@ -9,23 +9,25 @@
 //! ```
 
 pub mod accuracy;
-mod caps;
-mod command;
-mod context;
+pub mod backend;
 pub mod contract;
 pub mod diagnostics;
 mod error;
 mod generator;
 mod hair;
 mod path;
-mod pipeline;
-mod resource;
 mod stored;
 
 pub use ash::vk;
-pub use caps::{Capabilities, MeshShaderLimits};
-pub use command::{Attachments, FrameTimings, PassTiming, Recorder};
-pub use context::{Context, ContextDesc, Validation, ValidationMessage};
+pub use backend::caps::{Capabilities, MeshShaderLimits};
+pub use backend::command::{Attachments, FrameTimings, ImageRegion, PassTiming, Recorder};
+pub use backend::context::{Context, ContextDesc, Validation, ValidationMessage};
+pub use backend::pipeline::{
+    Binding, Blend, ComputePipeline, ComputePipelineDesc, GraphicsPipeline, GraphicsPipelineDesc,
+    GraphicsStages, Pipeline,
+};
+pub use backend::resource::{Buffer, BufferDesc, Image, ImageDesc, Sampler, sample_count};
+pub use backend::target::{RenderTarget, RgbaImage};
 pub use error::{GpuError, Result};
 pub use generator::{
     COLOR_FORMAT, Capture, CapturedStrand, DEPTH_FORMAT, DrawExtras, FRAGMENT_PUSH_OFFSET, Filtering,
@@ -33,13 +35,8 @@ pub use generator::{
     VERTEX_BYTES,
 };
 pub use gpu_allocator::MemoryLocation;
-pub use hair::{GpuHair, TextureBytes, TexturePrecision};
+pub use hair::{GpuHair, HairUpdate, TextureBytes, TexturePrecision};
 pub use path::{GenerationPath, PathChoice};
-pub use pipeline::{
-    Binding, Blend, ComputePipeline, ComputePipelineDesc, GraphicsPipeline, GraphicsPipelineDesc,
-    GraphicsStages, Pipeline,
-};
-pub use resource::{Buffer, BufferDesc, Image, ImageDesc, Sampler, sample_count};
 pub use stored::StoredStrands;
 
 /// The SPIR-V modules of this crate, compiled from `gen-gpu/shaders` at build time.

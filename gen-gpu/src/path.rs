@@ -59,6 +59,22 @@ impl PathChoice {
         }
     }
 
+    /// The path to use on a device, `Auto` first looking at `HAIRKIT_PATH` ([`Self::from_env`]);
+    /// forcing `mesh` on a device without it is an error.
+    ///
+    /// ```no_run
+    /// # let ctx: gen_gpu::Context = todo!();
+    /// let path = gen_gpu::PathChoice::Auto.resolve_with_env(ctx.capabilities())?;
+    /// # Ok::<(), gen_gpu::GpuError>(())
+    /// ```
+    pub fn resolve_with_env(self, caps: &Capabilities) -> Result<GenerationPath> {
+        match self {
+            PathChoice::Auto => Self::from_env()?,
+            p => p,
+        }
+        .resolve(caps)
+    }
+
     /// The path to use on a device; forcing `mesh` on a device without it is an error.
     pub fn resolve(self, caps: &Capabilities) -> Result<GenerationPath> {
         match self {

@@ -124,15 +124,10 @@ impl StoredStrands {
     }
 }
 
-impl crate::Generator {
-    /// The frame parameters for drawing stored strands (view, viewport; no hair asset).
-    pub fn stored_params(
-        &self,
-        ctx: &Context,
-        stored: &StoredStrands,
-        inputs: &FrameInputs,
-    ) -> Result<Buffer> {
-        let params = crate::generator::view_only_params(inputs, stored.chunk_slots);
+impl StoredStrands {
+    /// The frame parameters for drawing these strands (view, viewport; no hair asset).
+    pub fn frame_params(&self, ctx: &Context, inputs: &FrameInputs) -> Result<Buffer> {
+        let params = crate::generator::view_only_params(inputs, self.chunk_slots);
         ctx.create_buffer_with_data(
             "stored strand parameters",
             BufferDesc::storage(size_of_val(&params) as u64).location(crate::MemoryLocation::CpuToGpu),
@@ -140,16 +135,17 @@ impl crate::Generator {
         )
     }
 
-    /// Draws stored strands with the pulling pipeline and the generator's fragment stage, inside
-    /// a rendering scope begun by the caller.
-    pub fn record_draw_stored(
+    /// Draws these strands with `generator`'s pulling pipeline and fragment stage (the same
+    /// draw as generated hair), inside a rendering scope begun by the caller.
+    pub fn record_draw(
         &self,
         rec: &mut Recorder<'_>,
-        stored: &StoredStrands,
+        generator: &crate::Generator,
         params: &Buffer,
         extras: DrawExtras<'_>,
     ) {
-        let pipeline = self.pull_pipeline();
+        let stored = self;
+        let pipeline = generator.pull_pipeline();
         rec.bind_pipeline(pipeline);
         let whole = ash::vk::WHOLE_SIZE;
         for chunk in 0..stored.chunks {

@@ -1,5 +1,30 @@
 //! A hair asset: the five textures plus what generation needs besides them (bundle table,
-//! root sample sets, style). Built from a [`HairMesh`]; stored by [`crate::asset_io`].
+//! root sample sets, style), and the hair mesh they were baked from. Built from a
+//! [`HairMesh`]; stored by [`crate::asset_io`].
+//!
+//! **Editing.** An asset keeps its hair mesh, so it can be reopened and edited:
+//! [`HairAsset::move_vertices`] moves hair-mesh vertices and re-bakes only the texels they
+//! reach, keeping the texture layout, the root uvs and the normalization of the rest pose (so
+//! untouched texels keep their values bit for bit) and each bundle's strand count. It returns
+//! an [`AssetChange`] naming the texels and bundles rewritten, which is what a GPU copy
+//! uploads again (`gen_gpu::GpuHair::update`), and bumps [`HairAsset::revision`], which keys
+//! every cache derived from the asset (shadow maps, volumes).
+//!
+//! ```
+//! use glam::DVec3;
+//! use hairmesh::asset::{AssetParams, HairAsset, VertexMove};
+//! use hairmesh::hair_mesh::{ExtrudeParams, HairMesh};
+//! # fn main() -> hairmesh::Result<()> {
+//! let scalp = hairmesh::procedural::head_cap(2, 8);
+//! let hm = HairMesh::extrude(&scalp, &ExtrudeParams { layers: 3, length: 0.2, ..Default::default() })?;
+//! let mut asset = HairAsset::build(&hm, &AssetParams::default(), Default::default())?;
+//! // Pull the tip of vertex 5 sideways.
+//! let tip = asset.mesh().layers[3][5];
+//! let change = asset.move_vertices(&[VertexMove { layer: 3, vertex: 5, position: tip + DVec3::X * 0.05 }])?;
+//! assert_eq!(asset.revision(), 1);
+//! assert!(!change.texels.is_empty() && change.texels.len() < asset.textures.layout.slice_texels() as usize);
+//! # Ok(()) }
+//! ```
 
 use glam::{DVec2, DVec3};
 use serde::{Deserialize, Serialize};
@@ -12,7 +37,7 @@ use crate::roots::{
 };
 use crate::style::Style;
 use crate::style::pcg_hash;
-use crate::texture::{HairTextures, SliceLayout, block_vertices};
+use crate::texture::{HairTextures, SliceLayout, block_vertices, root_uvs, texel_vertices};
 use crate::{HairMeshError, Result};
 
 /// How many strands each bundle gets.
@@ -87,6 +112,73 @@ pub struct SampleSet {
     pub quality: Vec<(usize, f64)>,
 }
 
+/// How the layers of a hair mesh were made.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum LayerSource {
+    /// Extruded along smoothed vertex normals ([`HairMesh::extrude`]).
+    Extruded(crate::hair_mesh::ExtrudeParams),
+    /// One morph target of the scalp file per layer ([`HairMesh::from_morph_targets`]).
+    MorphTargets,
+}
+
+/// Where an asset's hair mesh came from: enough to convert it again.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct ScalpProvenance {
+    /// The scalp file as the converter was given it.
+    pub file: String,
+    /// The face selector (`all`, `name:…`, `above:…`, `sphere:…`).
+    pub selector: String,
+    pub layers: LayerSource,
+}
+
+/// One hair-mesh vertex moved to a new position (object space).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct VertexMove {
+    /// 0 = the root layer (the scalp), up to `L`.
+    pub layer: u32,
+    pub vertex: u32,
+    pub position: DVec3,
+}
+
+/// What an edit rewrote: the GPU copy uploads these again.
+#[derive(Clone, Debug, Default, PartialEq, Eq)]
+pub struct AssetChange {
+    /// Texels of the 2D slice (row-major indices, ascending) rewritten in every slice of the
+    /// hair-mesh, w, u and v textures (and uv, whose values stay).
+    pub texels: Vec<u32>,
+    /// Bundles whose table entry (bounds, area, length) changed, ascending.
+    pub bundles: Vec<u32>,
+    /// The asset's revision before the edit(s) this change covers.
+    pub since: u64,
+    /// The asset's revision after them.
+    pub revision: u64,
+}
+
+impl AssetChange {
+    /// One change covering `self` and then `next` (e.g. several drags of an editor frame
+    /// uploaded at once). `next` must start where `self` ends.
+    pub fn then(mut self, next: &AssetChange) -> Result<AssetChange> {
+        if next.since != self.revision {
+            return Err(HairMeshError::InvalidParameter {
+                what: "asset change",
+                message: format!(
+                    "revisions {}..{} cannot follow {}..{}",
+                    next.since, next.revision, self.since, self.revision
+                ),
+            });
+        }
+        for (into, from) in [(&mut self.texels, &next.texels), (&mut self.bundles, &next.bundles)] {
+            into.extend_from_slice(from);
+            into.sort_unstable();
+            into.dedup();
+        }
+        self.revision = next.revision;
+        Ok(self)
+    }
+}
+
 /// Everything needed to generate the hair.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 pub struct HairAsset {
@@ -98,6 +190,46 @@ pub struct HairAsset {
     pub square_sets: Vec<SampleSet>,
     pub triangle_sets: Vec<SampleSet>,
     pub style: Style,
+    /// The hair mesh the textures were baked from (its root uvs filled in), as edited.
+    pub(crate) mesh: HairMesh,
+    /// Where the hair mesh came from, when it came from a scalp file.
+    #[serde(default)]
+    pub provenance: Option<ScalpProvenance>,
+    /// Edits since the asset was built or loaded ([`Self::move_vertices`]).
+    #[serde(skip)]
+    pub(crate) revision: u64,
+}
+
+/// The bundle-table entry of `face`: its root area, its curves' bounds (widened by the
+/// styling `margin`) and its longest vertex column.
+fn bundle_info(hm: &HairMesh, face: &BundleFace, strands: u32, margin: f64) -> BundleInfo {
+    let root = &hm.layers[0];
+    let v = block_vertices(face).map(|i| root[i as usize]);
+    let area = 0.5 * ((v[1] - v[0]).cross(v[2] - v[0]).length() + (v[2] - v[0]).cross(v[3] - v[0]).length());
+    let mut lo = DVec3::splat(f64::INFINITY);
+    let mut hi = DVec3::splat(f64::NEG_INFINITY);
+    let mut length: f64 = 0.0;
+    for &v in face.vertices() {
+        let column = hm.column(v);
+        length = length.max(column.windows(2).map(|p| p[0].distance(p[1])).sum());
+        for p in column_segments(&column).iter().flat_map(|s| s.0) {
+            lo = lo.min(p);
+            hi = hi.max(p);
+        }
+        lo = lo.min(column[0]);
+        hi = hi.max(column[0]);
+    }
+    BundleInfo {
+        domain: match face {
+            BundleFace::Quad(_) => SampleDomain::Square,
+            BundleFace::Triangle(_) => SampleDomain::Triangle,
+        },
+        strands,
+        area,
+        bounds_min: lo - DVec3::splat(margin),
+        bounds_max: hi + DVec3::splat(margin),
+        length,
+    }
 }
 
 impl HairAsset {
@@ -109,16 +241,13 @@ impl HairAsset {
         if params.sample_sets == 0 || params.sample_sets > 64 {
             return Err(bad(format!("{} sample sets (expected 1..=64)", params.sample_sets)));
         }
+        // The root uvs are part of the rest pose: an edit that moves the scalp keeps them.
+        let mut mesh = hm.clone();
+        mesh.uvs = Some(root_uvs(hm));
+        let hm = &mesh;
         let textures = HairTextures::build(hm, params.layout);
-        let root = &hm.layers[0];
-        let areas: Vec<f64> = hm
-            .faces
-            .iter()
-            .map(|f| {
-                let v = block_vertices(f).map(|i| root[i as usize]);
-                0.5 * ((v[1] - v[0]).cross(v[2] - v[0]).length() + (v[2] - v[0]).cross(v[3] - v[0]).length())
-            })
-            .collect();
+        let margin = style.max_displacement();
+        let areas: Vec<f64> = hm.faces.iter().map(|f| bundle_info(hm, f, 1, margin).area).collect();
         let total_area: f64 = areas.iter().sum();
         let counts: Vec<u32> = match params.strands {
             StrandCount::Density(d) if d.is_finite() && d > 0.0 => {
@@ -151,38 +280,8 @@ impl HairAsset {
             }
         };
         let longest = counts.iter().copied().max().unwrap_or(1);
-        let margin = style.max_displacement();
-        let bundles = hm
-            .faces
-            .iter()
-            .zip(areas.iter().zip(&counts))
-            .map(|(face, (&area, &strands))| {
-                let mut lo = DVec3::splat(f64::INFINITY);
-                let mut hi = DVec3::splat(f64::NEG_INFINITY);
-                let mut length: f64 = 0.0;
-                for &v in face.vertices() {
-                    let column = hm.column(v);
-                    length = length.max(column.windows(2).map(|p| p[0].distance(p[1])).sum());
-                    for p in column_segments(&column).iter().flat_map(|s| s.0) {
-                        lo = lo.min(p);
-                        hi = hi.max(p);
-                    }
-                    lo = lo.min(column[0]);
-                    hi = hi.max(column[0]);
-                }
-                BundleInfo {
-                    domain: match face {
-                        BundleFace::Quad(_) => SampleDomain::Square,
-                        BundleFace::Triangle(_) => SampleDomain::Triangle,
-                    },
-                    strands,
-                    area,
-                    bounds_min: lo - DVec3::splat(margin),
-                    bounds_max: hi + DVec3::splat(margin),
-                    length,
-                }
-            })
-            .collect();
+        let bundles =
+            hm.faces.iter().zip(&counts).map(|(face, &n)| bundle_info(hm, face, n, margin)).collect();
         let sets = |domain: SampleDomain, salt: u64| -> Vec<SampleSet> {
             (0..params.sample_sets)
                 .map(|k| {
@@ -214,7 +313,58 @@ impl HairAsset {
                 Vec::new()
             },
             style,
+            mesh,
+            provenance: None,
+            revision: 0,
         })
+    }
+
+    /// The hair mesh the textures were baked from (root uvs filled in).
+    pub fn mesh(&self) -> &HairMesh {
+        &self.mesh
+    }
+
+    /// Edits since the asset was built or loaded: a cache made from revision `r` of this asset
+    /// is stale once the revision differs.
+    pub fn revision(&self) -> u64 {
+        self.revision
+    }
+
+    /// Moves hair-mesh vertices and re-bakes what they reach (module docs): all moves are
+    /// checked before any is applied, so an error leaves the asset as it was.
+    pub fn move_vertices(&mut self, moves: &[VertexMove]) -> Result<AssetChange> {
+        let (layers, vertices) = (self.mesh.layers.len(), self.mesh.vertex_count());
+        let bad = |message: String| HairMeshError::InvalidParameter { what: "vertex move", message };
+        for (i, m) in moves.iter().enumerate() {
+            if m.layer as usize >= layers || m.vertex as usize >= vertices {
+                return Err(bad(format!(
+                    "moves[{i}]: layer {} vertex {} does not exist ({layers} layers of {vertices} vertices)",
+                    m.layer, m.vertex
+                )));
+            }
+            if !m.position.is_finite() {
+                return Err(bad(format!("moves[{i}]: position {} is not finite", m.position)));
+            }
+        }
+        let texels = texel_vertices(&self.textures.layout, &self.mesh.faces)
+            .map_err(|message| bad(format!("the asset's layout does not fit its mesh: {message}")))?;
+        let mut moved = vec![false; vertices];
+        for m in moves {
+            self.mesh.layers[m.layer as usize][m.vertex as usize] = m.position;
+            moved[m.vertex as usize] = true;
+        }
+        let texels = self.textures.rebake(&self.mesh, &texels, &moved);
+        let margin = self.style.max_displacement();
+        let mut bundles = Vec::new();
+        for (b, face) in self.mesh.faces.iter().enumerate() {
+            if face.vertices().iter().any(|&v| moved[v as usize]) {
+                self.bundles[b] = bundle_info(&self.mesh, face, self.bundles[b].strands, margin);
+                bundles.push(b as u32);
+            }
+        }
+        let since = self.revision;
+        self.revision += 1;
+        Ok(AssetChange { texels, bundles, since, revision: self.revision })
     }
 
     /// Union of the bundles' bounds (object space, with the styling margin).

@@ -3,7 +3,8 @@
 //!
 //! ```text
 //! ASSET/
-//!   hair.json        format, version, units, normalization, layout, bundle table, sample sets, style
+//!   hair.json        format, version, units, normalization, layout, bundle table, sample sets,
+//!                    style, the hair mesh (vertices per layer, faces, root uvs), its provenance
 //!   hair_mesh.exr    channels R,G,B = normalized position; (1 + 3L) slices
 //!   uv.exr           channels R,G = root uv; 1 slice
 //!   w.exr            channel R = w; L + 1 slices
@@ -14,22 +15,27 @@
 //! A 3D texture of `W × H × D` texels is stored as one 2D image `W × (H·D)`: slice `z` occupies
 //! rows `z·H … z·H + H − 1`. Samples are f32, or f16 when the asset was converted with `--f16`.
 //! Loading checks every field and every image size against the manifest; errors name the file
-//! and the field. The folder is written atomically (built beside the target, then swapped in).
+//! and the field; the stored hair mesh must fit the layout and agree with the hair-mesh
+//! texture (at every vertex's layer slices, within the sample precision). The folder is written
+//! atomically (built beside the target, then swapped in).
 
 use std::path::{Path, PathBuf};
 
 use serde::{Deserialize, Serialize};
 
-use crate::asset::{BundleInfo, HairAsset, SampleSet};
+use crate::asset::{BundleInfo, HairAsset, SampleSet, ScalpProvenance};
+use crate::hair_mesh::{BundleFace, HairMesh};
 use crate::roots::SampleDomain;
 use crate::style::Style;
-use crate::texture::{HairTextures, Normalization, Texture3, TextureLayout};
+use crate::texture::{HairTextures, Normalization, Texture3, TextureLayout, texel_vertices};
 use crate::{HairMeshError, Result};
 
 pub const FORMAT: &str = "hairkit.hair-asset";
-/// 2: shared-vertex lattice cells in `layout.cells`, `1 + 3L` hair-mesh slices (1: 2×2 blocks,
-/// `1 + 4L` slices; re-convert such assets).
-pub const FORMAT_VERSION: u32 = 2;
+/// 3: the manifest stores the hair mesh (`mesh`) and where it came from (`scalp`), so an asset
+/// can be edited and re-baked. 2: shared-vertex lattice cells in `layout.cells`, `1 + 3L`
+/// hair-mesh slices, no mesh. 1: 2×2 blocks, `1 + 4L` slices. Older versions are refused with
+/// a "re-convert" error (their hair mesh is not in the folder).
+pub const FORMAT_VERSION: u32 = 3;
 /// Largest texture side accepted (texels).
 pub const MAX_TEXTURE_SIDE: u32 = 16_384;
 pub const MANIFEST: &str = "hair.json";
@@ -82,6 +88,11 @@ pub struct Manifest {
     pub square_sets: Vec<SampleSet>,
     pub triangle_sets: Vec<SampleSet>,
     pub style: Style,
+    /// The hair mesh: `layers[k][v]` object-space positions (`L + 1` layers), the bundle faces
+    /// (bundle `b` is face `b`) and the root uvs.
+    pub mesh: HairMesh,
+    /// The scalp file, face selector and layer source the mesh was made from.
+    pub scalp: Option<ScalpProvenance>,
 }
 
 const CHANNELS_3: [&str; 3] = ["R", "G", "B"];
@@ -120,6 +131,8 @@ pub fn write_asset(
         square_sets: asset.square_sets.clone(),
         triangle_sets: asset.triangle_sets.clone(),
         style: asset.style,
+        mesh: asset.mesh().clone(),
+        scalp: asset.provenance.clone(),
     };
     let json = serde_json::to_vec_pretty(&manifest)
         .map_err(|e| HairMeshError::Io { path: dir.join(MANIFEST), message: e.to_string() })?;
@@ -208,6 +221,7 @@ pub fn read_asset(path: &Path) -> Result<(HairAsset, Manifest)> {
         (path.parent().unwrap_or(Path::new(".")).to_owned(), path.to_owned())
     };
     let bytes = read_limited(&manifest_path, MAX_MANIFEST_BYTES)?;
+    refuse_old_versions(&manifest_path, &bytes)?;
     let manifest: Manifest = serde_json::from_slice(&bytes).map_err(|e| HairMeshError::Format {
         path: manifest_path.clone(),
         message: format!("line {}, column {}: {e}", e.line(), e.column()),
@@ -231,8 +245,67 @@ pub fn read_asset(path: &Path) -> Result<(HairAsset, Manifest)> {
         square_sets: m.square_sets.clone(),
         triangle_sets: m.triangle_sets.clone(),
         style: m.style,
+        mesh: m.mesh.clone(),
+        provenance: m.scalp.clone(),
+        revision: 0,
     };
+    check_mesh_matches_texture(&dir.join(&m.textures.hair_mesh.file), m, &asset.textures.hair_mesh)?;
     Ok((asset, manifest))
+}
+
+/// An older manifest does not parse as today's (it lacks `mesh`): look at its version first so
+/// the error says what to do rather than which field is missing.
+fn refuse_old_versions(path: &Path, bytes: &[u8]) -> Result<()> {
+    #[derive(Deserialize)]
+    struct Header {
+        format: Option<String>,
+        format_version: Option<u32>,
+        source: Option<String>,
+    }
+    let Ok(header) = serde_json::from_slice::<Header>(bytes) else { return Ok(()) };
+    match (header.format.as_deref(), header.format_version) {
+        (Some(FORMAT), Some(v)) if v < FORMAT_VERSION => Err(field_error(
+            path,
+            "format_version",
+            format!(
+                "{v} is an older format without the hair mesh (this build reads {FORMAT_VERSION}); \
+                 re-convert it with `hairmesh convert`{} — nothing was changed",
+                header.source.map(|s| format!(" from {s}")).unwrap_or_default()
+            ),
+        )),
+        _ => Ok(()),
+    }
+}
+
+/// The stored mesh must be the one the hair-mesh texture was baked from: every vertex's
+/// position at layer `k` is slice `3k` of its texels (up to the files' sample precision).
+fn check_mesh_matches_texture(path: &Path, m: &Manifest, hair_mesh: &Texture3) -> Result<()> {
+    let texels = texel_vertices(&m.layout, &m.mesh.faces).map_err(|e| field_error(path, "mesh.faces", e))?;
+    let tolerance = match m.precision {
+        Precision::F32 => 1e-6,
+        Precision::F16 => 2e-3,
+    };
+    for (i, vertex) in texels.iter().enumerate() {
+        let Some(v) = *vertex else { continue };
+        let (x, y) = (i as u32 % m.layout.width, i as u32 / m.layout.width);
+        for (k, layer) in m.mesh.layers.iter().enumerate() {
+            let expected = m.normalization.to_stored(layer[v as usize]);
+            let stored = glam::DVec3::from_slice(hair_mesh.texel(x, y, 3 * k as u32));
+            let error = (stored - expected).abs().max_element();
+            if error > tolerance * expected.abs().max_element().max(1.0) {
+                return Err(field_error(
+                    path,
+                    "textures.hair_mesh",
+                    format!(
+                        "texel ({x}, {y}) of slice {} holds {stored} but hair.json's mesh.layers[{k}][{v}] \
+                         normalizes to {expected}: the mesh and the textures disagree (re-convert the asset)",
+                        3 * k
+                    ),
+                ));
+            }
+        }
+    }
+    Ok(())
 }
 
 fn validate_manifest(path: &Path, m: &Manifest) -> Result<()> {
@@ -338,7 +411,62 @@ fn validate_manifest(path: &Path, m: &Manifest) -> Result<()> {
             }
         }
     }
+    validate_mesh(path, m)?;
     Ok(())
+}
+
+fn validate_mesh(path: &Path, m: &Manifest) -> Result<()> {
+    let err = |field: &str, message: String| field_error(path, field, message);
+    let mesh = &m.mesh;
+    let vertices = mesh.vertex_count();
+    if mesh.layers.len() != m.layout.layers as usize + 1 {
+        return Err(err(
+            "mesh.layers",
+            format!(
+                "{} layers but layout.layers = {} (expected {})",
+                mesh.layers.len(),
+                m.layout.layers,
+                m.layout.layers + 1
+            ),
+        ));
+    }
+    for (k, layer) in mesh.layers.iter().enumerate() {
+        if layer.len() != vertices {
+            return Err(err(
+                &format!("mesh.layers[{k}]"),
+                format!("{} vertices, layer 0 has {vertices}", layer.len()),
+            ));
+        }
+        if let Some(v) = layer.iter().position(|p| !p.is_finite()) {
+            return Err(err(&format!("mesh.layers[{k}][{v}]"), "not finite".into()));
+        }
+    }
+    if mesh.faces.len() != m.bundles.len() {
+        return Err(err("mesh.faces", format!("{} faces for {} bundles", mesh.faces.len(), m.bundles.len())));
+    }
+    for (b, (face, info)) in mesh.faces.iter().zip(&m.bundles).enumerate() {
+        if let Some(&v) = face.vertices().iter().find(|&&v| v as usize >= vertices) {
+            return Err(err(&format!("mesh.faces[{b}]"), format!("vertex {v} of {vertices}")));
+        }
+        let domain = match face {
+            BundleFace::Quad(_) => SampleDomain::Square,
+            BundleFace::Triangle(_) => SampleDomain::Triangle,
+        };
+        if domain != info.domain {
+            return Err(err(
+                &format!("mesh.faces[{b}]"),
+                format!("a {domain:?} face but bundles[{b}] is {:?}", info.domain),
+            ));
+        }
+    }
+    match &mesh.uvs {
+        Some(uvs) if uvs.len() == vertices && uvs.iter().all(|u| u.is_finite()) => Ok(()),
+        Some(uvs) => Err(err(
+            "mesh.uvs",
+            format!("{} finite uvs expected, {} given (or some not finite)", vertices, uvs.len()),
+        )),
+        None => Err(err("mesh.uvs", "missing (an asset stores its root uvs)".into())),
+    }
 }
 
 fn read_texture(path: &Path, field: &str, m: &Manifest, file: &TextureFile) -> Result<Texture3> {

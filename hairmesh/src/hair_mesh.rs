@@ -51,8 +51,10 @@ impl Default for ExtrudeParams {
 /// Most layers a hair mesh may have (the texture holds 1 + 3L slices).
 pub const MAX_LAYERS: u32 = 64;
 
-/// Layers × vertices with one face list.
-#[derive(Clone, Debug, PartialEq)]
+/// Layers × vertices with one face list. Stored in an asset's manifest (`mesh`), so an asset
+/// can be reopened, edited and re-baked.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
 pub struct HairMesh {
     /// `layers[0]` is the scalp; `layers.len() = L + 1`, each with one entry per vertex.
     pub layers: Vec<Vec<DVec3>>,

@@ -178,6 +178,18 @@ pub struct Normalization {
 }
 
 impl Normalization {
+    /// The normalization of a hair mesh's bounds over all layers.
+    pub fn of_mesh(hm: &HairMesh) -> Self {
+        let (min, max) = hm
+            .layers
+            .iter()
+            .flatten()
+            .fold((DVec3::splat(f64::INFINITY), DVec3::splat(f64::NEG_INFINITY)), |(lo, hi), p| {
+                (lo.min(*p), hi.max(*p))
+            });
+        Self::from_bounds(min, max)
+    }
+
     pub fn from_bounds(min: DVec3, max: DVec3) -> Self {
         let extent = (max - min).max_element();
         Self { origin: min, scale: if extent > 0.0 && extent.is_finite() { extent } else { 1.0 } }
@@ -249,7 +261,15 @@ pub fn root_uvs(hm: &HairMesh) -> Vec<DVec2> {
 /// degenerate, or `û ∥ v̂`): `ŵ` = the layer's vertex normal (or the column direction, or +Y),
 /// `û` = the first face edge projected perpendicular to `ŵ` (or any perpendicular), `v̂ = ŵ×û`.
 pub fn styling_frames(hm: &HairMesh, uvs: &[DVec2]) -> Vec<Vec<[DVec3; 3]>> {
+    styling_frames_of(hm, uvs, None)
+}
+
+/// [`styling_frames`] for the vertices `only` marks (all when `None`); other entries are
+/// unspecified. The sums run over the faces in the same order either way, so a marked vertex
+/// gets bit for bit the frame of the full computation.
+fn styling_frames_of(hm: &HairMesh, uvs: &[DVec2], only: Option<&[bool]>) -> Vec<Vec<[DVec3; 3]>> {
     let vcount = hm.vertex_count();
+    let wanted = |v: u32| only.is_none_or(|m| m[v as usize]);
     let lo = uvs.iter().fold(DVec2::splat(f64::INFINITY), |m, p| m.min(*p));
     let hi = uvs.iter().fold(DVec2::splat(f64::NEG_INFINITY), |m, p| m.max(*p));
     let uv_extent = (hi - lo).max_element().max(1e-300);
@@ -267,6 +287,9 @@ pub fn styling_frames(hm: &HairMesh, uvs: &[DVec2]) -> Vec<Vec<[DVec3; 3]>> {
                 let n = verts.len();
                 for c in 0..n {
                     let (i0, i1, i2) = (verts[c], verts[(c + 1) % n], verts[(c + n - 1) % n]);
+                    if !wanted(i0) {
+                        continue;
+                    }
                     let (p0, p1, p2) = (layer[i0 as usize], layer[i1 as usize], layer[i2 as usize]);
                     let (e1, e2) = (p1 - p0, p2 - p0);
                     normal[i0 as usize] += e1.cross(e2);
@@ -289,6 +312,9 @@ pub fn styling_frames(hm: &HairMesh, uvs: &[DVec2]) -> Vec<Vec<[DVec3; 3]>> {
             }
             (0..vcount)
                 .map(|v| {
+                    if !wanted(v as u32) {
+                        return [DVec3::X, DVec3::Y, DVec3::Z];
+                    }
                     let column_dir = if k + 1 < hm.layers.len() {
                         hm.layers[k + 1][v] - layer[v]
                     } else if k > 0 {
@@ -320,8 +346,48 @@ fn frame_or_fallback(su: DVec3, sv: DVec3, normal: DVec3, column_dir: DVec3, edg
     [u, w.cross(u), w]
 }
 
+/// The hair-mesh texture's slices for one vertex column: the root, then `q_a, q_b, end` of
+/// each segment's two quadratics.
+fn curve_slices(hm: &HairMesh, vertex: u32) -> Vec<DVec3> {
+    let column = hm.column(vertex);
+    let mut slices = vec![column[0]];
+    for seg in column_segments(&column) {
+        let q = seg.to_quadratics();
+        slices.extend([q.q_a, q.q_b, q.end]);
+    }
+    slices
+}
+
+/// The vertex each texel of a slice holds (row-major, `None` where no cell reaches), from a
+/// layout and the faces it was built for: the [`Lattice::texels`] of the conversion,
+/// recovered from what an asset stores. An error names the first bundle whose corners do not
+/// fit the layout (a cell outside the slice, or a texel claimed by two vertices).
+pub fn texel_vertices(layout: &TextureLayout, faces: &[BundleFace]) -> Result<Vec<Option<u32>>, String> {
+    if faces.len() != layout.cells.len() {
+        return Err(format!("{} faces for {} cells", faces.len(), layout.cells.len()));
+    }
+    let mut texels = vec![None; layout.slice_texels() as usize];
+    for (b, face) in faces.iter().enumerate() {
+        for (k, &v) in block_vertices(face).iter().enumerate() {
+            let (x, y) = layout.corner_texel(b as u32, k);
+            if x >= layout.width || y >= layout.height {
+                return Err(format!("bundle {b}: corner {k} at texel ({x}, {y}) is outside the slice"));
+            }
+            let slot = &mut texels[(y * layout.width + x) as usize];
+            match *slot {
+                Some(other) if other != v => {
+                    return Err(format!("bundle {b}: texel ({x}, {y}) holds vertex {other} and vertex {v}"));
+                }
+                _ => *slot = Some(v),
+            }
+        }
+    }
+    Ok(texels)
+}
+
 impl HairTextures {
-    /// Builds the five textures of a hair mesh.
+    /// Builds the five textures of a hair mesh: its slice layout, a normalization from its
+    /// bounds, every texel baked.
     pub fn build(hm: &HairMesh, slice_layout: SliceLayout) -> Self {
         let layers = hm.layer_count() as u32;
         let corners: Vec<[u32; 4]> = hm.faces.iter().map(block_vertices).collect();
@@ -330,52 +396,72 @@ impl HairTextures {
             SliceLayout::Blocks => Lattice::blocks(&corners),
         };
         let layout = TextureLayout::new(&lattice, layers);
-        let (min, max) = hm
-            .layers
-            .iter()
-            .flatten()
-            .fold((DVec3::splat(f64::INFINITY), DVec3::splat(f64::NEG_INFINITY)), |(lo, hi), p| {
-                (lo.min(*p), hi.max(*p))
-            });
-        let normalization = Normalization::from_bounds(min, max);
-        let (w_tex, h_tex) = (layout.width, layout.height);
+        let normalization = Normalization::of_mesh(hm);
+        let mut textures = Self::empty(layout, normalization);
+        textures.bake(hm, &lattice.texels, None);
+        textures
+    }
 
-        // Per-vertex curve slices, computed once per column.
-        let curve_slices: Vec<Vec<DVec3>> = (0..hm.vertex_count() as u32)
-            .map(|v| {
-                let column = hm.column(v);
-                let mut slices = vec![column[0]];
-                for seg in column_segments(&column) {
-                    let q = seg.to_quadratics();
-                    slices.extend([q.q_a, q.q_b, q.end]);
+    /// All-zero textures of a layout.
+    fn empty(layout: TextureLayout, normalization: Normalization) -> Self {
+        let (w, h) = (layout.width, layout.height);
+        Self {
+            hair_mesh: Texture3::new(w, h, layout.curve_slices(), 3),
+            uv: Texture3::new(w, h, 1, 2),
+            w: Texture3::new(w, h, layout.layer_slices(), 1),
+            u: Texture3::new(w, h, layout.layer_slices(), 3),
+            v: Texture3::new(w, h, layout.layer_slices(), 3),
+            layout,
+            normalization,
+        }
+    }
+
+    /// Re-bakes, after hair-mesh vertices moved, the texels of the vertices `moved` marks and
+    /// of their face neighbours (whose styling frames read the moved positions), keeping the
+    /// layout and the normalization: positions stay `(p − origin) / scale` with the rest
+    /// pose's origin and scale, so texels that did not change keep their values bit for bit
+    /// (a move past the rest bounds stores values outside `[0, 1]`). `texels` is
+    /// [`texel_vertices`] of this layout. Returns the rewritten texels (indices into a slice,
+    /// row-major, ascending).
+    pub fn rebake(&mut self, hm: &HairMesh, texels: &[Option<u32>], moved: &[bool]) -> Vec<u32> {
+        let mut affected = moved.to_vec();
+        for face in &hm.faces {
+            if face.vertices().iter().any(|&v| moved[v as usize]) {
+                for &v in face.vertices() {
+                    affected[v as usize] = true;
                 }
-                slices
-            })
-            .collect();
-        let uvs = root_uvs(hm);
-        let w_values = hm.w();
-        let frames = styling_frames(hm, &uvs);
-
-        let mut hair_mesh = Texture3::new(w_tex, h_tex, layout.curve_slices(), 3);
-        let mut uv = Texture3::new(w_tex, h_tex, 1, 2);
-        let mut w = Texture3::new(w_tex, h_tex, layout.layer_slices(), 1);
-        let mut u = Texture3::new(w_tex, h_tex, layout.layer_slices(), 3);
-        let mut v = Texture3::new(w_tex, h_tex, layout.layer_slices(), 3);
-        for (i, vertex) in lattice.texels.iter().enumerate() {
-            let Some(vertex) = *vertex else { continue };
-            let (x, y) = (i as u32 % w_tex, i as u32 / w_tex);
-            let vi = vertex as usize;
-            for (z, p) in curve_slices[vi].iter().enumerate() {
-                hair_mesh.set(x, y, z as u32, &normalization.to_stored(*p).to_array());
-            }
-            uv.set(x, y, 0, &uvs[vi].to_array());
-            for l in 0..layout.layer_slices() as usize {
-                w.set(x, y, l as u32, &[w_values[l][vi]]);
-                u.set(x, y, l as u32, &frames[l][vi][0].to_array());
-                v.set(x, y, l as u32, &frames[l][vi][1].to_array());
             }
         }
-        Self { layout, normalization, hair_mesh, uv, w, u, v }
+        self.bake(hm, texels, Some(&affected))
+    }
+
+    /// Writes the texels whose vertex `only` marks (all when `None`); returns them.
+    fn bake(&mut self, hm: &HairMesh, texels: &[Option<u32>], only: Option<&[bool]>) -> Vec<u32> {
+        let wanted = |v: u32| only.is_none_or(|m| m[v as usize]);
+        let uvs = root_uvs(hm);
+        let w_values = hm.w();
+        let frames = styling_frames_of(hm, &uvs, only);
+        let width = self.layout.width;
+        let mut written = Vec::new();
+        for (i, vertex) in texels.iter().enumerate() {
+            let Some(vertex) = *vertex else { continue };
+            if !wanted(vertex) {
+                continue;
+            }
+            let (x, y) = (i as u32 % width, i as u32 / width);
+            let vi = vertex as usize;
+            for (z, p) in curve_slices(hm, vertex).iter().enumerate() {
+                self.hair_mesh.set(x, y, z as u32, &self.normalization.to_stored(*p).to_array());
+            }
+            self.uv.set(x, y, 0, &uvs[vi].to_array());
+            for l in 0..self.layout.layer_slices() as usize {
+                self.w.set(x, y, l as u32, &[w_values[l][vi]]);
+                self.u.set(x, y, l as u32, &frames[l][vi][0].to_array());
+                self.v.set(x, y, l as u32, &frames[l][vi][1].to_array());
+            }
+            written.push(i as u32);
+        }
+        written
     }
 
     /// Object-space position on the curve surface of `bundle` at block parameter `(s, t)` and
@@ -475,6 +561,21 @@ mod tests {
             &ExtrudeParams { layers: 3, length: 1.5, droop: 0.4, gravity: DVec3::NEG_Y },
         )
         .expect("valid")
+    }
+
+    #[test]
+    fn texel_vertices_recover_the_lattice_of_the_conversion() {
+        let hm = quad_and_triangle();
+        let corners: Vec<[u32; 4]> = hm.faces.iter().map(block_vertices).collect();
+        for lattice in [Lattice::build(&corners), Lattice::blocks(&corners)] {
+            let layout = TextureLayout::new(&lattice, hm.layer_count() as u32);
+            assert_eq!(texel_vertices(&layout, &hm.faces), Ok(lattice.texels.clone()));
+        }
+        let layout = TextureLayout::new(&Lattice::build(&corners), 1);
+        let mut faces = hm.faces.clone();
+        faces[0] = BundleFace::Quad([9, 9, 9, 9]);
+        let e = texel_vertices(&layout, &faces).expect_err("conflict");
+        assert!(e.contains("holds vertex"), "{e}");
     }
 
     #[test]

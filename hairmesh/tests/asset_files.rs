@@ -3,7 +3,7 @@
 use std::path::Path;
 
 use glam::DVec3;
-use hairmesh::asset::{AssetParams, HairAsset, StrandCount};
+use hairmesh::asset::{AssetParams, HairAsset, StrandCount, VertexMove};
 use hairmesh::asset_io::{MANIFEST, Precision, read_asset, write_asset};
 use hairmesh::hair_mesh::{ExtrudeParams, HairMesh};
 use hairmesh::rng::SplitMix64;
@@ -19,12 +19,18 @@ fn asset() -> HairAsset {
     )
     .expect("extrude");
     let style = Style { curl: Curl { radius: 0.05, frequency: 2.0, phase: 0.1 }, ..Style::default() };
-    HairAsset::build(
-        &hm,
-        &AssetParams { strands: StrandCount::Total(200), sample_sets: 2, seed: 9, ..Default::default() },
-        style,
-    )
-    .expect("asset")
+    let mut asset = HairAsset::build(&hm, &params(), style).expect("asset");
+    asset.provenance = Some(hairmesh::asset::ScalpProvenance {
+        file: "patch".into(),
+        selector: "all".into(),
+        layers: hairmesh::asset::LayerSource::Extruded(ExtrudeParams {
+            layers: 3,
+            length: 2.0,
+            droop: 0.3,
+            gravity: DVec3::NEG_Y,
+        }),
+    });
+    asset
 }
 
 /// Equality with a short message naming the first differing part (the assets are large).
@@ -54,6 +60,8 @@ fn assert_same(a: &HairAsset, b: &HairAsset) {
     assert_eq!(a.square_sets, b.square_sets, "square sets");
     assert_eq!(a.triangle_sets, b.triangle_sets, "triangle sets");
     assert_eq!(a.style, b.style);
+    assert_eq!(a.mesh(), b.mesh(), "hair mesh");
+    assert_eq!(a.provenance, b.provenance, "provenance");
 }
 
 fn as_f32(mut a: HairAsset) -> HairAsset {
@@ -196,6 +204,195 @@ fn hostile_asset_folders_give_clear_errors() {
         |d| edit_json(d, |v| v["square_sets"][0]["points"][0] = serde_json::json!([2.0, 0.5])),
         &["square_sets[0]"],
     );
+    corrupt(
+        "mesh layers",
+        |d| edit_json(d, |v| v["mesh"]["layers"].as_array_mut().expect("layers").truncate(2)),
+        &["hair.json", "mesh.layers", "layout.layers = 3"],
+    );
+    corrupt(
+        "mesh vertex not finite",
+        |d| edit_json(d, |v| v["mesh"]["layers"][1][4] = serde_json::json!([1.0, "NaN", 0.0])),
+        &["hair.json", "line 1", "expected f64"],
+    );
+    corrupt(
+        "face vertex out of range",
+        |d| edit_json(d, |v| v["mesh"]["faces"][1] = serde_json::json!({ "quad": [0, 1, 2, 100000] })),
+        &["hair.json", "mesh.faces[1]", "vertex 100000"],
+    );
+    corrupt(
+        "mesh moved by hand",
+        |d| edit_json(d, |v| v["mesh"]["layers"][2][3][0] = serde_json::json!(40.0)),
+        &["hair_mesh.exr", "mesh.layers[2][3]", "disagree"],
+    );
+    corrupt("missing uvs", |d| edit_json(d, |v| v["mesh"]["uvs"] = serde_json::Value::Null), &["mesh.uvs"]);
+}
+
+/// A version-2 folder (no hair mesh in its manifest) is refused with what to do, and reading
+/// it changes nothing on disk.
+#[test]
+fn an_older_asset_says_re_convert_and_stays_untouched() {
+    let dir = tempfile::tempdir().expect("temp dir");
+    write_asset(dir.path(), &asset(), Precision::F32, "m", Some("scalp.glb")).expect("write");
+    edit_json(dir.path(), |v| {
+        v["format_version"] = 2.into();
+        let object = v.as_object_mut().expect("object");
+        object.remove("mesh");
+        object.remove("scalp");
+    });
+    let before: Vec<(String, Vec<u8>)> = {
+        let mut files: Vec<_> = std::fs::read_dir(dir.path())
+            .expect("list")
+            .map(|e| {
+                let e = e.expect("entry");
+                (e.file_name().to_string_lossy().into_owned(), std::fs::read(e.path()).expect("read"))
+            })
+            .collect();
+        files.sort();
+        files
+    };
+    let e = read_asset(dir.path()).expect_err("version 2").to_string();
+    for part in ["hair.json", "format_version", "2 is an older format", "re-convert", "scalp.glb"] {
+        assert!(e.contains(part), "`{e}` should mention `{part}`");
+    }
+    let mut after: Vec<_> = std::fs::read_dir(dir.path())
+        .expect("list")
+        .map(|e| {
+            let e = e.expect("entry");
+            (e.file_name().to_string_lossy().into_owned(), std::fs::read(e.path()).expect("read"))
+        })
+        .collect();
+    after.sort();
+    assert_eq!(before, after, "reading an old asset must not change its folder");
+}
+
+/// The hair mesh of a built asset, with one vertex of layer `layer` moved by `by`.
+fn moved_mesh(a: &HairAsset, layer: usize, vertex: usize, by: DVec3) -> HairMesh {
+    let mut mesh = a.mesh().clone();
+    mesh.layers[layer][vertex] += by;
+    mesh
+}
+
+fn params() -> AssetParams {
+    AssetParams { strands: StrandCount::Total(200), sample_sets: 2, seed: 9, ..Default::default() }
+}
+
+/// Convert → save → load → move a vertex → re-bake gives the textures of a fresh conversion of
+/// the moved mesh (to the files' f32 precision, which the texels not rewritten keep).
+#[test]
+fn an_edited_asset_rebakes_to_a_fresh_conversion_of_its_moved_mesh() {
+    let dir = tempfile::tempdir().expect("temp dir");
+    let original = asset();
+    write_asset(dir.path(), &original, Precision::F32, "m", None).expect("write");
+    let (mut loaded, _) = read_asset(dir.path()).expect("read");
+    // An interior vertex of layer 2 (inside the bounds: the normalization stays the same).
+    let (layer, vertex, by) = (2, 5, DVec3::new(0.01, -0.02, 0.015));
+    let target = loaded.mesh().layers[layer][vertex] + by;
+    let change = loaded
+        .move_vertices(&[VertexMove { layer: layer as u32, vertex: vertex as u32, position: target }])
+        .expect("move");
+    assert_eq!(loaded.revision(), 1);
+    assert_eq!(change.revision, 1);
+    let fresh = HairAsset::build(&moved_mesh(&original, layer, vertex, by), &params(), original.style)
+        .expect("fresh conversion");
+    assert_eq!(loaded.textures.normalization, fresh.textures.normalization);
+    assert_eq!(loaded.textures.layout, fresh.textures.layout);
+    let rewritten: std::collections::HashSet<u32> = change.texels.iter().copied().collect();
+    let slice = loaded.textures.layout.slice_texels() as usize;
+    for (name, a, b) in [
+        ("hair_mesh", &loaded.textures.hair_mesh, &fresh.textures.hair_mesh),
+        ("uv", &loaded.textures.uv, &fresh.textures.uv),
+        ("w", &loaded.textures.w, &fresh.textures.w),
+        ("u", &loaded.textures.u, &fresh.textures.u),
+        ("v", &loaded.textures.v, &fresh.textures.v),
+    ] {
+        let n = a.channels as usize;
+        for (i, (x, y)) in a.data.iter().zip(&b.data).enumerate() {
+            let texel = (i / n) % slice;
+            if rewritten.contains(&(texel as u32)) {
+                // Re-baked in f64: exactly the fresh conversion.
+                assert_eq!(x.to_bits(), y.to_bits(), "{name}: rewritten texel {texel} value {i}");
+            } else {
+                assert_eq!(*x, f64::from(*y as f32), "{name}: kept texel {texel} value {i}");
+            }
+        }
+    }
+    assert_eq!(loaded.bundles, fresh.bundles, "bundle bounds follow the move");
+    assert!(change.texels.len() < slice / 2, "{} of {slice} texels rewritten", change.texels.len());
+    // Saving the edit and loading it again keeps it.
+    write_asset(dir.path(), &loaded, Precision::F32, "m", None).expect("write the edit");
+    let (again, _) = read_asset(dir.path()).expect("read the edit");
+    assert_eq!(again.mesh().layers[layer][vertex], target);
+}
+
+/// In memory (no f32 files), re-baking is bit for bit a fresh conversion when the move stays
+/// inside the rest bounds, and equal in object space when it leaves them (the normalization is
+/// the rest pose's, so stored values leave [0, 1]).
+#[test]
+fn rebaking_in_memory_matches_a_fresh_conversion_exactly() {
+    let original = asset();
+    // Inside the bounds: identical assets but for the revision.
+    let by = DVec3::new(-0.02, 0.01, 0.03);
+    let mut edited = original.clone();
+    edited
+        .move_vertices(&[VertexMove { layer: 1, vertex: 7, position: original.mesh().layers[1][7] + by }])
+        .expect("move");
+    let mut fresh =
+        HairAsset::build(&moved_mesh(&original, 1, 7, by), &params(), original.style).expect("fresh");
+    fresh.provenance = original.provenance.clone();
+    assert_same(&edited, &fresh);
+
+    // Past the bounds: a tip pulled far out.
+    let tips = original.mesh().layers.len() - 1;
+    let far = DVec3::new(0.0, 0.0, 5.0);
+    let mut edited = original.clone();
+    let change = edited
+        .move_vertices(&[VertexMove {
+            layer: tips as u32,
+            vertex: 0,
+            position: original.mesh().layers[tips][0] + far,
+        }])
+        .expect("move");
+    let fresh =
+        HairAsset::build(&moved_mesh(&original, tips, 0, far), &params(), original.style).expect("fresh");
+    assert_eq!(edited.textures.normalization, original.textures.normalization, "rest normalization kept");
+    assert_ne!(fresh.textures.normalization, original.textures.normalization);
+    let (e, f) = (&edited.textures, &fresh.textures);
+    let mut outside = false;
+    for (a, b) in e.hair_mesh.data.chunks_exact(3).zip(f.hair_mesh.data.chunks_exact(3)) {
+        let a = DVec3::from_slice(a);
+        outside |= a.max_element() > 1.0;
+        let (pa, pb) = (e.normalization.to_object(a), f.normalization.to_object(DVec3::from_slice(b)));
+        assert!(pa.distance(pb) < 1e-12, "{pa} vs {pb}");
+    }
+    assert!(outside, "the pulled tip is stored outside [0, 1]");
+    for (x, y) in [(&e.w, &f.w), (&e.u, &f.u), (&e.v, &f.v), (&e.uv, &f.uv)] {
+        assert_eq!(x, y);
+    }
+    assert_eq!(edited.bundles, fresh.bundles);
+    assert!(change.bundles.iter().all(|&b| edited.mesh().faces[b as usize].vertices().contains(&0)));
+}
+
+#[test]
+fn bad_moves_are_refused_and_change_nothing() {
+    let original = asset();
+    let p = original.mesh().layers[1][0];
+    for (moves, expected) in [
+        (vec![VertexMove { layer: 9, vertex: 0, position: p }], "layer 9 vertex 0 does not exist"),
+        (vec![VertexMove { layer: 1, vertex: 100_000, position: p }], "vertex 100000"),
+        (
+            vec![
+                VertexMove { layer: 1, vertex: 0, position: p + DVec3::X },
+                VertexMove { layer: 1, vertex: 1, position: DVec3::new(f64::NAN, 0.0, 0.0) },
+            ],
+            "moves[1]",
+        ),
+    ] {
+        let mut edited = original.clone();
+        let e = edited.move_vertices(&moves).expect_err(expected).to_string();
+        assert!(e.contains(expected), "`{e}` should mention `{expected}`");
+        assert_eq!(edited, original, "a refused edit changes nothing");
+        assert_eq!(edited.revision(), 0);
+    }
 }
 
 #[test]

@@ -1,7 +1,7 @@
 //! A crowd of characters whose hair is generated on the fly, drawn into one image. The seed of
 //! the renderer's frame graph: every pass is labelled and timed.
 
-use gen_gpu::diagnostics::RenderTarget;
+use gen_gpu::RenderTarget;
 use gen_gpu::{Context, FrameBuffers, FrameTimings, GenerationPath, GenerationStats, Generator, GpuHair};
 use hairmesh::reference::LodParams;
 

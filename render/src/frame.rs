@@ -676,7 +676,7 @@ impl SceneRenderer {
                 let character = Character { hair: c.hair, transform: c.transform };
                 let inputs = character_inputs(&view.camera, &character, view.width, view.height, view.lod);
                 // Every hair generator shares the parameter layout.
-                self.generator.stored_params(ctx, &self.stored[c.hair], &inputs)
+                self.stored[c.hair].frame_params(ctx, &inputs)
             })
             .collect::<gen_gpu::Result<Vec<_>>>()?;
         let samples = if self.oit.is_some() { 1 } else { self.scene.scene.effects.msaa };

@@ -22,7 +22,7 @@ pub mod shadow;
 pub mod target;
 
 pub use error::RenderError;
-pub use gen_gpu::diagnostics::RgbaImage;
+pub use gen_gpu::RgbaImage;
 
 /// The SPIR-V of this crate's shaders, compiled from `render/shaders` at build time.
 pub mod shaders {

@@ -49,7 +49,8 @@ fn main() -> ExitCode {
                 ensure!(scene.scene.characters.iter().all(|c| c.occluder.is_some()), "{name}: occluders");
                 // Halfway along the camera path.
                 let (eye, target) = scene.camera_at(0.5);
-                let renderer = render::frame::SceneRenderer::new(ctx, &scene, ctx.path())?;
+                let renderer =
+                    render::frame::SceneRenderer::new(ctx, &scene, gen_gpu::GenerationPath::Compute)?;
                 let frame = renderer.render_camera(ctx, eye, target)?;
                 let drawn = frame.linear.rgba.chunks_exact(4).filter(|p| p[3] > 0.0).count();
                 ensure!(drawn > 200 && frame.stats.strands > 0, "{name}: {drawn} pixels drawn");

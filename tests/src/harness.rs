@@ -2,7 +2,7 @@ use std::panic::AssertUnwindSafe;
 use std::process::ExitCode;
 use std::sync::Arc;
 
-use gen_gpu::{Context, ContextDesc, GenerationPath, PathChoice, Validation};
+use gen_gpu::{Context, ContextDesc, GenerationPath, Validation};
 use libtest_mimic::{Arguments, Completion, Failed, Trial};
 
 /// What a GPU test needs from the device.
@@ -80,8 +80,7 @@ pub fn run_gpu_tests(tests: Vec<GpuTest>) -> ExitCode {
     let ctx = if args.list {
         Err("listing only".to_owned())
     } else {
-        Context::new(&ContextDesc { validation: Validation::On, device: None, path: PathChoice::Compute })
-            .map_err(|e| e.to_string())
+        Context::new(&ContextDesc { validation: Validation::On, device: None }).map_err(|e| e.to_string())
     };
     match &ctx {
         Ok(ctx) => {

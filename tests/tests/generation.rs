@@ -13,7 +13,7 @@ use gen_gpu::{
 use glam::{DVec3, Vec3};
 use hairkit_tests::harness::{GpuTest, Requirements, run_gpu_tests};
 use hairkit_tests::image_compare::{Tolerance, compare};
-use hairmesh::asset::{AssetParams, HairAsset, StrandCount};
+use hairmesh::asset::{AssetParams, HairAsset, StrandCount, VertexMove};
 use hairmesh::hair_mesh::{ExtrudeParams, HairMesh};
 use hairmesh::reference::LodParams;
 use hairmesh::style::{Clump, Curl, Frizz, Style, Wave};
@@ -222,6 +222,72 @@ fn main() -> ExitCode {
             ensure!(worst <= tolerance);
             Ok(())
         }),
+        GpuTest::new(
+            "an_updated_gpu_hair_generates_what_a_fresh_upload_of_the_edit_does",
+            Requirements::NONE,
+            move |ctx| {
+                // Edit an uploaded asset (tips pulled sideways, one far past the rest bounds), send
+                // only the change, and generate: the strands must be those of the edited asset
+                // uploaded from scratch, bit for bit, in f32 and f16.
+                let asset = head_cap_asset(1500, styled(0.1))?;
+                let generator = Generator::new(ctx, Filtering::Manual)?;
+                let inputs = inputs_for(&asset, Vec3::new(0.1, 1.75, 0.45), full);
+                let tips = asset.mesh().layers.len() as u32 - 1;
+                let moves: Vec<VertexMove> = [3u32, 40, 41, 90]
+                    .iter()
+                    .enumerate()
+                    .map(|(i, &v)| {
+                        let by =
+                            if i == 3 { DVec3::new(0.0, 0.0, 0.5) } else { DVec3::new(0.02, -0.01, 0.015) };
+                        VertexMove {
+                            layer: tips,
+                            vertex: v,
+                            position: asset.mesh().layers[tips as usize][v as usize] + by,
+                        }
+                    })
+                    .collect();
+                for precision in [TexturePrecision::F32, TexturePrecision::F16] {
+                    let mut edited = asset.clone();
+                    let mut hair = GpuHair::upload(ctx, &edited, precision)?;
+                    let before = generator.capture(ctx, &hair, &inputs, GenerationPath::Compute)?;
+                    let first = edited.move_vertices(&moves[..2])?;
+                    let second = edited.move_vertices(&moves[2..])?;
+                    let change = first.clone().then(&second)?;
+                    let sent = hair.update(ctx, &edited, &change)?;
+                    ensure!(hair.revision() == 2);
+                    let updated = generator.capture(ctx, &hair, &inputs, GenerationPath::Compute)?;
+                    let fresh = GpuHair::upload(ctx, &edited, precision)?;
+                    let expected = generator.capture(ctx, &fresh, &inputs, GenerationPath::Compute)?;
+                    ensure!(updated.stats == expected.stats, "{:?} vs {:?}", updated.stats, expected.stats);
+                    ensure!(
+                        updated.strands == expected.strands,
+                        "{precision:?}: updated and fresh uploads generate different strands"
+                    );
+                    ensure!(updated.strands != before.strands, "the edit changed nothing");
+                    let full_bytes = fresh.bytes.total();
+                    eprintln!(
+                        "  {precision:?}: {} texel columns in {} regions, {} bundles: {} bytes sent vs {full_bytes} for a fresh upload",
+                        sent.texel_columns, sent.regions, sent.bundles, sent.bytes
+                    );
+                    ensure!(
+                        sent.bytes * 4 < full_bytes,
+                        "the update sent {} of {full_bytes} bytes",
+                        sent.bytes
+                    );
+                    ensure!(sent.bundles == change.bundles.len() as u64 && sent.bundles > 0);
+                    // The edited asset against the f64 reference of the edit.
+                    if precision == TexturePrecision::F32 {
+                        let e = compare_to_reference(&edited, &inputs, &updated)?;
+                        ensure!(e.max_position_widths < 0.05, "{e:?}");
+                    }
+                    // A change applied twice (or out of order) is refused and changes nothing.
+                    let again = hair.update(ctx, &edited, &change).expect_err("stale change").to_string();
+                    ensure!(again.contains("revision 2") && again.contains("0..2"), "{again}");
+                    ensure!(hair.revision() == 2);
+                }
+                Ok(())
+            },
+        ),
         GpuTest::new("mesh_path_matches_compute_path", Requirements::MESH_SHADER, move |ctx| {
             let asset = head_cap_asset(1500, styled(0.1))?;
             let hair = GpuHair::upload(ctx, &asset, TexturePrecision::F32)?;

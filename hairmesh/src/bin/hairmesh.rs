@@ -14,7 +14,7 @@ use std::time::Instant;
 use anyhow::{Context, Result, bail};
 use clap::{Parser, Subcommand};
 use hairmesh::ScalpSelector;
-use hairmesh::asset::{AssetParams, HairAsset, StrandCount};
+use hairmesh::asset::{AssetParams, HairAsset, LayerSource, ScalpProvenance, StrandCount};
 use hairmesh::asset_io::{Precision, read_asset, write_asset};
 use hairmesh::hair_mesh::{BundleFace, ExtrudeParams, HairMesh};
 use hairmesh::import::load_scalp;
@@ -173,7 +173,21 @@ fn convert(o: &ConvertArgs) -> Result<()> {
             LayoutArg::Blocks => SliceLayout::Blocks,
         },
     };
-    let asset = step("textures and blue-noise root sets", || Ok(HairAsset::build(&hm, &params, style)?))?;
+    let mut asset = step("textures and blue-noise root sets", || Ok(HairAsset::build(&hm, &params, style)?))?;
+    asset.provenance = Some(ScalpProvenance {
+        file: input.display().to_string(),
+        selector: o.scalp.clone(),
+        layers: if o.morph_layers {
+            LayerSource::MorphTargets
+        } else {
+            LayerSource::Extruded(ExtrudeParams {
+                layers: o.layers,
+                length,
+                droop: o.droop,
+                ..ExtrudeParams::default()
+            })
+        },
+    });
     let units = if matches!(input.extension().and_then(|e| e.to_str()), Some("gltf" | "glb")) {
         "metres"
     } else {
@@ -255,6 +269,22 @@ fn info(path: &Path) -> Result<()> {
             println!("{}: {} v{}", path.display(), manifest.format, manifest.format_version);
             println!("source:   {}", manifest.source.as_deref().unwrap_or("-"));
             println!("units:    {}", manifest.units);
+            let mesh = asset.mesh();
+            println!(
+                "mesh:     {} vertices × {} layers, {} faces",
+                mesh.vertex_count(),
+                mesh.layers.len(),
+                mesh.faces.len()
+            );
+            if let Some(p) = &asset.provenance {
+                let layers = match p.layers {
+                    LayerSource::Extruded(e) => {
+                        format!("extruded ({} layers, length {}, droop {})", e.layers, e.length, e.droop)
+                    }
+                    LayerSource::MorphTargets => "morph targets".into(),
+                };
+                println!("scalp:    {} (faces `{}`), {layers}", p.file, p.selector);
+            }
             println!("bundles:  {} ({} layers)", asset.bundles.len(), t.layout.layers);
             println!("strands:  {}", asset.total_strands());
             println!(

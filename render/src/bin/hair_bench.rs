@@ -15,8 +15,8 @@ use std::path::{Path, PathBuf};
 use anyhow::{Context as _, Result};
 use clap::Parser;
 use gen_gpu::{
-    Context, ContextDesc, Filtering, GenerationPath, Generator, GeneratorOptions, GpuHair, PathChoice,
-    TexturePrecision, Validation,
+    Context, ContextDesc, Filtering, GenerationPath, Generator, GeneratorOptions, GpuHair, TexturePrecision,
+    Validation,
 };
 use glam::{Mat4, Vec3};
 use hairmesh::asset::{AssetParams, HairAsset, StrandCount};
@@ -88,11 +88,7 @@ fn median(mut v: Vec<f64>) -> f64 {
 }
 
 fn run(cli: &Cli) -> Result<()> {
-    let ctx = Context::new(&ContextDesc {
-        validation: Validation::Off,
-        device: cli.device.clone(),
-        path: PathChoice::Auto,
-    })?;
+    let ctx = Context::new(&ContextDesc { validation: Validation::Off, device: cli.device.clone() })?;
     let caps = ctx.capabilities().clone();
     let progress = indicatif::ProgressBar::new(6).with_style(
         indicatif::ProgressStyle::with_template("hair-bench [{bar:30}] {pos}/{len} {elapsed} {msg}")

@@ -81,9 +81,9 @@ fn run(cli: &Cli) -> Result<()> {
     let ctx = Context::new(&ContextDesc {
         validation: if cli.validation { Validation::On } else { Validation::FromEnv },
         device: cli.device.clone(),
-        path: cli.path,
     })?;
-    let renderer = SceneRenderer::new(&ctx, &scene, ctx.path())?;
+    let path = cli.path.resolve_with_env(ctx.capabilities())?;
+    let renderer = SceneRenderer::new(&ctx, &scene, path)?;
     if cli.print_graph {
         print!("{}", renderer.graph());
     }
@@ -120,7 +120,7 @@ fn run(cli: &Cli) -> Result<()> {
             file.display(),
             frame.image.width,
             frame.image.height,
-            ctx.path(),
+            path,
             frame.timings.cpu_wait_ms
         );
         last = Some(frame);
@@ -133,7 +133,7 @@ fn run(cli: &Cli) -> Result<()> {
             frame.stats.strands, frame.stats.vertices, frame.stats.bundles_culled, frame.stats.bundles
         );
     }
-    if let Some(path) = &cli.stats_json {
+    if let Some(json_path) = &cli.stats_json {
         let passes: Vec<serde_json::Value> = frame
             .timings
             .passes
@@ -142,7 +142,7 @@ fn run(cli: &Cli) -> Result<()> {
             .collect();
         let json = serde_json::json!({
             "device": ctx.capabilities().device_name,
-            "path": ctx.path().name(),
+            "path": path.name(),
             "passes": passes,
             "wall_ms": frame.timings.cpu_wait_ms,
             "strands": frame.stats.strands,
@@ -151,8 +151,8 @@ fn run(cli: &Cli) -> Result<()> {
             "bundles_culled": frame.stats.bundles_culled,
         });
         let text = serde_json::to_string_pretty(&json)?;
-        hairmesh::atomic::write_file_atomic(path, |w| w.write_all(text.as_bytes()))
-            .with_context(|| format!("writing {}", path.display()))?;
+        hairmesh::atomic::write_file_atomic(json_path, |w| w.write_all(text.as_bytes()))
+            .with_context(|| format!("writing {}", json_path.display()))?;
     }
     Ok(())
 }

@@ -103,9 +103,13 @@ impl DeviceArgs {
         let desc = ContextDesc {
             validation: if self.validation { Validation::On } else { Validation::FromEnv },
             device: self.device.clone(),
-            path: self.path,
         };
         Context::new(&desc).context("creating the Vulkan context")
+    }
+
+    /// The generation path on `ctx`: `--path`, else `HAIRKIT_PATH`, else the device default.
+    fn path(&self, ctx: &Context) -> Result<GenerationPath> {
+        Ok(self.path.resolve_with_env(ctx.capabilities())?)
     }
 }
 
@@ -184,7 +188,7 @@ fn run(cli: Cli) -> Result<()> {
             println!("{}", ctx.capabilities());
             println!(
                 "generation path:        {} (default for this device: {})",
-                ctx.path(),
+                device.path(&ctx)?,
                 GenerationPath::default_for(ctx.capabilities())
             );
             Ok(())
@@ -227,7 +231,7 @@ fn demo(o: &DemoOptions, device: &DeviceArgs) -> Result<()> {
         caps.device_name,
         caps.driver_info,
         if caps.mesh_shader.is_some() { "yes" } else { "no" },
-        ctx.path()
+        device.path(&ctx)?
     );
 
     println!("== convert {}", o.scalp.display());
@@ -359,7 +363,8 @@ fn demo(o: &DemoOptions, device: &DeviceArgs) -> Result<()> {
         paths.push(GenerationPath::Mesh);
     }
     if device.path != PathChoice::Auto {
-        paths.retain(|p| *p == ctx.path());
+        let chosen = device.path(&ctx)?;
+        paths.retain(|p| *p == chosen);
     }
     println!(
         "\n== crowd: {} characters, {width}x{height}, scalp occluders, OIT + deep-opacity shadows ({})",

@@ -91,7 +91,7 @@ pub(crate) fn draw_characters<'b>(
     for (c, params) in r.stored_characters.iter().zip(stored_params) {
         let shading = r.shading(c, eye);
         let extras = DrawExtras { fragment_constants: bytemuck::bytes_of(&shading), buffers: extra };
-        generator.record_draw_stored(rec, &r.stored[c.hair], params, extras);
+        r.stored[c.hair].record_draw(rec, generator, params, extras);
     }
     Ok(())
 }

@@ -274,7 +274,7 @@ pub(crate) fn prepare(
                 .iter()
                 .map(|c| {
                     let inputs = light_inputs(&view, light, c.transform, size, lod);
-                    pipes.depth.stored_params(ctx, &r.stored[c.hair], &inputs)
+                    r.stored[c.hair].frame_params(ctx, &inputs)
                 })
                 .collect::<gen_gpu::Result<Vec<_>>>()?;
             Ok(PerLight {
@@ -331,7 +331,7 @@ fn draw_casters(
         generator.record_draw_with(rec, &r.hairs[c.hair], frame, GenerationPath::Compute, false, extras)?;
     }
     for (c, params) in r.stored_characters.iter().zip(&light.stored_params) {
-        generator.record_draw_stored(rec, &r.stored[c.hair], params, extras);
+        r.stored[c.hair].record_draw(rec, generator, params, extras);
     }
     Ok(())
 }

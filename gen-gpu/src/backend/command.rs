@@ -10,6 +10,19 @@ use crate::{Buffer, BufferDesc, Context, GpuError, Image, ImageDesc, MemoryLocat
 /// scopes are labelled but untimed.
 const MAX_SCOPES: u32 = 2048;
 
+/// A box of texels of an image ([`Context::write_image_regions`]).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct ImageRegion {
+    pub offset: [u32; 3],
+    pub extent: [u32; 3],
+}
+
+impl ImageRegion {
+    pub fn texels(&self) -> u64 {
+        self.extent.iter().map(|&n| u64::from(n)).product()
+    }
+}
+
 /// GPU time of one pass.
 #[derive(Clone, Debug, PartialEq)]
 pub struct PassTiming {
@@ -699,6 +712,125 @@ impl Context {
             Ok(())
         })?;
         Ok(image)
+    }
+
+    /// Overwrites boxes of texels of a sampled image (in SHADER_READ_ONLY_OPTIMAL layout before
+    /// and after) with `data`: the regions' texels one after another, each region tightly
+    /// packed (x fastest, then y, then z), `texel_bytes` per texel. Regions outside the image
+    /// or data of the wrong length are refused with [`GpuError::BadUpload`]. Earlier work
+    /// reading the image has completed (submissions are synchronous); work recorded later sees
+    /// the new texels.
+    pub fn write_image_regions(
+        &self,
+        image: &Image,
+        regions: &[ImageRegion],
+        texel_bytes: u64,
+        data: &[u8],
+    ) -> Result<()> {
+        let refuse = |offset: u64, why: &'static str| GpuError::BadUpload {
+            name: image.name().into(),
+            offset,
+            size: data.len() as u64,
+            why,
+        };
+        let e = image.desc.extent;
+        let mut copies = Vec::with_capacity(regions.len());
+        let mut at = 0u64;
+        for r in regions {
+            let inside = [
+                (r.offset[0], r.extent[0], e.width),
+                (r.offset[1], r.extent[1], e.height),
+                (r.offset[2], r.extent[2], e.depth),
+            ]
+            .iter()
+            .all(|&(o, n, limit)| n > 0 && o.checked_add(n).is_some_and(|end| end <= limit));
+            if !inside {
+                return Err(refuse(at, "a region is empty or outside the image"));
+            }
+            copies.push(
+                vk::BufferImageCopy::default()
+                    .buffer_offset(at)
+                    .image_subresource(image.layers())
+                    .image_offset(vk::Offset3D {
+                        x: r.offset[0] as i32,
+                        y: r.offset[1] as i32,
+                        z: r.offset[2] as i32,
+                    })
+                    .image_extent(vk::Extent3D {
+                        width: r.extent[0],
+                        height: r.extent[1],
+                        depth: r.extent[2],
+                    }),
+            );
+            at += r.texels() * texel_bytes;
+        }
+        if at != data.len() as u64 {
+            return Err(refuse(0, "the data is not the regions' texels"));
+        }
+        if regions.is_empty() {
+            return Ok(());
+        }
+        let staging = self.upload_staging(image.name(), data)?;
+        let sampled = (vk::PipelineStageFlags2::ALL_COMMANDS, vk::AccessFlags2::SHADER_SAMPLED_READ);
+        let copy = (vk::PipelineStageFlags2::COPY, vk::AccessFlags2::TRANSFER_WRITE);
+        self.submit(&format!("update {}", image.name()), |rec| {
+            rec.image_barrier(
+                image,
+                (vk::ImageLayout::SHADER_READ_ONLY_OPTIMAL, vk::ImageLayout::TRANSFER_DST_OPTIMAL),
+                sampled,
+                copy,
+            );
+            // SAFETY: recording; every region lies inside the image (checked above) and its
+            // texels inside the staging buffer (the offsets sum to its length); the image is
+            // in TRANSFER_DST_OPTIMAL.
+            unsafe {
+                self.device().cmd_copy_buffer_to_image(
+                    rec.cmd,
+                    staging.raw,
+                    image.raw,
+                    vk::ImageLayout::TRANSFER_DST_OPTIMAL,
+                    &copies,
+                );
+            }
+            rec.image_barrier(
+                image,
+                (vk::ImageLayout::TRANSFER_DST_OPTIMAL, vk::ImageLayout::SHADER_READ_ONLY_OPTIMAL),
+                copy,
+                sampled,
+            );
+            Ok(())
+        })?;
+        Ok(())
+    }
+
+    /// Overwrites `data.len()` bytes of a buffer at `offset` (directly where it is mapped, else
+    /// through a staging copy); past its end is refused.
+    pub fn write_buffer(&self, buffer: &mut Buffer, offset: u64, data: &[u8]) -> Result<()> {
+        let size = data.len() as u64;
+        if offset.checked_add(size).is_none_or(|end| end > buffer.size()) {
+            return Err(GpuError::BadUpload {
+                name: buffer.name().into(),
+                offset,
+                size,
+                why: "past the end of the buffer",
+            });
+        }
+        if size == 0 {
+            return Ok(());
+        }
+        if let Some(mapped) = buffer.mapped_mut() {
+            mapped[offset as usize..(offset + size) as usize].copy_from_slice(data);
+            return Ok(());
+        }
+        let staging = self.upload_staging(buffer.name(), data)?;
+        self.submit(&format!("update {}", buffer.name()), |rec| {
+            let region = vk::BufferCopy { src_offset: 0, dst_offset: offset, size };
+            // SAFETY: recording; the staging buffer holds `size` bytes and the destination
+            // range was checked to lie inside the buffer.
+            unsafe { self.device().cmd_copy_buffer(rec.cmd, staging.raw, buffer.raw, &[region]) };
+            Ok(())
+        })?;
+        Ok(())
     }
 
     /// A device-local buffer filled with `data` (mapped directly where the memory is

@@ -5,9 +5,9 @@ use std::sync::{Arc, Mutex, MutexGuard};
 use ash::vk;
 use gpu_allocator::vulkan::{Allocator, AllocatorCreateDesc};
 
-use crate::caps::{Capabilities, cstr_field, has_device_extension};
+use super::caps::{Capabilities, cstr_field, has_device_extension};
 use crate::error::VkResultExt;
-use crate::{GenerationPath, GpuError, PathChoice, Result};
+use crate::{GpuError, Result};
 
 const VALIDATION_LAYER: &CStr = c"VK_LAYER_KHRONOS_validation";
 
@@ -29,8 +29,6 @@ pub struct ContextDesc {
     /// device name. `None` reads `HAIRKIT_DEVICE`, and without it picks discrete > integrated >
     /// virtual > CPU.
     pub device: Option<String>,
-    /// Generation path; `Auto` reads `HAIRKIT_PATH`, and without it uses the device default.
-    pub path: PathChoice,
 }
 
 /// A message from the validation layer.
@@ -58,10 +56,7 @@ pub struct Context {
 
 impl std::fmt::Debug for Context {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        f.debug_struct("Context")
-            .field("device", &self.shared.caps.device_name)
-            .field("path", &self.shared.path)
-            .finish()
+        f.debug_struct("Context").field("device", &self.shared.caps.device_name).finish()
     }
 }
 
@@ -80,7 +75,6 @@ pub(crate) struct DeviceShared {
     pub(crate) command_pool: Mutex<vk::CommandPool>,
     allocator: ManuallyDrop<Mutex<Allocator>>,
     pub(crate) caps: Capabilities,
-    path: GenerationPath,
     validation: bool,
     /// Command buffers being recorded or in flight (see [`DeviceShared::retire`]).
     pub(crate) open_submissions: Mutex<usize>,
@@ -313,11 +307,6 @@ impl Context {
         let physical = pick_device(instance_ref, desc.device.clone())?;
         // SAFETY: `physical` was enumerated from this instance.
         let caps = unsafe { Capabilities::query(instance_ref, physical) };
-        let path = match desc.path {
-            PathChoice::Auto => PathChoice::from_env()?,
-            p => p,
-        }
-        .resolve(&caps)?;
         let use_mesh = caps.mesh_shader.is_some();
 
         // SAFETY: valid physical device.
@@ -419,7 +408,6 @@ impl Context {
                 command_pool: Mutex::new(command_pool),
                 allocator: ManuallyDrop::new(Mutex::new(allocator)),
                 caps,
-                path,
                 validation,
                 open_submissions: Mutex::new(0),
                 deferred: Mutex::new(Vec::new()),
@@ -432,11 +420,6 @@ impl Context {
 
     pub fn capabilities(&self) -> &Capabilities {
         &self.shared.caps
-    }
-
-    /// The generation path this context was created for.
-    pub fn path(&self) -> GenerationPath {
-        self.shared.path
     }
 
     pub fn validation_enabled(&self) -> bool {

@@ -3,7 +3,7 @@ use std::sync::Arc;
 use ash::vk;
 use shader_build::{ShaderSpirv, ShaderStage};
 
-use crate::context::DeviceShared;
+use super::context::DeviceShared;
 use crate::error::VkResultExt;
 use crate::{Context, Result};
 
@@ -295,7 +295,7 @@ impl Pipeline {
             .cull_mode(vk::CullModeFlags::NONE)
             .line_width(1.0);
         let multisample = vk::PipelineMultisampleStateCreateInfo::default()
-            .rasterization_samples(crate::resource::sample_count(desc.samples));
+            .rasterization_samples(super::resource::sample_count(desc.samples));
         let depth = vk::PipelineDepthStencilStateCreateInfo::default()
             .depth_test_enable(desc.depth_format.is_some())
             .depth_write_enable(desc.depth_format.is_some() && desc.depth_write)

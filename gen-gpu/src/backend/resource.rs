@@ -4,7 +4,7 @@ use ash::vk;
 use gpu_allocator::MemoryLocation;
 use gpu_allocator::vulkan::{Allocation, AllocationCreateDesc, AllocationScheme};
 
-use crate::context::DeviceShared;
+use super::context::DeviceShared;
 use crate::error::VkResultExt;
 use crate::{Context, GpuError, Result};
 
@@ -124,7 +124,7 @@ impl Buffer {
 impl Drop for Buffer {
     fn drop(&mut self) {
         // Destroyed now, or after the open submissions that may use it (DeviceShared::retire).
-        self.shared.retire(crate::context::Retired::Buffer {
+        self.shared.retire(super::context::Retired::Buffer {
             raw: self.raw,
             allocation: self.allocation.take(),
             name: std::mem::take(&mut self.name),
@@ -299,7 +299,7 @@ impl Image {
 impl Drop for Image {
     fn drop(&mut self) {
         // Destroyed now, or after the open submissions that may use it (DeviceShared::retire).
-        self.shared.retire(crate::context::Retired::Image {
+        self.shared.retire(super::context::Retired::Image {
             raw: self.raw,
             view: self.view,
             allocation: self.allocation.take(),
