@@ -330,6 +330,24 @@ impl HairAsset {
         self.revision
     }
 
+    /// Replaces the style. The bundle bounds include the style's largest displacement, so
+    /// every bundle entry is rewritten (the textures are not); the revision is bumped.
+    pub fn set_style(&mut self, style: Style) -> AssetChange {
+        self.style = style;
+        let margin = style.max_displacement();
+        for (b, face) in self.mesh.faces.iter().enumerate() {
+            self.bundles[b] = bundle_info(&self.mesh, face, self.bundles[b].strands, margin);
+        }
+        let since = self.revision;
+        self.revision += 1;
+        AssetChange {
+            texels: Vec::new(),
+            bundles: (0..self.bundles.len() as u32).collect(),
+            since,
+            revision: self.revision,
+        }
+    }
+
     /// Moves hair-mesh vertices and re-bakes what they reach (module docs): all moves are
     /// checked before any is applied, so an error leaves the asset as it was.
     pub fn move_vertices(&mut self, moves: &[VertexMove]) -> Result<AssetChange> {

@@ -406,3 +406,20 @@ fn a_failed_write_keeps_the_old_asset() {
     assert!(write_asset(&blocker.join("asset"), &asset(), Precision::F32, "m", None).is_err());
     assert!(read_asset(&path).is_ok());
 }
+
+#[test]
+fn a_new_style_regrows_the_bundle_bounds() {
+    let mut a = asset();
+    let before = a.bundles.clone();
+    let wider = Style { curl: Curl { radius: 0.5, frequency: 2.0, phase: 0.1 }, ..a.style };
+    let change = a.set_style(wider);
+    assert_eq!(change.bundles.len(), a.bundles.len());
+    assert!(change.texels.is_empty());
+    assert_eq!((change.since, change.revision), (0, 1));
+    for (old, new) in before.iter().zip(&a.bundles) {
+        assert!(new.bounds_min.cmplt(old.bounds_min).all() && new.bounds_max.cmpgt(old.bounds_max).all());
+        assert_eq!(old.strands, new.strands);
+    }
+    let fresh = HairAsset::build(a.mesh(), &params(), wider).expect("fresh");
+    assert_eq!(a.bundles, fresh.bundles, "as if built with the style");
+}

@@ -15,6 +15,8 @@ pub enum RenderError {
     },
     #[error(transparent)]
     Gpu(#[from] gen_gpu::GpuError),
+    #[error("no character with generated hair has the key `{key}`")]
+    UnknownHair { key: String },
     #[error("{path}: lights[{light}]: {message}")]
     Light { path: std::path::PathBuf, light: usize, message: String },
 }

@@ -90,8 +90,10 @@ pub struct SceneRenderer {
     pub(crate) oit: Option<Oit>,
     /// Shadow pipelines, when some light casts shadows.
     pub(crate) shadow: Option<ShadowPipelines>,
-    /// The shadow maps of the first frame (the casters and lights are static).
-    shadow_cache: Mutex<Option<ShadowAtlas>>,
+    /// The last shadow maps rendered and the content they were rendered from: reused while
+    /// [`Self::content_version`] is unchanged (lights and placements are fixed, hair edits
+    /// bump their asset's revision).
+    shadow_cache: Mutex<Option<(ContentVersion, ShadowAtlas)>>,
     /// The frames' transient resources, reused from frame to frame.
     pool: Mutex<TransientPool>,
     /// Bound at the shadow bindings when the scene has no shadows (never read then).
@@ -101,6 +103,8 @@ pub struct SceneRenderer {
     pub(crate) meshes: Vec<OccluderMesh>,
     pub(crate) occluders: Vec<SceneOccluder>,
     pub(crate) hairs: Vec<GpuHair>,
+    /// The upload of each character key ([`crate::instance::CharacterInstance::key`]).
+    hair_keys: HashMap<String, usize>,
     /// Characters whose hair is generated.
     pub(crate) characters: Vec<SceneCharacter>,
     /// Explicit strands uploaded once, and the characters drawing them.
@@ -120,6 +124,11 @@ impl std::fmt::Debug for SceneRenderer {
             .finish()
     }
 }
+
+/// The content a scene's caches were made from ([`SceneRenderer::content_version`]); a cache
+/// whose version differs from the scene's is stale.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub struct ContentVersion(Vec<u64>);
 
 /// A rendered frame.
 #[derive(Debug)]
@@ -393,6 +402,7 @@ impl SceneRenderer {
             meshes,
             occluders,
             hairs,
+            hair_keys: keys.into_iter().map(|(k, h)| (k.to_owned(), h)).collect(),
             characters,
             stored,
             stored_characters,
@@ -436,8 +446,32 @@ impl SceneRenderer {
         self.plan(self.view()).graph.outline()
     }
 
+    /// What every cache of this scene is derived from: the revision of each uploaded hair
+    /// (lights, placements and occluders are fixed for a renderer's life).
+    pub fn content_version(&self) -> ContentVersion {
+        ContentVersion(self.hairs.iter().map(GpuHair::revision).collect())
+    }
+
     fn shadows_cached(&self) -> bool {
-        self.shadow_cache.lock().unwrap_or_else(|e| e.into_inner()).is_some()
+        let cache = self.shadow_cache.lock().unwrap_or_else(|e| e.into_inner());
+        cache.as_ref().is_some_and(|(version, _)| *version == self.content_version())
+    }
+
+    /// Brings the hair of the characters with `key` up to date with an edit of its asset
+    /// ([`hairmesh::asset::HairAsset::move_vertices`]): only the changed texels and bundle
+    /// entries are uploaded, and the next frame renders new shadow maps. The asset is the
+    /// edited one (its style merged as the scene's instance holds it).
+    pub fn update_hair(
+        &mut self,
+        ctx: &Context,
+        key: &str,
+        asset: &hairmesh::asset::HairAsset,
+        change: &hairmesh::asset::AssetChange,
+    ) -> Result<gen_gpu::HairUpdate, RenderError> {
+        let Some(&h) = self.hair_keys.get(key) else {
+            return Err(RenderError::UnknownHair { key: key.to_owned() });
+        };
+        Ok(self.hairs[h].update(ctx, asset, change)?)
     }
 
     /// Plans a frame seen through `view`: the passes the scene's effects ask for, in order,
@@ -634,9 +668,9 @@ impl SceneRenderer {
             shadow_ms = t.pass_ms("shadow maps");
             timings.passes.extend(t.passes);
             timings.cpu_wait_ms += t.cpu_wait_ms;
-            *shadow_cache = Some(shadow.into_atlas());
+            *shadow_cache = Some((self.content_version(), shadow.into_atlas()));
         }
-        let atlas = shadow_cache.as_ref();
+        let atlas = shadow_cache.as_ref().map(|(_, atlas)| atlas);
         let view = plan.view;
         let light_data = self.light_data(atlas);
         let light_bytes: &[u8] = bytemuck::cast_slice(&light_data);

@@ -147,7 +147,10 @@ impl SceneInstance {
                     None => {
                         let (mut asset, _) = hairmesh::asset_io::read_asset(&path)
                             .map_err(|source| RenderError::Asset { path: path.clone(), source })?;
-                        asset.style = merged_style(&scene.path, i, &asset.style, c.style.as_ref())?;
+                        // Through set_style: the bundle bounds grow with the style's reach.
+                        if c.style.is_some() {
+                            asset.set_style(merged_style(&scene.path, i, &asset.style, c.style.as_ref())?);
+                        }
                         let asset = Arc::new(asset);
                         assets.insert(key.clone(), asset.clone());
                         asset

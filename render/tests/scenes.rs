@@ -4,7 +4,7 @@
 use std::path::{Path, PathBuf};
 use std::process::{Command, ExitCode};
 
-use anyhow::{Context as _, ensure};
+use anyhow::{Context as _, bail, ensure};
 use gen_gpu::GenerationPath;
 use hairkit_tests::harness::{GpuTest, Requirements, run_gpu_tests};
 use hairkit_tests::image_compare::{Tolerance, compare};
@@ -462,6 +462,68 @@ fn main() -> ExitCode {
             ensure!(from_file.linear.depth == in_memory.linear.depth, "and the same depth");
             Ok(())
         }),
+        GpuTest::new(
+            "an_edited_hair_updates_in_place_and_renews_the_shadow_maps",
+            Requirements::NONE,
+            |ctx| {
+                // The editor's loop: move hair-mesh vertices, re-bake, send only the change. The
+                // shadow maps are cached by content version, so the next frame renders new ones,
+                // and it equals a renderer set up from scratch with the edited asset.
+                use render::instance::{CharacterHair, SceneInstance};
+                let dir = tempfile::tempdir()?;
+                let effects =
+                    serde_json::json!({ "transparency": "opaque", "shadows": true, "shadow_map_size": 128 });
+                let scene = load_scene(&scene_with(dir.path(), "one_character", 160, 120, effects)?)?;
+                let mut instance = SceneInstance::load(&scene)?;
+                let key = instance.characters[0].key.clone();
+                let CharacterHair::Generated(asset) = &instance.characters[0].hair else {
+                    bail!("the example's hair is generated")
+                };
+                let mut edited = (**asset).clone();
+                let mut renderer = SceneRenderer::from_instance(ctx, &instance, GenerationPath::Compute)?;
+                let version = renderer.content_version();
+                renderer.render(ctx)?;
+                let cached = renderer.render(ctx)?;
+                ensure!(cached.shadow_cached);
+                // Pull the tips on one side of the head outwards (+x).
+                let mesh = edited.mesh();
+                let tips = mesh.layers.len() - 1;
+                let moves: Vec<hairmesh::asset::VertexMove> = (0..mesh.vertex_count())
+                    .filter(|&v| mesh.layers[0][v].x > 0.05)
+                    .map(|v| hairmesh::asset::VertexMove {
+                        layer: tips as u32,
+                        vertex: v as u32,
+                        position: mesh.layers[tips][v] + glam::DVec3::new(0.08, 0.02, 0.0),
+                    })
+                    .collect();
+                ensure!(!moves.is_empty());
+                let change = edited.move_vertices(&moves)?;
+                let sent = renderer.update_hair(ctx, &key, &edited, &change)?;
+                ensure!(renderer.content_version() != version, "an edit changes the content version");
+                let after = renderer.render(ctx)?;
+                ensure!(!after.shadow_cached, "an edit renews the shadow maps");
+                ensure!(after.passes.iter().any(|p| p.starts_with("shadow")), "{:?}", after.passes);
+                ensure!(after.image != cached.image, "the edit shows");
+                instance.characters[0].hair = CharacterHair::Generated(std::sync::Arc::new(edited.clone()));
+                let fresh =
+                    SceneRenderer::from_instance(ctx, &instance, GenerationPath::Compute)?.render(ctx)?;
+                ensure!(
+                    after.image == fresh.image,
+                    "the updated scene renders what a fresh set-up of the edit does"
+                );
+                ensure!(renderer.render(ctx)?.shadow_cached, "then the new maps are reused");
+                eprintln!(
+                    "  {} vertices moved: {} bytes sent ({} texel columns, {} bundles)",
+                    moves.len(),
+                    sent.bytes,
+                    sent.texel_columns,
+                    sent.bundles
+                );
+                let unknown = renderer.update_hair(ctx, "nobody", &edited, &change).expect_err("unknown key");
+                ensure!(unknown.to_string().contains("`nobody`"), "{unknown}");
+                Ok(())
+            },
+        ),
         GpuTest::new("the_frame_runs_exactly_the_passes_of_its_graph", Requirements::NONE, |ctx| {
             // Every transparency mode, with and without shadows, in one batch and in one batch
             // per character, on the first frame (shadow maps computed) and the second (cached):
