@@ -5,6 +5,17 @@ use gen_gpu::FrameInputs;
 use glam::{Mat4, Vec3};
 use hairmesh::reference::{LodParams, Projection, ViewParams};
 
+/// How a frame is drawn: the camera, the image size, the generation path and the LOD
+/// settings.
+#[derive(Clone, Copy, Debug)]
+pub struct FrameView {
+    pub camera: Camera,
+    pub width: u32,
+    pub height: u32,
+    pub path: gen_gpu::GenerationPath,
+    pub lod: LodParams,
+}
+
 /// One character: which uploaded hair, and where (object → world).
 #[derive(Clone, Copy, Debug)]
 pub struct Character {

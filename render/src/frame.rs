@@ -16,9 +16,9 @@ use glam::{Mat4, Vec3, Vec4};
 use hairmesh::reference::LodParams;
 
 use crate::RgbaImage;
+use crate::camera::FrameView;
 use crate::camera::{Camera, Character, character_inputs};
 use crate::contract::{OIT_BINDINGS, OIT_FILL_BINDINGS, binding};
-use crate::crowd::CrowdView;
 use crate::graph::{Access, FrameGraph, GraphRun, Res, TransientPool};
 use crate::instance::{CharacterHair, SceneInstance};
 use crate::occluder::{LIGHTING_BINDINGS, OccluderMesh, OccluderPipelines};
@@ -192,7 +192,7 @@ pub struct FramePlan {
     /// Generated characters per batch submission, and the submission of the first batch.
     pub(crate) batches: Vec<Vec<usize>>,
     pub(crate) first_batch_submission: usize,
-    pub(crate) view: CrowdView,
+    pub(crate) view: FrameView,
     pub(crate) inputs: Vec<FrameInputs>,
     pub(crate) shadow_cached: bool,
 }
@@ -412,14 +412,14 @@ impl SceneRenderer {
         })
     }
 
-    fn view(&self) -> CrowdView {
+    fn view(&self) -> FrameView {
         let c = &self.scene.scene.camera;
         self.view_from(Vec3::from_array(c.eye), Vec3::from_array(c.target))
     }
 
-    pub(crate) fn view_from(&self, eye: Vec3, target: Vec3) -> CrowdView {
+    pub(crate) fn view_from(&self, eye: Vec3, target: Vec3) -> FrameView {
         let s = &self.scene.scene;
-        CrowdView {
+        FrameView {
             camera: Camera { eye, target, fov_y: s.camera.fov_y_degrees.to_radians() },
             width: s.output.width,
             height: s.output.height,
@@ -476,7 +476,7 @@ impl SceneRenderer {
 
     /// Plans a frame seen through `view`: the passes the scene's effects ask for, in order,
     /// with what each reads and writes.
-    pub fn plan(&self, view: CrowdView) -> FramePlan {
+    pub fn plan(&self, view: FrameView) -> FramePlan {
         let mut g: FrameGraph<ScenePass> = FrameGraph::default();
         let effects = self.scene.scene.effects;
         let msaa = self.oit.is_none() && effects.msaa > 1;
@@ -616,7 +616,7 @@ impl SceneRenderer {
     /// nearest point of its bounds (conservative; strand LOD widening does not count, as the
     /// prepass tests each real strand's coverage). Blended mode's depth prepass draws only
     /// such characters — in a crowd, the far ones have no fragment that could write depth.
-    pub(crate) fn may_cover_pixels(&self, c: &SceneCharacter, view: &CrowdView) -> bool {
+    pub(crate) fn may_cover_pixels(&self, c: &SceneCharacter, view: &FrameView) -> bool {
         let asset = &self.hairs[c.hair].asset;
         let (lo, hi) = asset.bounds();
         let (wlo, whi) = transformed_box(c.transform, (lo.as_vec3(), hi.as_vec3()));

@@ -1,14 +1,12 @@
 //! hairkit's renderer: scenes ([`scene`]) of characters whose hair is generated on the fly
 //! (or explicit strands), rendered by [`frame::SceneRenderer`] with the passes their effects
 //! ask for: hair shading with coverage AA, order-independent transparency, deep-opacity-map
-//! self-shadowing ([`shadow`]). Also image output ([`output`]), a plain crowd renderer with
-//! gen-gpu's placeholder shading for benchmarks ([`crowd`]), and the `hairkit`, `hair-render`
-//! and `hair-bench` commands.
+//! self-shadowing ([`shadow`]). Also cameras ([`camera`]) and image output ([`output`]). A
+//! library only: the `hairkit`, `hair-render` and `hair-bench` commands, crowd-scene writing
+//! and plots live in the `hairkit-cli` crate (`cli/`).
 
 pub mod camera;
 pub mod contract;
-pub mod crowd;
-pub mod crowd_scenes;
 pub mod error;
 pub mod frame;
 pub mod graph;
@@ -16,7 +14,6 @@ pub mod instance;
 pub mod occluder;
 pub mod output;
 pub mod passes;
-pub mod plots;
 pub mod scene;
 pub mod shadow;
 pub mod target;

@@ -1,8 +1,8 @@
 //! Scene rendering: golden images, the frame graph, and bad scene files. GPU harness,
 //! validation layer on.
 
-use std::path::{Path, PathBuf};
-use std::process::{Command, ExitCode};
+use std::path::Path;
+use std::process::ExitCode;
 
 use anyhow::{Context as _, bail, ensure};
 use gen_gpu::GenerationPath;
@@ -11,38 +11,7 @@ use hairkit_tests::image_compare::{Tolerance, compare};
 use render::frame::SceneRenderer;
 use render::scene::load_scene;
 
-fn repo(path: &str) -> PathBuf {
-    Path::new(env!("CARGO_MANIFEST_DIR")).join("..").join(path)
-}
-
-/// The example scene at a test size, written beside the assets so its relative paths resolve.
-fn small_scene(dir: &Path, name: &str, width: u32, height: u32) -> anyhow::Result<PathBuf> {
-    scene_with(dir, name, width, height, serde_json::json!({ "transparency": "opaque" }))
-}
-
-/// The example scene at a test size with other effects.
-fn scene_with(
-    dir: &Path,
-    name: &str,
-    width: u32,
-    height: u32,
-    effects: serde_json::Value,
-) -> anyhow::Result<PathBuf> {
-    let text = std::fs::read_to_string(repo(&format!("assets/scenes/{name}.json")))?;
-    let mut json: serde_json::Value = serde_json::from_str(&text)?;
-    json["output"] = serde_json::json!({ "width": width, "height": height });
-    json["effects"] = effects;
-    for c in json["characters"].as_array_mut().context("characters")? {
-        let hair = c["hair"].as_str().context("hair")?.to_owned();
-        c["hair"] = serde_json::json!(repo("assets/scenes").join(hair));
-        if let Some(mesh) = c["occluder"]["mesh"].as_str().map(str::to_owned) {
-            c["occluder"]["mesh"] = serde_json::json!(repo("assets/scenes").join(mesh));
-        }
-    }
-    let path = dir.join(format!("{name}.json"));
-    std::fs::write(&path, serde_json::to_vec_pretty(&json)?)?;
-    Ok(path)
-}
+use hairkit_tests::scenes::{repo, scene_with, small_scene};
 
 /// Compares with `tests/golden/NAME.png`; `HAIRKIT_UPDATE_GOLDEN=1` rewrites the golden.
 fn check_golden(name: &str, image: &render::RgbaImage) -> anyhow::Result<()> {
@@ -57,16 +26,6 @@ fn check_golden(name: &str, image: &render::RgbaImage) -> anyhow::Result<()> {
     compare(name, image, &expected, Tolerance { mean: 0.02, percentile: (0.99, 0.3) })
         .map_err(anyhow::Error::msg)?;
     Ok(())
-}
-
-/// A change that breaks a scene.
-type SceneEdit = Box<dyn Fn(&mut serde_json::Value)>;
-
-fn hair_render(args: &[&str]) -> (bool, String) {
-    match Command::new(env!("CARGO_BIN_EXE_hair-render")).args(args).output() {
-        Ok(out) => (out.status.success(), String::from_utf8_lossy(&out.stderr).into_owned()),
-        Err(e) => (false, e.to_string()),
-    }
 }
 
 /// A square in the plane y = `height`, ±`half` in x and z, as an OBJ file.
@@ -600,105 +559,6 @@ fn main() -> ExitCode {
             ensure!(format!("{renderer:?}").contains("hairs: 3"), "{renderer:?}");
             Ok(())
         }),
-        GpuTest::new("bad_scene_files_are_refused_clearly_and_write_nothing", Requirements::NONE, |_| {
-            let dir = tempfile::tempdir()?;
-            let good = small_scene(dir.path(), "one_character", 64, 48)?;
-            let base: serde_json::Value = serde_json::from_slice(&std::fs::read(&good)?)?;
-            let out = dir.path().join("out.png");
-            let cases: Vec<(&str, SceneEdit, &str)> = vec![
-                ("unknown.json", Box::new(|v| v["colour"] = 1.into()), "unknown field `colour`"),
-                (
-                    "missing.json",
-                    Box::new(|v| v["characters"][0]["hair"] = "no/such/asset".into()),
-                    "characters[0].hair",
-                ),
-                (
-                    "zero.json",
-                    Box::new(|v| v["output"] = serde_json::json!({"width": 0, "height": 10})),
-                    "output",
-                ),
-                (
-                    "huge.json",
-                    Box::new(|v| v["output"] = serde_json::json!({"width": 1000000, "height": 1000000})),
-                    "output",
-                ),
-                (
-                    "scale.json",
-                    Box::new(|v| v["characters"][0]["transform"] = serde_json::json!({"scale": -1.0})),
-                    "characters[0].transform.scale",
-                ),
-                ("k.json", Box::new(|v| v["effects"]["oit_k"] = 40.into()), "effects.oit_k"),
-                ("msaa.json", Box::new(|v| v["effects"]["msaa"] = 3.into()), "effects.msaa"),
-                (
-                    "msaa_oit.json",
-                    Box::new(|v| {
-                        v["effects"]["msaa"] = 4.into();
-                        v["effects"]["transparency"] = "oit".into();
-                    }),
-                    "effects.msaa",
-                ),
-                (
-                    "occluder.json",
-                    Box::new(|v| {
-                        v["characters"][0]["occluder"] = serde_json::json!({ "mesh": "missing.obj" });
-                    }),
-                    "characters[0].occluder.mesh",
-                ),
-                (
-                    "point_shadow.json",
-                    Box::new(|v| {
-                        v["effects"]["shadows"] = true.into();
-                        // Inside the hair's bounds: a cube map would be needed.
-                        v["lights"] = serde_json::json!([{ "point": { "position": [0, 1.6, 0] } }]);
-                    }),
-                    "not supported yet",
-                ),
-                (
-                    "layers.json",
-                    Box::new(|v| {
-                        v["effects"] =
-                            serde_json::json!({ "shadows": true, "shadow_layers": [0.3, 0.2, 0.1] });
-                    }),
-                    "effects.shadow_layers",
-                ),
-                ("volume.json", Box::new(|v| v["effects"]["volume_lod"] = true.into()), "not supported yet"),
-                (
-                    "style.json",
-                    Box::new(|v| v["characters"][0]["style"] = serde_json::json!({"curly": 1})),
-                    "characters[0].style",
-                ),
-            ];
-            for (name, edit, expected) in cases {
-                let mut v = base.clone();
-                edit(&mut v);
-                let path = dir.path().join(name);
-                std::fs::write(&path, serde_json::to_vec_pretty(&v)?)?;
-                let (ok, stderr) =
-                    hair_render(&[path.to_str().context("utf-8")?, "-o", out.to_str().context("utf-8")?]);
-                ensure!(!ok, "{name} should fail");
-                ensure!(
-                    stderr.contains(name) && stderr.contains(expected),
-                    "{name}: `{stderr}` should name the file and mention `{expected}`"
-                );
-                ensure!(!out.exists(), "{name}: an image was written");
-            }
-            // NaN is not JSON: a syntax error with line and column.
-            let nan = dir.path().join("nan.json");
-            let text = std::fs::read_to_string(&good)?.replacen(
-                "\"fov_y_degrees\": 45",
-                "\"fov_y_degrees\": NaN",
-                1,
-            );
-            std::fs::write(&nan, text)?;
-            let (ok, stderr) =
-                hair_render(&[nan.to_str().context("utf-8")?, "-o", out.to_str().context("utf-8")?]);
-            ensure!(
-                !ok && stderr.contains("nan.json") && stderr.contains("line ") && stderr.contains("column "),
-                "{stderr}"
-            );
-            ensure!(!out.exists());
-            Ok(())
-        }),
         GpuTest::new("occluders_are_drawn_and_cast_and_receive_shadows", Requirements::NONE, |ctx| {
             let dir = tempfile::tempdir()?;
             let effects =
@@ -813,81 +673,6 @@ fn main() -> ExitCode {
                 Tolerance { mean: 0.1, percentile: (0.99, 0.6) },
             )
             .map_err(anyhow::Error::msg)?;
-            Ok(())
-        }),
-        GpuTest::new("hair_render_writes_linear_exr_with_depth_and_coverage", Requirements::NONE, |_| {
-            use exr::prelude::*;
-            let dir = tempfile::tempdir()?;
-            let scene = small_scene(dir.path(), "one_character", 96, 64)?;
-            let (exr_path, png_path) = (dir.path().join("frame.exr"), dir.path().join("frame.png"));
-            let arg = |p: &Path| p.to_str().map(str::to_owned).context("utf-8");
-            let (ok, stderr) = hair_render(&[&arg(&scene)?, "-o", &arg(&exr_path)?, "--depth", "--coverage"]);
-            ensure!(ok, "{stderr}");
-            let (ok, stderr) = hair_render(&[&arg(&scene)?, "-o", &arg(&png_path)?]);
-            ensure!(ok, "{stderr}");
-            let (ok, stderr) =
-                hair_render(&[&arg(&scene)?, "-o", &arg(&dir.path().join("x.png"))?, "--depth"]);
-            ensure!(!ok && stderr.contains(".exr"), "--depth needs EXR: {stderr}");
-            let image = read_all_flat_layers_from_file(&exr_path)?;
-            let layer = &image.layer_data[0];
-            let channel = |name: &str| -> anyhow::Result<Vec<f32>> {
-                let c =
-                    layer.channel_data.list.iter().find(|c| c.name.to_string() == name).context("channel")?;
-                Ok(c.sample_data.values_as_f32().collect())
-            };
-            let names: Vec<String> = layer.channel_data.list.iter().map(|c| c.name.to_string()).collect();
-            ensure!(names == ["A", "B", "G", "R", "Z"], "{names:?}");
-            let (a, z, r) = (channel("A")?, channel("Z")?, channel("R")?);
-            ensure!(a.iter().zip(&z).all(|(a, z)| (*a > 0.0) == z.is_finite()), "depth where covered");
-            ensure!(a.iter().any(|&a| a > 0.0 && a < 1.0), "partial coverage (coverage AA)");
-            ensure!(
-                z.iter().filter(|z| z.is_finite()).all(|&z| z > 0.1 && z < 2.0),
-                "view distances in metres"
-            );
-            // The PNG is the same frame encoded to sRGB.
-            let png = render::output::read_png(&png_path)?;
-            let worst = r
-                .iter()
-                .zip(png.pixels.chunks_exact(4))
-                .map(|(&r, p)| (render::target::linear_to_srgb(r) * 255.0 - f32::from(p[0])).abs())
-                .fold(0.0f32, f32::max);
-            ensure!(worst <= 1.0, "PNG = sRGB(EXR) within one step (worst {worst})");
-            Ok(())
-        }),
-        GpuTest::new("hair_render_writes_the_image_and_stats", Requirements::NONE, |_| {
-            let dir = tempfile::tempdir()?;
-            let scene = small_scene(dir.path(), "one_character", 96, 64)?;
-            let out = dir.path().join("frame.png");
-            let stats = dir.path().join("stats.json");
-            let (ok, stderr) = hair_render(&[
-                scene.to_str().context("utf-8")?,
-                "-o",
-                out.to_str().context("utf-8")?,
-                "--stats",
-                "--stats-json",
-                stats.to_str().context("utf-8")?,
-                "--print-graph",
-            ]);
-            ensure!(ok, "{stderr}");
-            ensure!(!stderr.contains("vulkan validation"), "{stderr}");
-            let image = render::output::read_png(&out)?;
-            ensure!((image.width, image.height) == (96, 64));
-            // An orbit writes numbered frames.
-            let orbit = dir.path().join("orbit.png");
-            let (ok, stderr) = hair_render(&[
-                scene.to_str().context("utf-8")?,
-                "-o",
-                orbit.to_str().context("utf-8")?,
-                "--frames",
-                "3",
-            ]);
-            ensure!(ok, "{stderr}");
-            let frames: Vec<_> = (0..3).map(|i| dir.path().join(format!("orbit-{i:04}.png"))).collect();
-            ensure!(frames.iter().all(|f| f.is_file()) && !orbit.exists(), "{frames:?}");
-            ensure!(std::fs::read(&frames[0])? != std::fs::read(&frames[1])?, "the camera moves");
-            let json: serde_json::Value = serde_json::from_slice(&std::fs::read(&stats)?)?;
-            ensure!(json["passes"].as_array().is_some_and(|p| p.len() >= 4), "{json}");
-            ensure!(json["strands"].as_u64().is_some_and(|s| s > 0), "{json}");
             Ok(())
         }),
     ])

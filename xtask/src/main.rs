@@ -94,7 +94,8 @@ fn demo(args: &[String]) -> Result<()> {
     // The demo is for looking at, not for testing the driver: validation stays off so the
     // printed timings mean something.
     env.retain(|(k, _)| k != "HAIRKIT_VALIDATION");
-    let mut run_args = vec!["run", "--release", "--quiet", "-p", "render", "--bin", "hairkit", "--", "demo"];
+    let mut run_args =
+        vec!["run", "--release", "--quiet", "-p", "hairkit-cli", "--bin", "hairkit", "--", "demo"];
     run_args.extend(passthrough.iter().map(String::as_str));
     cargo(&run_args, &env)
 }

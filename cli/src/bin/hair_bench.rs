@@ -19,13 +19,13 @@ use gen_gpu::{
     Validation,
 };
 use glam::{Mat4, Vec3};
+use hairkit_cli::bench_crowd::{Camera, Character, FrameView, prepare_crowd, render_crowd, render_prepared};
 use hairmesh::asset::{AssetParams, HairAsset, StrandCount};
 use hairmesh::hair_mesh::{ExtrudeParams, HairMesh};
 use hairmesh::reference::LodParams;
 use hairmesh::style::{Clump, Style, Wave};
 use hairmesh::texture::SliceLayout;
 use render::RgbaImage;
-use render::crowd::{Camera, Character, CrowdView, prepare_crowd, render_crowd, render_prepared};
 
 #[derive(Parser, Debug)]
 #[command(name = "hair-bench", version, about = "GPU benchmarks of on-the-fly hair generation")]
@@ -119,7 +119,7 @@ fn run(cli: &Cli) -> Result<()> {
         }
         let hairs = [GpuHair::upload(&ctx, &asset, TexturePrecision::Auto)?];
         for &path in &paths {
-            let view = CrowdView {
+            let view = FrameView {
                 camera,
                 width,
                 height,
@@ -274,7 +274,7 @@ fn run(cli: &Cli) -> Result<()> {
         progress.set_message(format!("on the fly vs stored: {strands} strands"));
         let hairs = [GpuHair::upload(&ctx, &asset(strands)?, TexturePrecision::Auto)?];
         let lod = LodParams { enabled: false, ..LodParams::default() };
-        let view = CrowdView { camera, width, height, path: GenerationPath::Compute, lod };
+        let view = FrameView { camera, width, height, path: GenerationPath::Compute, lod };
         let buffers = prepare_crowd(&ctx, &generator, &hairs, &character, &view)?;
         render_prepared(&ctx, &generator, &hairs, &character, &buffers, &view, true)?;
         let mut live = Vec::new();
@@ -372,23 +372,23 @@ fn crowd_table(
 ) -> Result<(Table, Vec<CrowdRow>)> {
     let dir = std::env::temp_dir().join(format!("hair-bench-crowd-{}", std::process::id()));
     let options = if quick {
-        render::crowd_scenes::CrowdOptions {
+        hairkit_cli::crowd_scenes::CrowdOptions {
             out: dir.clone(),
             characters: 9,
             strands: 3_000,
             teapots: 12,
             teapot_strands: 1_500,
             size: (320, 180),
-            ..render::crowd_scenes::CrowdOptions::default()
+            ..hairkit_cli::crowd_scenes::CrowdOptions::default()
         }
     } else {
-        render::crowd_scenes::CrowdOptions {
+        hairkit_cli::crowd_scenes::CrowdOptions {
             out: dir.clone(),
-            ..render::crowd_scenes::CrowdOptions::default()
+            ..hairkit_cli::crowd_scenes::CrowdOptions::default()
         }
     };
     progress.set_message("writing the crowd scenes");
-    let scenes = render::crowd_scenes::write_crowds(&options, |_, _, _| {})?;
+    let scenes = hairkit_cli::crowd_scenes::write_crowds(&options, |_, _, _| {})?;
     let mut rows = Vec::new();
     for (name, path, count, strands) in [
         ("heads", &scenes.heads, options.characters, options.strands),
@@ -512,7 +512,7 @@ fn draw_plots(
     accuracy_csv: &str,
     crowd: &[CrowdRow],
 ) -> Result<Vec<(String, String)>> {
-    use render::plots::{Chart, Series, draw};
+    use hairkit_cli::plots::{Chart, Series, draw};
     std::fs::create_dir_all(out).with_context(|| format!("creating {}", out.display()))?;
     let mut files = Vec::new();
     let mut series: Vec<Series> = [GenerationPath::Compute, GenerationPath::Mesh]
@@ -650,8 +650,8 @@ fn accuracy_table(ctx: &Context, quick: bool, width: u32, height: u32, frames: u
     for (name, precision, options, lod) in configs {
         let generator = Generator::with_options(ctx, options)?;
         let hair = GpuHair::upload(ctx, &asset, precision)?;
-        let view = CrowdView { camera, width, height, path: GenerationPath::Compute, lod };
-        let inputs = render::crowd::character_inputs(&camera, &character[0], width, height, lod);
+        let view = FrameView { camera, width, height, path: GenerationPath::Compute, lod };
+        let inputs = render::camera::character_inputs(&camera, &character[0], width, height, lod);
         let capture = generator.capture(
             ctx,
             &hair,

@@ -1,13 +1,12 @@
-//! A crowd of characters whose hair is generated on the fly, drawn into one image. The seed of
-//! the renderer's frame graph: every pass is labelled and timed.
+//! The benchmark's bare crowd renderer: characters whose hair is generated on the fly, drawn
+//! with the generator's default fragment stage into one image, without scenes, lights or the
+//! frame graph. `hair-bench` measures generation and rasterization with it; scenes go through
+//! `render::frame::SceneRenderer`.
 
 use gen_gpu::RenderTarget;
 use gen_gpu::{Context, FrameBuffers, FrameTimings, GenerationPath, GenerationStats, Generator, GpuHair};
-use hairmesh::reference::LodParams;
-
-use crate::RgbaImage;
-
-pub use crate::camera::{Camera, Character, FAR, NEAR, character_inputs, view_proj};
+use render::RgbaImage;
+pub use render::camera::{Camera, Character, FAR, FrameView, NEAR, character_inputs, view_proj};
 
 /// What a crowd frame produced.
 #[derive(Debug)]
@@ -17,23 +16,13 @@ pub struct CrowdFrame {
     pub stats: GenerationStats,
 }
 
-/// How a crowd frame is drawn.
-#[derive(Clone, Copy, Debug)]
-pub struct CrowdView {
-    pub camera: Camera,
-    pub width: u32,
-    pub height: u32,
-    pub path: GenerationPath,
-    pub lod: LodParams,
-}
-
 /// Generates and draws every character into one image.
 pub fn render_crowd(
     ctx: &Context,
     generator: &Generator,
     hairs: &[GpuHair],
     characters: &[Character],
-    view: &CrowdView,
+    view: &FrameView,
 ) -> gen_gpu::Result<CrowdFrame> {
     let frames = prepare_crowd(ctx, generator, hairs, characters, view)?;
     render_prepared(ctx, generator, hairs, characters, &frames, view, true)
@@ -45,7 +34,7 @@ pub fn prepare_crowd(
     generator: &Generator,
     hairs: &[GpuHair],
     characters: &[Character],
-    view: &CrowdView,
+    view: &FrameView,
 ) -> gen_gpu::Result<Vec<FrameBuffers>> {
     characters
         .iter()
@@ -65,10 +54,10 @@ pub fn render_prepared(
     hairs: &[GpuHair],
     characters: &[Character],
     frames: &[FrameBuffers],
-    view: &CrowdView,
+    view: &FrameView,
     regenerate: bool,
 ) -> gen_gpu::Result<CrowdFrame> {
-    let CrowdView { width, height, path, .. } = *view;
+    let FrameView { width, height, path, .. } = *view;
     let path = if regenerate { path } else { GenerationPath::Compute };
     let target = RenderTarget::new(ctx, width, height)?;
     let ((), timings) = ctx.submit("crowd frame", |rec| {

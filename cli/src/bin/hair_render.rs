@@ -110,7 +110,7 @@ fn run(cli: &Cli) -> Result<()> {
         let file = if cli.frames > 1 { numbered(out, i) } else { out.clone() };
         if exr {
             let channels = render::output::ExrChannels { coverage: cli.coverage, depth: cli.depth };
-            let planes = (render::crowd::NEAR, render::crowd::FAR);
+            let planes = (render::camera::NEAR, render::camera::FAR);
             render::output::write_exr(&file, &frame.linear, channels, planes)?;
         } else {
             render::output::write_png(&file, &frame.image)?;

@@ -158,7 +158,7 @@ mod tests {
         ];
         let chart = Chart { title: "t", x_label: "x", y_label: "y", log_x: true, log_y: true, lines: true };
         draw(&path, &chart, &series).expect("draw");
-        let image = crate::output::read_png(&path).expect("a PNG");
+        let image = render::output::read_png(&path).expect("a PNG");
         assert_eq!((image.width, image.height), (900, 540));
         // Something besides the white background was drawn.
         assert!(image.pixels.chunks_exact(4).filter(|p| p[0] < 128).count() > 1000);

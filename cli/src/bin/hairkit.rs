@@ -135,7 +135,7 @@ fn main() -> std::process::ExitCode {
 }
 
 fn crowd(args: &CrowdArgs) -> Result<()> {
-    let options = render::crowd_scenes::CrowdOptions {
+    let options = hairkit_cli::crowd_scenes::CrowdOptions {
         out: args.out.clone(),
         characters: args.characters,
         strands: args.strands,
@@ -143,7 +143,7 @@ fn crowd(args: &CrowdArgs) -> Result<()> {
         teapot_strands: args.teapot_strands,
         size: args.size,
         seed: args.seed,
-        ..render::crowd_scenes::CrowdOptions::default()
+        ..hairkit_cli::crowd_scenes::CrowdOptions::default()
     };
     let start = Instant::now();
     let bar = indicatif::ProgressBar::new(0).with_style(
@@ -151,7 +151,7 @@ fn crowd(args: &CrowdArgs) -> Result<()> {
             .unwrap_or_else(|_| indicatif::ProgressStyle::default_bar())
             .progress_chars("=> "),
     );
-    let scenes = render::crowd_scenes::write_crowds(&options, |done, total, what| {
+    let scenes = hairkit_cli::crowd_scenes::write_crowds(&options, |done, total, what| {
         bar.set_length(total);
         bar.set_position(done);
         bar.set_message(what.to_owned());

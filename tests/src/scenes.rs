@@ -1,0 +1,40 @@
+//! The repository's example scenes at test sizes, written to a temporary folder with their
+//! asset paths made absolute (so they resolve from anywhere).
+
+use std::path::{Path, PathBuf};
+
+use anyhow::Context as _;
+
+/// A path inside the repository.
+pub fn repo(path: &str) -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR")).join("..").join(path)
+}
+
+/// `assets/scenes/NAME.json` at `width`×`height`, opaque.
+pub fn small_scene(dir: &Path, name: &str, width: u32, height: u32) -> anyhow::Result<PathBuf> {
+    scene_with(dir, name, width, height, serde_json::json!({ "transparency": "opaque" }))
+}
+
+/// `assets/scenes/NAME.json` at `width`×`height` with `effects`.
+pub fn scene_with(
+    dir: &Path,
+    name: &str,
+    width: u32,
+    height: u32,
+    effects: serde_json::Value,
+) -> anyhow::Result<PathBuf> {
+    let text = std::fs::read_to_string(repo(&format!("assets/scenes/{name}.json")))?;
+    let mut json: serde_json::Value = serde_json::from_str(&text)?;
+    json["output"] = serde_json::json!({ "width": width, "height": height });
+    json["effects"] = effects;
+    for c in json["characters"].as_array_mut().context("characters")? {
+        let hair = c["hair"].as_str().context("hair")?.to_owned();
+        c["hair"] = serde_json::json!(repo("assets/scenes").join(hair));
+        if let Some(mesh) = c["occluder"]["mesh"].as_str().map(str::to_owned) {
+            c["occluder"]["mesh"] = serde_json::json!(repo("assets/scenes").join(mesh));
+        }
+    }
+    let path = dir.join(format!("{name}.json"));
+    std::fs::write(&path, serde_json::to_vec_pretty(&json)?)?;
+    Ok(path)
+}
