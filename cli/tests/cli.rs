@@ -111,9 +111,9 @@ fn main() -> ExitCode {
             let report = std::fs::read_to_string(dir.path().join("benchmarks.md"))?;
             ensure!(report.contains(&ctx.capabilities().device_name), "the report names the device");
             for (file, skip, min_rows) in [
-                ("bench-generation.csv", 2, 2),
+                ("bench-generation.csv", 3, 4),
                 ("bench-stored.csv", 0, 2),
-                ("bench-accuracy.csv", 1, 7),
+                ("bench-accuracy.csv", 1, 9),
                 ("bench-effects.csv", 1, 3),
                 ("bench-crowd.csv", 1, 4),
                 ("bench-memory.csv", 1, 5),
@@ -154,6 +154,36 @@ fn main() -> ExitCode {
             ensure!(
                 again.contains("keep me") && again.matches("hair-bench:generation:begin").count() == 1,
                 "{again}"
+            );
+            // `--only` runs one section and replaces only it.
+            let section = |text: &str, name: &str| -> Option<String> {
+                let (b, e) =
+                    (format!("<!-- hair-bench:{name}:begin -->"), format!("<!-- hair-bench:{name}:end -->"));
+                let (i, j) = (text.find(&b)?, text.find(&e)?);
+                Some(text[i..j].to_owned())
+            };
+            let out = Command::new(env!("CARGO_BIN_EXE_hair-bench"))
+                .args(["--quick", "--only", "memory", "--out"])
+                .arg(dir.path())
+                .output()?;
+            ensure!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+            let third = std::fs::read_to_string(dir.path().join("benchmarks.md"))?;
+            for name in ["generation", "stored", "accuracy", "crowd", "passes"] {
+                ensure!(
+                    section(&third, name).is_some() && section(&third, name) == section(&again, name),
+                    "{name} kept"
+                );
+            }
+            ensure!(section(&third, "memory").is_some_and(|m| m.contains("--only memory")), "{third}");
+            let out = Command::new(env!("CARGO_BIN_EXE_hair-bench"))
+                .args(["--quick", "--only", "generation,colour", "--out"])
+                .arg(dir.path())
+                .output()?;
+            let stderr = String::from_utf8_lossy(&out.stderr);
+            ensure!(!out.status.success() && stderr.contains("unknown section `colour`"), "{stderr}");
+            ensure!(
+                std::fs::read_to_string(dir.path().join("benchmarks.md"))? == third,
+                "a refused run writes nothing"
             );
             Ok(())
         }),

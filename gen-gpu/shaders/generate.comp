@@ -1,5 +1,6 @@
 #version 460
-// Compute path, pass 2: one workgroup per strand slot writes its vertices.
+// Compute path, pass 2: writes the strand slots' vertices, one strand per invocation
+// (strand-coherent variant) or per workgroup of 32 (per-vertex variants).
 #extension GL_GOOGLE_include_directive : require
 #include "hair_gen.glsl"
 #include "hair_outputs.glsl"
@@ -10,7 +11,38 @@ layout(push_constant) uniform ChunkParams {
     uint chunk;
 } chunk_params;
 
-void main() {
+// Strand-coherent variant: one invocation per strand slot.
+void generate_per_invocation() {
+    uint group = gl_WorkGroupID.y * DISPATCH_ROW + gl_WorkGroupID.x;
+    uint local_slot = group * STRANDS_PER_GROUP + gl_LocalInvocationID.x;
+    if (local_slot >= chunk_size(chunk_params.chunk)) {
+        return;
+    }
+    uint slot = chunk_params.chunk * chunk_slots() + local_slot;
+    uint bundle = slot_bundle(slot);
+    uint strand = slot - offsets[bundle];
+    BundleLod l = lods[bundle];
+    uint segments = 1u << l.level;
+    // The mesh path's rule for short strands, so both paths generate the same strands.
+    bool from_control = strand_coherent(strands_per_mesh_group(l.level));
+    vec2 root = root_parameter(bundle, strand);
+    SegmentControl c;
+    c.segment = -1;
+    uint seed = strand_seed(bundle, strand);
+    float scale = length_scale(seed);
+    for (uint k = 0u; k <= segments; ++k) {
+        float tau = float(k) / float(segments);
+        thread_positions[k] = from_control ? thread_strand_point(bundle, seed, scale, root, tau, c)
+                                           : strand_point(bundle, strand, root, tau);
+    }
+    for (uint k = 0u; k <= segments; ++k) {
+        store_vertex(local_slot, k, strand_vertex_of_thread(bundle, strand, l, 0u, k));
+    }
+    strand_info[local_slot] = uvec4(bundle, strand, segments + 1u, floatBitsToUint(l.width_scale));
+}
+
+// Per-vertex variants: one workgroup of 32 invocations per strand slot.
+void generate_per_workgroup() {
     uint local_slot = gl_WorkGroupID.y * DISPATCH_ROW + gl_WorkGroupID.x;
     if (local_slot >= chunk_size(chunk_params.chunk)) {
         return;
@@ -21,14 +53,28 @@ void main() {
     BundleLod l = lods[bundle];
     uint thread = gl_LocalInvocationID.x;
     uint segments = 1u << l.level;
+    // The mesh path's rule, so both paths generate the same strands.
+    bool from_control = strand_coherent(strands_per_mesh_group(l.level));
+    if (from_control) {
+        strand_load_control(bundle, root_parameter(bundle, strand), thread);
+        barrier();
+    }
     for (uint k = thread; k <= segments; k += STRAND_THREADS) {
-        strand_compute_vertex(bundle, strand, l, 0u, k);
+        strand_compute_vertex(bundle, strand, l, 0u, k, from_control);
     }
     barrier();
     for (uint k = thread; k <= segments; k += STRAND_THREADS) {
-        store_vertex(local_slot, k, strand_vertex(bundle, strand, l, 0u, k));
+        store_vertex(local_slot, k, strand_vertex_of_group(bundle, strand, l, 0u, k));
     }
     if (thread == 0u) {
         strand_info[local_slot] = uvec4(bundle, strand, segments + 1u, floatBitsToUint(l.width_scale));
+    }
+}
+
+void main() {
+    if (PER_VERTEX_FETCH == 0u) {
+        generate_per_invocation();
+    } else {
+        generate_per_workgroup();
     }
 }

@@ -12,6 +12,10 @@
 layout(constant_id = 0) const uint MANUAL_FILTERING = 0u; // 1: texelFetch + f32 lerps
 layout(constant_id = 1) const uint CAPTURE = 0u;          // mesh path: also write the capture buffer
 layout(constant_id = 2) const uint EXACT_CUBIC = 0u;      // 1: exact cubic instead of two quadratics
+// 1: every vertex samples the textures (Filtering::Hardware / Manual); 0: strand-coherent
+// evaluation from per-strand control data (below), and where a workgroup samples per vertex
+// anyway it filters manually, so the variant never depends on the sampler's weight precision.
+layout(constant_id = 3) const uint PER_VERTEX_FETCH = 0u;
 
 const uint MAX_SEGMENTS_LOG2 = HK_MAX_SEGMENTS_LOG2;
 const uint MAX_SEGMENTS = 1u << MAX_SEGMENTS_LOG2;
@@ -72,9 +76,19 @@ uint pcg_hash(uint v) {
     return (word >> 22u) ^ word;
 }
 
+// The per-strand part of strand_random's hash: computed once per strand where a strand's
+// vertices are evaluated together.
+uint strand_seed(uint bundle, uint strand) {
+    return pcg_hash(pcg_hash(bundle ^ params.seed_info.x) + strand);
+}
+
+// strand_random(bundle, strand, k) from strand_seed(bundle, strand).
+float seeded_random(uint seed, uint k) {
+    return float(pcg_hash(seed + k)) * (1.0 / 4294967296.0);
+}
+
 float strand_random(uint bundle, uint strand, uint k) {
-    uint h = pcg_hash(pcg_hash(pcg_hash(bundle ^ params.seed_info.x) + strand) + k);
-    return float(h) * (1.0 / 4294967296.0);
+    return seeded_random(strand_seed(bundle, strand), k);
 }
 
 float bundle_delta(uint bundle) {
@@ -86,7 +100,7 @@ float bundle_delta(uint bundle) {
 // Trilinear fetch at continuous texel coordinates (texel centres at +0.5), clamp to edge.
 vec4 fetch(sampler3D tex, vec3 coord) {
     vec3 size = vec3(textureSize(tex, 0));
-    if (MANUAL_FILTERING == 0u) {
+    if (MANUAL_FILTERING == 0u && PER_VERTEX_FETCH == 1u) {
         return textureLod(tex, coord / size, 0.0);
     }
     vec3 f = clamp(coord - 0.5, vec3(0.0), size - 1.0);
@@ -122,31 +136,22 @@ vec2 block_coord(uint bundle, vec2 st) {
     return origin + 0.5 + square_symmetry(cell >> 28u, st);
 }
 
-// Object-space point of the curve surface: two trilinear fetches and a lerp per quadratic.
-vec3 curve_position(uint bundle, vec2 st, float tau) {
-    vec2 xy = block_coord(bundle, st);
+// Where tau falls between the layers: the segment and the parameter inside it.
+float curve_segment(float tau, out float local) {
     float layers = float(max(params.layout_info.w, 1u));
     float x = min(clamp(tau, 0.0, 1.0) * layers, layers);
     float segment = min(floor(x), layers - 1.0);
-    float local = x - segment;
-    if (EXACT_CUBIC == 1u) {
-        // The cubic's control points from the same slices (texture.rs, curve_position_cubic).
-        float z = 3.0 * segment + 0.5;
-        vec3 b0 = fetch(hair_mesh_tex, vec3(xy, z)).xyz;
-        vec3 q_a = fetch(hair_mesh_tex, vec3(xy, z + 1.0)).xyz;
-        vec3 q_b = fetch(hair_mesh_tex, vec3(xy, z + 2.0)).xyz;
-        vec3 b3 = fetch(hair_mesh_tex, vec3(xy, z + 3.0)).xyz;
-        vec3 b1 = b0 + (q_a - b0) * (4.0 / 3.0);
-        vec3 b2 = b3 + (q_b - b3) * (4.0 / 3.0);
-        float s = 1.0 - local;
-        vec3 p = b0 * (s * s * s) + b1 * (3.0 * s * s * local) + b2 * (3.0 * s * local * local) + b3 * (local * local * local);
-        return params.normalization.xyz + p * params.normalization.w;
-    }
-    // Slices from z = 3 segment: B0, q_a, q_b, B3; the quadratics' shared point m = (q_a + q_b)/2
-    // is implicit, lerp(q_a, m, q) = lerp(q_a, q_b, q/2) (texture.rs, curve_position).
-    float z = 3.0 * segment + 0.5;
-    float za;
-    float zb;
+    local = x - segment;
+    return segment;
+}
+
+// The two hair-mesh texture coordinates (slice axis, texel centres at +0.5) and the weight
+// of the quadratic point at tau: the slices from z = 3 segment are B0, q_a, q_b, B3, and the
+// quadratics' shared point m = (q_a + q_b)/2 is implicit, lerp(q_a, m, q) = lerp(q_a, q_b,
+// q/2) (texture.rs, curve_position).
+float quadratic_slices(float tau, out float za, out float zb) {
+    float local;
+    float z = 3.0 * curve_segment(tau, local) + 0.5;
     float q;
     if (local < 0.5) {
         q = 2.0 * local;
@@ -157,6 +162,32 @@ vec3 curve_position(uint bundle, vec2 st, float tau) {
         za = z + 1.0 + 0.5 * (1.0 + q);
         zb = z + 2.0 + q;
     }
+    return q;
+}
+
+// The cubic from its control slices B0, q_a, q_b, B3 (texture.rs, curve_position_cubic):
+// B1 = B0 + 4/3 (q_a - B0), B2 = B3 + 4/3 (q_b - B3).
+vec3 cubic_point(vec3 b0, vec3 q_a, vec3 q_b, vec3 b3, float local) {
+    vec3 b1 = b0 + (q_a - b0) * (4.0 / 3.0);
+    vec3 b2 = b3 + (q_b - b3) * (4.0 / 3.0);
+    float s = 1.0 - local;
+    return b0 * (s * s * s) + b1 * (3.0 * s * s * local) + b2 * (3.0 * s * local * local) + b3 * (local * local * local);
+}
+
+// Object-space point of the curve surface: two trilinear fetches and a lerp per quadratic.
+vec3 curve_position(uint bundle, vec2 st, float tau) {
+    vec2 xy = block_coord(bundle, st);
+    if (EXACT_CUBIC == 1u) {
+        float local;
+        float z = 3.0 * curve_segment(tau, local) + 0.5;
+        vec3 p = cubic_point(fetch(hair_mesh_tex, vec3(xy, z)).xyz, fetch(hair_mesh_tex, vec3(xy, z + 1.0)).xyz,
+                             fetch(hair_mesh_tex, vec3(xy, z + 2.0)).xyz, fetch(hair_mesh_tex, vec3(xy, z + 3.0)).xyz,
+                             local);
+        return params.normalization.xyz + p * params.normalization.w;
+    }
+    float za;
+    float zb;
+    float q = quadratic_slices(tau, za, zb);
     vec3 a = fetch(hair_mesh_tex, vec3(xy, za)).xyz;
     vec3 b = fetch(hair_mesh_tex, vec3(xy, zb)).xyz;
     return params.normalization.xyz + mix(a, b, q) * params.normalization.w;
@@ -196,20 +227,20 @@ float smoothstep_safe(float edge0, float edge1, float x) {
     return t * t * (3.0 - 2.0 * t);
 }
 
-float length_scale(uint bundle, uint strand) {
-    return 1.0 - clamp(params.style0.w, 0.0, 1.0) * strand_random(bundle, strand, 0u);
+float length_scale(uint seed) {
+    return 1.0 - clamp(params.style0.w, 0.0, 1.0) * seeded_random(seed, 0u);
 }
 
-vec3 frizz_noise(uint bundle, uint strand, float x) {
+vec3 frizz_noise(uint seed, float x) {
     float i = floor(x);
     float f = x - i;
     float blend = f * f * (3.0 - 2.0 * f);
     uint cell = uint(i - 1048576.0 * floor(i / 1048576.0));
     uint next = (cell + 1u) % 1048576u;
-    vec3 a = vec3(strand_random(bundle, strand, 16u + 3u * cell), strand_random(bundle, strand, 17u + 3u * cell),
-                  strand_random(bundle, strand, 18u + 3u * cell)) * 2.0 - 1.0;
-    vec3 b = vec3(strand_random(bundle, strand, 16u + 3u * next), strand_random(bundle, strand, 17u + 3u * next),
-                  strand_random(bundle, strand, 18u + 3u * next)) * 2.0 - 1.0;
+    vec3 a = vec3(seeded_random(seed, 16u + 3u * cell), seeded_random(seed, 17u + 3u * cell),
+                  seeded_random(seed, 18u + 3u * cell)) * 2.0 - 1.0;
+    vec3 b = vec3(seeded_random(seed, 16u + 3u * next), seeded_random(seed, 17u + 3u * next),
+                  seeded_random(seed, 18u + 3u * next)) * 2.0 - 1.0;
     return mix(a, b, blend);
 }
 
@@ -232,20 +263,30 @@ vec3 any_orthonormal(vec3 v) {
     return vec3(b, s + v.y * v.y * a, -v.y);
 }
 
-vec3 style_apply(uint bundle, uint strand, float tau, vec3 position, vec3 centre, vec3 fu, vec3 fv, vec3 fw, float w) {
+vec3 style_apply(uint seed, float tau, vec3 position, vec3 centre, vec3 fu, vec3 fv, vec3 fw, float w) {
     float fade = smoothstep_safe(0.0, params.style0.z, tau);
     if (fade == 0.0) {
         return position;
     }
-    bool stray = strand_random(bundle, strand, 3u) < params.stray.x;
+    bool stray = seeded_random(seed, 3u) < params.stray.x;
     const float TURN = 6.28318530717958647692;
-    float curl_phase = TURN * (params.curl.y * w + params.curl.z + strand_random(bundle, strand, 1u));
-    float wave_phase = TURN * (params.wave_frizz.y * w + strand_random(bundle, strand, 2u));
+    // Terms whose amplitude is zero add exactly nothing (the noise and the trigonometry are
+    // finite), so they are skipped: transcendentals and hashes dominate generation on a
+    // software rasterizer.
+    vec3 d = vec3(0.0);
+    if (params.curl.x != 0.0) {
+        float curl_phase = TURN * (params.curl.y * w + params.curl.z + seeded_random(seed, 1u));
+        d.xy = params.curl.x * vec2(cos(curl_phase), sin(curl_phase));
+    }
+    if (params.wave_frizz.x != 0.0) {
+        float wave_phase = TURN * (params.wave_frizz.y * w + seeded_random(seed, 2u));
+        d.x += params.wave_frizz.x * sin(wave_phase);
+    }
     float frizz_amplitude = params.wave_frizz.z + (stray ? params.stray.y : 0.0);
-    vec3 frizz = frizz_noise(bundle, strand, w * params.wave_frizz.w) *
-                 (frizz_amplitude * pow(tau, max(params.frizz_clump.x, 0.0)));
-    vec3 d = vec3(params.curl.x * cos(curl_phase) + params.wave_frizz.x * sin(wave_phase),
-                  params.curl.x * sin(curl_phase), 0.0) + frizz;
+    if (frizz_amplitude != 0.0) {
+        d += frizz_noise(seed, w * params.wave_frizz.w) *
+             (frizz_amplitude * pow(tau, max(params.frizz_clump.x, 0.0)));
+    }
     vec3 p = position + (fu * d.x + fv * d.y + fw * d.z) * fade;
     if (params.frizz_clump.w != 0.0) {
         p = centre + rotate_about(p - centre, fw, TURN * params.frizz_clump.w * tau * fade);
@@ -257,9 +298,18 @@ vec3 style_apply(uint bundle, uint strand, float tau, vec3 position, vec3 centre
     return p;
 }
 
-// One styled strand point (HairAsset::strand_point).
+// The styling frame from the interpolated u, v: fu = normalize(u), fw = normalize(u x v),
+// fv = fw x fu (style.rs).
+void styling_frame(vec3 u, vec3 v, out vec3 fu, out vec3 fv, out vec3 fw) {
+    fu = try_normalize(u, vec3(1.0, 0.0, 0.0));
+    fw = try_normalize(cross(fu, v), any_orthonormal(fu));
+    fv = cross(fw, fu);
+}
+
+// One styled strand point (HairAsset::strand_point), every value sampled from the textures.
 vec3 strand_point(uint bundle, uint strand, vec2 root, float tau) {
-    float t_curve = tau * length_scale(bundle, strand);
+    uint seed = strand_seed(bundle, strand);
+    float t_curve = tau * length_scale(seed);
     vec3 position = curve_position(bundle, root, t_curve);
     if (tau <= 0.0) {
         return position;
@@ -267,11 +317,11 @@ vec3 strand_point(uint bundle, uint strand, vec2 root, float tau) {
     vec3 centre = curve_position(bundle, centre_parameter(bundle), t_curve);
     vec2 xy = block_coord(bundle, root);
     vec3 z = vec3(xy, t_curve * float(params.layout_info.w) + 0.5);
-    vec3 u = try_normalize(fetch(u_tex, z).xyz, vec3(1.0, 0.0, 0.0));
-    vec3 v = fetch(v_tex, z).xyz;
-    float w = fetch(w_tex, z).x;
-    vec3 fw = try_normalize(cross(u, v), any_orthonormal(u));
-    return style_apply(bundle, strand, tau, position, centre, u, cross(fw, u), fw, w);
+    vec3 fu;
+    vec3 fv;
+    vec3 fw;
+    styling_frame(fetch(u_tex, z).xyz, fetch(v_tex, z).xyz, fu, fv, fw);
+    return style_apply(seed, tau, position, centre, fu, fv, fw, fetch(w_tex, z).x);
 }
 
 float width_at(float tau) {
@@ -353,60 +403,262 @@ struct StrandVertex {
 #ifndef HAIR_GEN_NO_WORKGROUP
 shared vec3 strand_positions[MAX_VERTICES];
 
+// ---------------------------------------------------------------- strand-coherent evaluation
+//
+// A strand's root (s, t) is fixed, so every trilinear fetch it makes at (cell + st, z) is the
+// bilinear blend of the same four texels of a slice, then a linear blend along z. The workgroup
+// blends each slice once per strand (the strand's and its bundle centre's 1 + 3L curve slices,
+// the L + 1 slices of u, v, w) into shared memory; every vertex is then arithmetic on those
+// values. The blends are the manual filter's f32 lerps in the same order, so the strands match
+// the per-vertex manual variant to f32 rounding (specialization constant 3 selects that
+// variant, the reference).
+
+const uint MAX_LAYERS = HK_MAX_LAYERS;
+const uint FROM_STRAND = 0u;
+const uint FROM_CENTRE = 1u;
+shared vec3 coherent_curve[2u * (1u + 3u * MAX_LAYERS)]; // strand slices, then centre slices
+shared vec4 coherent_u_w[MAX_LAYERS + 1u];                 // xyz u, w w
+shared vec3 coherent_v[MAX_LAYERS + 1u];
+
+// Slice z of `tex` blended over bundle's cell at block parameter st (the xy step of fetch()).
+vec4 cell_blend(sampler3D tex, uint bundle, vec2 st, int z) {
+    uint cell = bundles[bundle].info.w;
+    ivec2 o = ivec2(int(cell & 0x3fffu), int((cell >> 14u) & 0x3fffu));
+    vec2 w = square_symmetry(cell >> 28u, st);
+    vec4 c0 = mix(texelFetch(tex, ivec3(o, z), 0), texelFetch(tex, ivec3(o.x + 1, o.y, z), 0), w.x);
+    vec4 c1 = mix(texelFetch(tex, ivec3(o.x, o.y + 1, z), 0), texelFetch(tex, ivec3(o + 1, z), 0), w.x);
+    return mix(c0, c1, w.y);
+}
+
+uint coherent_layers() {
+    return min(max(params.layout_info.w, 1u), MAX_LAYERS);
+}
+
+// Every thread of the workgroup calls this for its strand, then barrier().
+void strand_load_control(uint bundle, vec2 root, uint thread) {
+    uint curve = 1u + 3u * coherent_layers();
+    uint layer_slices = coherent_layers() + 1u;
+    vec2 centre = centre_parameter(bundle);
+    for (uint i = thread; i < 2u * curve + layer_slices; i += STRAND_THREADS) {
+        if (i < 2u * curve) {
+            vec2 st = i < curve ? root : centre;
+            coherent_curve[i] = cell_blend(hair_mesh_tex, bundle, st, int(i % curve)).xyz;
+        } else {
+            int z = int(i - 2u * curve);
+            coherent_u_w[z] = vec4(cell_blend(u_tex, bundle, root, z).xyz, cell_blend(w_tex, bundle, root, z).x);
+            coherent_v[z] = cell_blend(v_tex, bundle, root, z).xyz;
+        }
+    }
+}
+
+// The z step of fetch() (clamp to edge) on a blended slice table: `first` and `count` select
+// the strand's or the centre's slices.
+vec3 coherent_curve_at(uint source, float zc) {
+    int last = int(3u * coherent_layers());
+    float f = clamp(zc - 0.5, 0.0, float(last));
+    float i0 = floor(f);
+    int base = int(source * uint(last + 1));
+    int a = int(i0);
+    return mix(coherent_curve[base + a], coherent_curve[base + min(a + 1, last)], f - i0);
+}
+
+// curve_position() from the blended slices.
+vec3 coherent_curve_position(uint source, float tau) {
+    if (EXACT_CUBIC == 1u) {
+        float local;
+        int z = int(3.0 * curve_segment(tau, local));
+        int base = int(source * (1u + 3u * coherent_layers()));
+        vec3 p = cubic_point(coherent_curve[base + z], coherent_curve[base + z + 1], coherent_curve[base + z + 2],
+                             coherent_curve[base + z + 3], local);
+        return params.normalization.xyz + p * params.normalization.w;
+    }
+    float za;
+    float zb;
+    float q = quadratic_slices(tau, za, zb);
+    vec3 p = mix(coherent_curve_at(source, za), coherent_curve_at(source, zb), q);
+    return params.normalization.xyz + p * params.normalization.w;
+}
+
+// strand_point() from the strand's control data (strand_load_control).
+vec3 coherent_strand_point(uint bundle, uint strand, float tau) {
+    uint seed = strand_seed(bundle, strand);
+    float t_curve = tau * length_scale(seed);
+    vec3 position = coherent_curve_position(FROM_STRAND, t_curve);
+    if (tau <= 0.0) {
+        return position;
+    }
+    vec3 centre = coherent_curve_position(FROM_CENTRE, t_curve);
+    int last = int(coherent_layers());
+    float f = clamp(t_curve * float(params.layout_info.w), 0.0, float(last));
+    float i0 = floor(f);
+    int a = int(i0);
+    int b = min(a + 1, last);
+    vec4 u_w = mix(coherent_u_w[a], coherent_u_w[b], f - i0);
+    vec3 fu;
+    vec3 fv;
+    vec3 fw;
+    styling_frame(u_w.xyz, mix(coherent_v[a], coherent_v[b], f - i0), fu, fv, fw);
+    return style_apply(seed, tau, position, centre, fu, fv, fw, u_w.w);
+}
+
+// Whether a workgroup evaluates its strand from control data: when a strand has a mesh
+// workgroup of its own (vertex level >= 4, 17 vertices or more). Shorter strands have few
+// vertices to share the control data's cost (and a mesh workgroup holds several of them), so
+// they sample per vertex, filtering manually; both paths follow this rule.
+bool strand_coherent(uint strands_in_group) {
+    return PER_VERTEX_FETCH == 0u && strands_in_group == 1u;
+}
+
 vec3 seg_dir(vec3 a, vec3 b, vec3 fallback) {
     return try_normalize(b - a, fallback);
 }
 
-// Tangent of vertex k of the polyline strand_positions[base + 0, base + stride, ...] with n
-// points (Eq. 5-6), where k indexes that polyline.
-vec3 polyline_tangent(uint base, uint k, uint n, uint stride) {
-    vec3 first_seg = seg_dir(strand_positions[base], strand_positions[base + stride], vec3(0.0, 1.0, 0.0));
-    if (n == 2u) {
-        return first_seg;
-    }
-    if (k > 0u && k < n - 1u) {
-        return seg_dir(strand_positions[base + (k - 1u) * stride], strand_positions[base + (k + 1u) * stride], first_seg);
-    }
-    if (k == 0u) {
-        vec3 t1 = seg_dir(strand_positions[base], strand_positions[base + 2u * stride], first_seg);
-        return try_normalize(2.0 * first_seg * dot(t1, first_seg) - t1, first_seg);
-    }
-    vec3 last_seg = seg_dir(strand_positions[base + (n - 2u) * stride], strand_positions[base + (n - 1u) * stride], first_seg);
-    vec3 tp = seg_dir(strand_positions[base + (n - 3u) * stride], strand_positions[base + (n - 1u) * stride], first_seg);
-    return try_normalize(2.0 * last_seg * dot(tp, last_seg) - tp, last_seg);
+// Tangents (Eq. 5-6) and morphing (Eq. 9-12) of a strand's full-detail positions, for a
+// positions array of either kind: the workgroup's shared strand_positions, or an invocation's
+// private thread_positions.
+//
+// polyline_tangent: tangent of vertex k of the polyline POSITIONS[base + 0, base + stride, ...]
+// with n points, where k indexes that polyline.
+// strand_vertex: the morphed vertex k of the strand at POSITIONS[base ...] with its tangent
+// and width (after its positions are all written).
+#define HK_STRAND_VERTEX_FUNCTIONS(SUFFIX, POSITIONS) \
+vec3 polyline_tangent##SUFFIX(uint base, uint k, uint n, uint stride) {                                            \
+    vec3 first_seg = seg_dir(POSITIONS[base], POSITIONS[base + stride], vec3(0.0, 1.0, 0.0));                      \
+    if (n == 2u) {                                                                                                 \
+        return first_seg;                                                                                          \
+    }                                                                                                              \
+    if (k > 0u && k < n - 1u) {                                                                                    \
+        return seg_dir(POSITIONS[base + (k - 1u) * stride], POSITIONS[base + (k + 1u) * stride], first_seg);       \
+    }                                                                                                              \
+    if (k == 0u) {                                                                                                 \
+        vec3 t1 = seg_dir(POSITIONS[base], POSITIONS[base + 2u * stride], first_seg);                              \
+        return try_normalize(2.0 * first_seg * dot(t1, first_seg) - t1, first_seg);                                \
+    }                                                                                                              \
+    vec3 last_seg = seg_dir(POSITIONS[base + (n - 2u) * stride], POSITIONS[base + (n - 1u) * stride], first_seg);  \
+    vec3 tp = seg_dir(POSITIONS[base + (n - 3u) * stride], POSITIONS[base + (n - 1u) * stride], first_seg);        \
+    return try_normalize(2.0 * last_seg * dot(tp, last_seg) - tp, last_seg);                                       \
+}                                                                                                                  \
+StrandVertex strand_vertex##SUFFIX(uint bundle, uint strand, BundleLod l, uint base, uint k) {                     \
+    uint segments = 1u << l.level;                                                                                 \
+    uint n = segments + 1u;                                                                                        \
+    StrandVertex v;                                                                                                \
+    vec3 full_tangent = polyline_tangent##SUFFIX(base, k, n, 1u);                                                  \
+    v.position = POSITIONS[base + k];                                                                              \
+    v.tangent = full_tangent;                                                                                      \
+    if (l.gamma > 0.0 && segments >= 2u) {                                                                         \
+        float g = l.gamma;                                                                                         \
+        if ((k & 1u) == 1u) {                                                                                      \
+            vec3 prev = POSITIONS[base + k - 1u];                                                                  \
+            vec3 next = POSITIONS[base + k + 1u];                                                                  \
+            v.position = (1.0 - g) * POSITIONS[base + k] + g * 0.5 * (prev + next);                                \
+            vec3 coarse = try_normalize(next - prev, full_tangent);                                                \
+            v.tangent = try_normalize((1.0 - g) * full_tangent + g * coarse, full_tangent);                        \
+        } else {                                                                                                   \
+            vec3 coarse = polyline_tangent##SUFFIX(base, k / 2u, segments / 2u + 1u, 2u);                          \
+            v.tangent = try_normalize((1.0 - g) * full_tangent + g * coarse, full_tangent);                        \
+        }                                                                                                          \
+    }                                                                                                              \
+    v.tau = float(k) / float(segments);                                                                            \
+    v.width = width_at(v.tau) * l.width_scale;                                                                     \
+    return v;                                                                                                      \
+}                                                                                                                  \
+
+// Phase 1: full-detail vertex k of a strand into shared memory at base + k, sampled from the
+// textures, or (coherent) from the control data strand_load_control put in shared memory.
+void strand_compute_vertex(uint bundle, uint strand, BundleLod l, uint base, uint k, bool from_control) {
+    float tau = float(k) / float(1u << l.level);
+    strand_positions[base + k] = from_control ? coherent_strand_point(bundle, strand, tau)
+                                          : strand_point(bundle, strand, root_parameter(bundle, strand), tau);
 }
 
-// Phase 1: full-detail vertex k of a strand into shared memory at base + k.
-void strand_compute_vertex(uint bundle, uint strand, BundleLod l, uint base, uint k) {
-    uint segments = 1u << l.level;
-    strand_positions[base + k] = strand_point(bundle, strand, root_parameter(bundle, strand), float(k) / float(segments));
+HK_STRAND_VERTEX_FUNCTIONS(_of_group, strand_positions)
+
+// ---------------------------------------------------------------- one strand per invocation
+//
+// The compute path's strand-coherent variant: one invocation generates a whole strand (no
+// workgroup barrier, no shared memory; a software rasterizer's SIMD lanes run 8 strands side
+// by side). Walking tau upward it blends, for each segment it enters, the four texels of the
+// segment's four curve slices (strand and bundle centre) and of its two u, v, w layer slices:
+// the blends strand_load_control makes, only where they are needed, so the strands are the
+// workgroup variant's bit for bit.
+vec3 thread_positions[MAX_VERTICES];
+
+// One segment's control data.
+struct SegmentControl {
+    int segment; // -1 before the first
+    vec3 strand[4];
+    vec3 centre[4];
+    vec4 u_w[2];
+    vec3 v[2];
+};
+
+void load_segment(uint bundle, vec2 root, int segment, inout SegmentControl c) {
+    vec2 centre = centre_parameter(bundle);
+    c.segment = segment;
+    for (int i = 0; i < 4; ++i) {
+        c.strand[i] = cell_blend(hair_mesh_tex, bundle, root, 3 * segment + i).xyz;
+        c.centre[i] = cell_blend(hair_mesh_tex, bundle, centre, 3 * segment + i).xyz;
+    }
+    for (int i = 0; i < 2; ++i) {
+        c.u_w[i] = vec4(cell_blend(u_tex, bundle, root, segment + i).xyz, cell_blend(w_tex, bundle, root, segment + i).x);
+        c.v[i] = cell_blend(v_tex, bundle, root, segment + i).xyz;
+    }
 }
 
-// Phase 2 (after a barrier): the morphed vertex k with its tangent and width.
-StrandVertex strand_vertex(uint bundle, uint strand, BundleLod l, uint base, uint k) {
-    uint segments = 1u << l.level;
-    uint n = segments + 1u;
-    StrandVertex v;
-    vec3 full_tangent = polyline_tangent(base, k, n, 1u);
-    v.position = strand_positions[base + k];
-    v.tangent = full_tangent;
-    if (l.gamma > 0.0 && segments >= 2u) {
-        float g = l.gamma;
-        if ((k & 1u) == 1u) {
-            vec3 prev = strand_positions[base + k - 1u];
-            vec3 next = strand_positions[base + k + 1u];
-            v.position = (1.0 - g) * strand_positions[base + k] + g * 0.5 * (prev + next);
-            vec3 coarse = try_normalize(next - prev, full_tangent);
-            v.tangent = try_normalize((1.0 - g) * full_tangent + g * coarse, full_tangent);
-        } else {
-            vec3 coarse = polyline_tangent(base, k / 2u, segments / 2u + 1u, 2u);
-            v.tangent = try_normalize((1.0 - g) * full_tangent + g * coarse, full_tangent);
-        }
-    }
-    v.tau = float(k) / float(segments);
-    v.width = width_at(v.tau) * l.width_scale;
-    return v;
+// coherent_curve_at() on a segment's four slices (first = 3 segment).
+vec3 window_at(vec3 w[4], int first, float zc) {
+    float f = clamp(zc - 0.5, 0.0, float(3u * coherent_layers()));
+    float i0 = floor(f);
+    int a = int(i0) - first;
+    return mix(w[clamp(a, 0, 3)], w[clamp(a + 1, 0, 3)], f - i0);
 }
+
+// coherent_curve_position() on a segment's four slices.
+vec3 window_curve_position(vec3 w[4], int segment, float t_curve) {
+    vec3 p;
+    if (EXACT_CUBIC == 1u) {
+        float local;
+        curve_segment(t_curve, local);
+        p = cubic_point(w[0], w[1], w[2], w[3], local);
+    } else {
+        float za;
+        float zb;
+        float q = quadratic_slices(t_curve, za, zb);
+        p = mix(window_at(w, 3 * segment, za), window_at(w, 3 * segment, zb), q);
+    }
+    return params.normalization.xyz + p * params.normalization.w;
+}
+
+// coherent_strand_point() from the segment control data, loading a segment when tau enters it.
+// `seed` is strand_seed(bundle, strand), `scale` its length_scale(seed): per strand.
+vec3 thread_strand_point(uint bundle, uint seed, float scale, vec2 root, float tau, inout SegmentControl c) {
+    float t_curve = tau * scale;
+    float local;
+    int segment = int(curve_segment(t_curve, local));
+    if (segment != c.segment) {
+        load_segment(bundle, root, segment, c);
+    }
+    vec3 position = window_curve_position(c.strand, segment, t_curve);
+    if (tau <= 0.0) {
+        return position;
+    }
+    vec3 centre = window_curve_position(c.centre, segment, t_curve);
+    float f = clamp(t_curve * float(params.layout_info.w), 0.0, float(coherent_layers()));
+    float i0 = floor(f);
+    int a = clamp(int(i0) - segment, 0, 1);
+    int b = clamp(int(i0) + 1 - segment, 0, 1);
+    vec4 u_w = mix(c.u_w[a], c.u_w[b], f - i0);
+    vec3 fu;
+    vec3 fv;
+    vec3 fw;
+    styling_frame(u_w.xyz, mix(c.v[a], c.v[b], f - i0), fu, fv, fw);
+    return style_apply(seed, tau, position, centre, fu, fv, fw, u_w.w);
+}
+
+HK_STRAND_VERTEX_FUNCTIONS(_of_thread, thread_positions)
+
+// Strands per compute workgroup in the one-strand-per-invocation variant.
+const uint STRANDS_PER_GROUP = 32u;
 
 // Strands one mesh workgroup draws at vertex level e: as many as fit the workgroup's output
 // (66 vertices, 64 triangles, 33 shared positions): 16 at e = 0 down to 1 at e >= 4.

@@ -40,8 +40,11 @@ void main() {
     barrier();
     if (t < MAX_CHUNKS) {
         uint slots = chunk_size(t);
-        dispatches[t].x = min(slots, DISPATCH_ROW);
-        dispatches[t].y = (slots + DISPATCH_ROW - 1u) / DISPATCH_ROW;
+        // generate.comp: a workgroup per slot, or per STRANDS_PER_GROUP slots (one per
+        // invocation) in the strand-coherent variant.
+        uint groups = PER_VERTEX_FETCH == 1u ? slots : (slots + STRANDS_PER_GROUP - 1u) / STRANDS_PER_GROUP;
+        dispatches[t].x = min(groups, DISPATCH_ROW);
+        dispatches[t].y = (groups + DISPATCH_ROW - 1u) / DISPATCH_ROW;
         dispatches[t].z = 1u;
         draws[t].vertex_count = MAX_SEGMENTS * 6u;
         draws[t].instance_count = slots;

@@ -30,10 +30,18 @@
 //!   index, vertex count and LOD width scale, `offsets[]`/`total_strands` how many slots are live.
 //! * **A compute consumer generating inside its own shader** (fused generation, no strand buffer):
 //!   include `hair_gen.glsl` with bindings 0–7 bound as the generator binds them, take a
-//!   bundle's `bundle_lod(bundle)` (or the LOD pass's `lods[]`), then per strand vertex call
-//!   `strand_compute_vertex(bundle, strand, lod, base, k)` into the workgroup's shared vertex
-//!   array, `barrier()`, and `strand_vertex(…)` for position, width and tangent — exactly as
-//!   `generate.comp` does before it stores them; its own buffers go at `FIRST_CONSUMER` and up.
+//!   bundle's `bundle_lod(bundle)` (or the LOD pass's `lods[]`), then either
+//!   - one strand per invocation (what `generate.comp` does in the strand-coherent variant):
+//!     `thread_strand_point(bundle, seed, scale, root_parameter(bundle, strand), tau, control)`
+//!     (`seed = strand_seed(bundle, strand)`, `scale = length_scale(seed)`, once per strand) for
+//!     every vertex into `thread_positions[k]` (a `SegmentControl` with `segment = -1` carries
+//!     the blended slices from vertex to vertex), then `strand_vertex_of_thread(…)` for
+//!     position, width and tangent; or
+//!   - one strand per workgroup: `strand_load_control(…)` + `barrier()` when
+//!     `strand_coherent(…)`, `strand_compute_vertex(bundle, strand, lod, base, k, …)` into the
+//!     shared vertex array, `barrier()`, and `strand_vertex_of_group(…)`.
+//!
+//!   Its own buffers go at `FIRST_CONSUMER` and up.
 
 /// Descriptor bindings of set 0.
 pub mod binding {
@@ -86,6 +94,10 @@ pub const FRAGMENT_PUSH_OFFSET: u32 = 16;
 /// (`hairmesh::reference::MAX_SEGMENTS_LOG2`; gen-gpu checks they agree at compile time).
 pub const MAX_SEGMENTS_LOG2: u32 = 5;
 
+/// Most hair-mesh layers `L` (`hairmesh::hair_mesh::MAX_LAYERS`): sizes the strand-coherent
+/// control data in shared memory.
+pub const MAX_LAYERS: u32 = 64;
+
 /// Vertices per strand slot of the strand buffer: `2^E + 1`.
 pub const MAX_VERTICES: u64 = (1 << MAX_SEGMENTS_LOG2) + 1;
 
@@ -114,6 +126,7 @@ pub const GLSL_DEFINES: &[(&str, u64)] = &[
     ("HK_FRAGMENT_PUSH_OFFSET", FRAGMENT_PUSH_OFFSET as u64),
     ("HK_MAX_SEGMENTS_LOG2", MAX_SEGMENTS_LOG2 as u64),
     ("HK_MAX_VERTICES", MAX_VERTICES),
+    ("HK_MAX_LAYERS", MAX_LAYERS as u64),
 ];
 
 /// Every binding number a gen-gpu shader may use.

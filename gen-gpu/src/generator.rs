@@ -24,11 +24,20 @@ use crate::{
     GpuHair, GraphicsPipelineDesc, GraphicsStages, MemoryLocation, Pipeline, Recorder, Result, shaders,
 };
 
-/// Hardware trilinear filtering, or texelFetch + f32 lerps (specialization constant 0).
+/// How generation reads the textures (specialization constants 0 and 3 of `hair_gen.glsl`).
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash)]
 pub enum Filtering {
+    /// Per strand: the workgroup blends the four texels of the strand's cell in every slice
+    /// once (texelFetch + f32 lerps) and evaluates every vertex from those values in shared
+    /// memory — about `4·(3·(1 + 3L) + 3·(L + 1))` texel reads per strand instead of seven
+    /// trilinear fetches per vertex. Strands of fewer than 17 vertices (vertex levels below 4,
+    /// where a mesh workgroup draws several) sample per vertex, filtering manually (the same
+    /// f32 lerps), on both paths.
     #[default]
+    StrandCoherent,
+    /// Per vertex, hardware trilinear filtering (its sub-texel weights are quantized).
     Hardware,
+    /// Per vertex, texelFetch + f32 lerps (the reference the coherent variant matches).
     Manual,
 }
 
@@ -139,6 +148,8 @@ pub use crate::contract::{MAX_VERTICES, VERTEX_BYTES};
 
 // One vertex-LOD cap for the CPU reference and the GPU: a strand slot holds 2^E + 1 vertices.
 const _: () = assert!(crate::contract::MAX_SEGMENTS_LOG2 == hairmesh::reference::MAX_SEGMENTS_LOG2);
+// The strand-coherent tables in shared memory are sized for the most layers an asset may have.
+const _: () = assert!(crate::contract::MAX_LAYERS == hairmesh::hair_mesh::MAX_LAYERS);
 /// Chunks of strand slots (`MAX_CHUNKS` in `hair_outputs.glsl`).
 pub const MAX_CHUNKS: u64 = 16;
 const DISPATCH_ARGS_OFFSET: u64 = 16;
@@ -263,6 +274,7 @@ impl Generator {
 
     pub fn with_options(ctx: &Context, options: GeneratorOptions) -> Result<Self> {
         let manual = u32::from(options.filtering == Filtering::Manual);
+        let per_vertex = u32::from(options.filtering != Filtering::StrandCoherent);
         let cubic = u32::from(options.exact_cubic);
         let extra = options.fragment.map_or(&[][..], |f| f.extra_bindings);
         let bindings = bindings(extra);
@@ -274,7 +286,7 @@ impl Generator {
                     shader,
                     bindings: &bindings,
                     push_constant_size: 4,
-                    specialization: &[(0, manual), (2, cubic)],
+                    specialization: &[(0, manual), (2, cubic), (3, per_vertex)],
                 },
             )
         };
@@ -297,7 +309,7 @@ impl Generator {
                     fragment: fragment.shader,
                     bindings: &bindings,
                     push_constant_size: push_size,
-                    specialization: &[(0, manual), (1, capture), (2, cubic)],
+                    specialization: &[(0, manual), (1, capture), (2, cubic), (3, per_vertex)],
                     color_format: options.color_format.unwrap_or(COLOR_FORMAT),
                     depth_format: Some(DEPTH_FORMAT),
                     blend: fragment.blend,

@@ -87,6 +87,7 @@ mod contract_tests {
             ("HK_FRAGMENT_PUSH_OFFSET", u64::from(contract::FRAGMENT_PUSH_OFFSET)),
             ("HK_MAX_SEGMENTS_LOG2", u64::from(contract::MAX_SEGMENTS_LOG2)),
             ("HK_MAX_VERTICES", contract::MAX_VERTICES),
+            ("HK_MAX_LAYERS", u64::from(contract::MAX_LAYERS)),
         ];
         for (name, value) in expect {
             assert_eq!(d.get(name), Some(&value), "{name} in the generated header");

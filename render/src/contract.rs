@@ -38,15 +38,16 @@ pub const LIGHTING_BINDINGS: [u32; 4] =
 pub const OIT_BINDINGS: [u32; 3] = [binding::OIT_HEADS, binding::OIT_NODES, binding::OIT_COUNTERS];
 
 /// The OIT fill stage's buffers: the lists, then the lighting.
-pub const OIT_FILL_BINDINGS: [u32; 7] = [
-    binding::OIT_HEADS,
-    binding::OIT_NODES,
-    binding::OIT_COUNTERS,
-    binding::SHADOW_DEPTH,
-    binding::SHADOW_OPACITY,
-    binding::LIGHTS,
-    binding::OCCLUDER_DEPTH,
-];
+pub const OIT_FILL_BINDINGS: [u32; 7] = {
+    let mut out = [0; 7];
+    let mut i = 0;
+    while i < OIT_BINDINGS.len() + LIGHTING_BINDINGS.len() {
+        out[i] =
+            if i < OIT_BINDINGS.len() { OIT_BINDINGS[i] } else { LIGHTING_BINDINGS[i - OIT_BINDINGS.len()] };
+        i += 1;
+    }
+    out
+};
 
 /// Every constant of the header, as `(GLSL macro, value)`.
 pub const GLSL_DEFINES: &[(&str, u64)] = &[
@@ -62,19 +63,17 @@ pub const GLSL_DEFINES: &[(&str, u64)] = &[
     ("HK_BINDING_OCCLUDER_INDICES", binding::OCCLUDER_INDICES as u64),
 ];
 
-/// Every binding a render shader may use.
-pub const BINDINGS: &[u32] = &[
-    binding::OIT_HEADS,
-    binding::OIT_NODES,
-    binding::OIT_COUNTERS,
-    binding::SHADOW_DEPTH,
-    binding::SHADOW_OPACITY,
-    binding::LIGHTS,
-    binding::OCCLUDER_DEPTH,
-    binding::OCCLUDER_POSITIONS,
-    binding::OCCLUDER_NORMALS,
-    binding::OCCLUDER_INDICES,
-];
+/// Every binding a render shader may use: the values of [`GLSL_DEFINES`] (all of which are
+/// bindings).
+pub const BINDINGS: [u32; GLSL_DEFINES.len()] = {
+    let mut out = [0; GLSL_DEFINES.len()];
+    let mut i = 0;
+    while i < GLSL_DEFINES.len() {
+        out[i] = GLSL_DEFINES[i].1 as u32;
+        i += 1;
+    }
+    out
+};
 
 /// File name of the generated header.
 pub const HEADER_FILE: &str = "hk_render_contract.glsl";

@@ -76,6 +76,8 @@ fn inputs_for(asset: &HairAsset, eye: Vec3, lod: LodParams) -> FrameInputs {
 
 /// Position bounds, in strand widths (the style's root width), derived per configuration from
 /// the asset's size S (its normalization scale) and the largest bundle diagonal D:
+/// * strand-coherent evaluation blends the same texels with the same f32 lerps as manual
+///   filtering (once per strand instead of per vertex), so it has manual filtering's bounds.
 /// * f32 + manual filtering: f32 texels and single-precision math: positions ~S·6e-8, plus the
 ///   styling frame: û, v̂ are interpolated and normalized in f32 and ŵ = û×v̂ amplifies their
 ///   rounding where they are nearly parallel, turning the styling offset (at most M, the
@@ -111,6 +113,8 @@ fn check_oracle(
         f32_math + hardware + half
     );
     for (filtering, precision, max_widths, max_degrees) in [
+        (Filtering::StrandCoherent, TexturePrecision::F32, f32_math, 0.5),
+        (Filtering::StrandCoherent, TexturePrecision::F16, f32_math + half, half_degrees),
         (Filtering::Hardware, TexturePrecision::F32, f32_math + hardware, 0.5),
         (Filtering::Manual, TexturePrecision::F32, f32_math, 0.5),
         (Filtering::Hardware, TexturePrecision::F16, f32_math + hardware + half, half_degrees),
@@ -288,15 +292,148 @@ fn main() -> ExitCode {
                 Ok(())
             },
         ),
+        GpuTest::new(
+            "strand_coherent_generation_matches_per_vertex_on_hard_cases",
+            Requirements::NONE,
+            move |ctx| {
+                // Roots on face corners and edges (s or t = 0 or 1), triangle bundles (the head
+                // cap's pole fan), 1 and 64 layers, vertex LOD at its cap and with morphing, and a
+                // bundle of one strand: the coherent strands equal the per-vertex manual ones to f32
+                // rounding (same blends, done once per strand) and stay within the reference bounds.
+                let with_edge_roots = |mut asset: HairAsset| {
+                    let square = [
+                        (0.0, 0.0),
+                        (1.0, 0.0),
+                        (0.0, 1.0),
+                        (1.0, 1.0),
+                        (0.5, 0.0),
+                        (0.0, 0.5),
+                        (1.0, 0.5),
+                        (0.5, 1.0),
+                    ];
+                    let triangle = [(0.0, 0.0), (1.0, 0.0), (0.0, 1.0), (0.5, 0.0), (0.0, 0.5), (0.5, 0.5)];
+                    for (sets, points) in
+                        [(&mut asset.square_sets, &square[..]), (&mut asset.triangle_sets, &triangle[..])]
+                    {
+                        for set in sets.iter_mut() {
+                            for (p, &(s, t)) in set.points.iter_mut().zip(points) {
+                                *p = glam::DVec2::new(s, t);
+                            }
+                        }
+                    }
+                    asset
+                };
+                let layered = |layers: u32| -> anyhow::Result<HairAsset> {
+                    // 13 segments: the pole's triangle fan keeps one triangle unpaired.
+                    let hm = HairMesh::extrude(
+                        &hairmesh::procedural::head_cap(3, 13),
+                        &ExtrudeParams { layers, length: 0.18, droop: 0.4, ..ExtrudeParams::default() },
+                    )?;
+                    Ok(HairAsset::build(
+                        &hm,
+                        &AssetParams { strands: StrandCount::Total(600), seed: 3, ..Default::default() },
+                        styled(0.1),
+                    )?)
+                };
+                let one_strand = {
+                    let scalp = hairmesh::ScalpMesh {
+                        positions: vec![DVec3::ZERO, DVec3::X * 0.01, DVec3::new(0.01, 0.0, -0.01)],
+                        faces: vec![vec![0, 1, 2]],
+                        ..Default::default()
+                    };
+                    let hm = HairMesh::extrude(
+                        &scalp,
+                        &ExtrudeParams { layers: 2, length: 0.05, ..ExtrudeParams::default() },
+                    )?;
+                    HairAsset::build(
+                        &hm,
+                        &AssetParams { strands: StrandCount::Total(1), ..Default::default() },
+                        styled(0.01),
+                    )?
+                };
+                let cases = [
+                    ("head cap, edge roots", with_edge_roots(head_cap_asset(1200, styled(0.1))?)),
+                    ("1 layer", with_edge_roots(layered(1)?)),
+                    ("64 layers", with_edge_roots(layered(hairmesh::hair_mesh::MAX_LAYERS)?)),
+                    ("one strand", one_strand),
+                ];
+                let cap = LodParams { enabled: false, ..LodParams::default() };
+                let morphing = LodParams {
+                    strand_alpha: 1.0,
+                    vertex_alpha: 40.0,
+                    morph_band: 0.8,
+                    ..LodParams::default()
+                };
+                let coherent = Generator::new(ctx, Filtering::StrandCoherent)?;
+                let per_vertex = Generator::new(ctx, Filtering::Manual)?;
+                for (name, asset) in &cases {
+                    ensure!(
+                        name != &"1 layer" || !asset.triangle_sets.is_empty(),
+                        "the 13-segment head cap has triangle bundles"
+                    );
+                    let hair = GpuHair::upload(ctx, asset, TexturePrecision::F32)?;
+                    let (lo, hi) = asset.bounds();
+                    let eye =
+                        (0.5 * (lo + hi)).as_vec3() + Vec3::new(0.05, 0.1, 0.4) * (hi - lo).length() as f32;
+                    for lod in [cap, morphing] {
+                        let inputs = inputs_for(asset, eye, lod);
+                        let a = coherent.capture(ctx, &hair, &inputs, GenerationPath::Compute)?;
+                        let b = per_vertex.capture(ctx, &hair, &inputs, GenerationPath::Compute)?;
+                        ensure!(
+                            a.stats == b.stats && !a.strands.is_empty(),
+                            "{name}: {:?} vs {:?}",
+                            a.stats,
+                            b.stats
+                        );
+                        let tolerance = 1e-5 * asset.textures.normalization.scale as f32;
+                        let mut worst = 0f32;
+                        let mut worst_tangent = 0f32;
+                        for (x, y) in a.strands.iter().zip(&b.strands) {
+                            ensure!(
+                                (x.bundle, x.index, x.positions.len())
+                                    == (y.bundle, y.index, y.positions.len())
+                            );
+                            for (p, q) in x.positions.iter().zip(&y.positions) {
+                                worst = worst.max(p.distance(*q));
+                            }
+                            for (p, q) in x.tangents.iter().zip(&y.tangents) {
+                                worst_tangent = worst_tangent.max(p.angle_between(*q).to_degrees());
+                            }
+                        }
+                        let e = compare_to_reference(asset, &inputs, &a)?;
+                        eprintln!(
+                            "  {name}, lod {}: {} strands, coherent vs per-vertex {worst:.2e} (tolerance {tolerance:.2e}), tangents {worst_tangent:.4}°; vs reference {:.4} widths",
+                            lod.enabled,
+                            a.strands.len(),
+                            e.max_position_widths
+                        );
+                        ensure!(worst <= tolerance, "{name}: {worst} > {tolerance}");
+                        ensure!(worst_tangent <= 0.05, "{name}: tangents differ by {worst_tangent}°");
+                        let bound = (1e-5 * asset.textures.normalization.scale
+                            + 0.01 * asset.style.max_displacement())
+                            / asset.style.width;
+                        ensure!(e.max_position_widths <= bound, "{name}: {e:?} over {bound}");
+                    }
+                }
+                Ok(())
+            },
+        ),
         GpuTest::new("mesh_path_matches_compute_path", Requirements::MESH_SHADER, move |ctx| {
             let asset = head_cap_asset(1500, styled(0.1))?;
             let hair = GpuHair::upload(ctx, &asset, TexturePrecision::F32)?;
-            let generator = Generator::new(ctx, Filtering::Hardware)?;
             // Coarse vertex levels pack several strands into one mesh workgroup (16 at 2
             // vertices): a high vertex α exercises that packing, with morphing in between.
             let coarse = LodParams { vertex_alpha: 2000.0, ..lod };
             let coarser = LodParams { vertex_alpha: 20000.0, ..lod };
-            for lod in [full, lod, coarse, coarser] {
+            for (filtering, lod) in [
+                (Filtering::Hardware, full),
+                (Filtering::Hardware, lod),
+                (Filtering::Hardware, coarse),
+                (Filtering::Hardware, coarser),
+                (Filtering::StrandCoherent, full),
+                (Filtering::StrandCoherent, coarser),
+            ] {
+                let generator = Generator::new(ctx, filtering)?;
                 let inputs = inputs_for(&asset, Vec3::new(0.1, 1.75, 0.45), lod);
                 let compute = generator.capture(ctx, &hair, &inputs, GenerationPath::Compute)?;
                 let mesh = generator.capture(ctx, &hair, &inputs, GenerationPath::Mesh)?;
@@ -326,7 +463,7 @@ fn main() -> ExitCode {
                     );
                 }
                 let stats = compare(
-                    &format!("hair_mesh_vs_compute_alpha_{}", lod.vertex_alpha),
+                    &format!("hair_mesh_vs_compute_{filtering:?}_alpha_{}", lod.vertex_alpha),
                     &mesh_image,
                     &compute_image,
                     Tolerance { mean: 0.01, percentile: (0.99, 0.1) },
@@ -335,7 +472,7 @@ fn main() -> ExitCode {
                 let covered = compute_image.pixels.chunks_exact(4).filter(|p| p[0] > 10).count();
                 ensure!(covered > 500, "only {covered} hair pixels");
                 eprintln!(
-                    "  lod {} vertex α {} (vertices per strand {vertex_counts:?}): FLIP mean {:.5}; mesh {:.1} ms, compute {:.1} ms",
+                    "  {filtering:?} lod {} vertex α {} (vertices per strand {vertex_counts:?}): FLIP mean {:.5}; mesh {:.1} ms, compute {:.1} ms",
                     lod.enabled,
                     lod.vertex_alpha,
                     stats.mean,
@@ -505,7 +642,7 @@ fn main() -> ExitCode {
                 ctx,
                 GeneratorOptions { max_chunk_slots: Some(256), ..GeneratorOptions::default() },
             )?;
-            let whole = Generator::new(ctx, Filtering::Hardware)?;
+            let whole = Generator::new(ctx, Filtering::default())?;
             let inputs = inputs_for(&asset, Vec3::new(0.0, 1.7, 0.5), full);
             let frame = chunked.prepare(ctx, &hair, &inputs)?;
             ensure!(frame.chunks() == 6, "{} chunks", frame.chunks());

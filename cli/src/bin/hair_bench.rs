@@ -2,8 +2,10 @@
 //! `docs/benchmarks.md` (between markers, so other sections stay) and CSV files.
 //!
 //! ```text
-//! hair-bench [--quick] [--out DIR] [--device SEL]
+//! hair-bench [--quick] [--only SECTION[,SECTION]] [--out DIR] [--device SEL]
 //! ```
+//! Sections: `generation`, `memory`, `stored`, `accuracy`, `crowd`, `passes`; each sits between
+//! its own markers in the report, so `--only` replaces just those.
 //! Tables: generation + raster per path, GPU memory of an asset vs the same strands stored,
 //! on-the-fly vs stored strands, accuracy vs time, crowds with LOD off and on (the scenes of
 //! `hairkit crowd`), render passes; CSV files beside the report and PNG plots
@@ -39,10 +41,11 @@ struct Cli {
     /// Device index or name part.
     #[arg(long)]
     device: Option<String>,
+    /// Run only these sections (comma-separated: generation, memory, stored, accuracy, crowd,
+    /// passes) and replace only them in the report.
+    #[arg(long, value_name = "SECTION[,SECTION]")]
+    only: Option<String>,
 }
-
-const BEGIN: &str = "<!-- hair-bench:generation:begin -->";
-const END: &str = "<!-- hair-bench:generation:end -->";
 
 fn main() -> std::process::ExitCode {
     env_logger::Builder::from_env(env_logger::Env::default().default_filter_or("warn")).init();
@@ -77,9 +80,21 @@ fn asset(strands: u64) -> Result<HairAsset> {
 struct Row {
     strands: u64,
     path: GenerationPath,
+    filtering: Filtering,
+    /// Vertices generated per frame.
+    vertices: u64,
     generate_ms: f64,
     raster_ms: f64,
     total_ms: f64,
+}
+
+impl Row {
+    /// Generated vertices per second: over the generation pass on the compute path, over the
+    /// raster pass (generation and drawing) on the mesh path.
+    fn vertices_per_s(&self) -> f64 {
+        let ms = if self.path == GenerationPath::Mesh { self.raster_ms } else { self.generate_ms };
+        self.vertices as f64 / (ms * 1e-3)
+    }
 }
 
 fn median(mut v: Vec<f64>) -> f64 {
@@ -87,116 +102,299 @@ fn median(mut v: Vec<f64>) -> f64 {
     v[v.len() / 2]
 }
 
+/// The report's sections in order, as `--only` names them.
+const SECTIONS: [&str; 6] = ["generation", "memory", "stored", "accuracy", "crowd", "passes"];
+
+/// One section of the report: its markdown (between its own markers), CSV files and plots.
+struct Section {
+    name: &'static str,
+    markdown: String,
+    csv: Vec<(&'static str, String)>,
+}
+
+/// What every section measures with.
+struct Setup<'a> {
+    ctx: &'a Context,
+    quick: bool,
+    width: u32,
+    height: u32,
+    /// Strand counts of the one-character tables.
+    sizes: &'static [u64],
+    frames: usize,
+    paths: Vec<GenerationPath>,
+    camera: Camera,
+    character: [Character; 1],
+    out: &'a Path,
+    /// "measured by … on …" for every section's header.
+    provenance: String,
+}
+
+fn markers(name: &str) -> (String, String) {
+    (format!("<!-- hair-bench:{name}:begin -->"), format!("<!-- hair-bench:{name}:end -->"))
+}
+
+/// `existing` with each section's text between its markers replaced; a section without markers
+/// goes after the previous section of the run (or at the end). A report of an older hair-bench
+/// (one `generation` block holding every table) loses that block on a full run.
+fn splice(existing: &str, sections: &[Section], full_run: bool) -> String {
+    let mut text = existing.to_owned();
+    if full_run && !text.contains("<!-- hair-bench:memory:begin -->") {
+        let (b, e) = markers("generation");
+        if let (Some(i), Some(j)) = (text.find(&b), text.find(&e))
+            && j > i
+        {
+            text.replace_range(i..j + e.len(), "");
+        }
+    }
+    let mut after: Option<usize> = None;
+    for section in sections {
+        let (b, e) = markers(section.name);
+        let body = format!("{b}\n{}\n{e}", section.markdown.trim());
+        match (text.find(&b), text.find(&e)) {
+            (Some(i), Some(j)) if j > i => {
+                text.replace_range(i..j + e.len(), &body);
+                after = Some(i + body.len());
+            }
+            _ => {
+                let at = after.unwrap_or(text.trim_end().len());
+                let insert = format!("\n{body}\n");
+                text.insert_str(at.min(text.len()), &insert);
+                after = Some(at + insert.len());
+            }
+        }
+    }
+    if !text.ends_with('\n') {
+        text.push('\n');
+    }
+    text
+}
+
 fn run(cli: &Cli) -> Result<()> {
+    let only: Vec<&'static str> = match &cli.only {
+        None => SECTIONS.to_vec(),
+        Some(list) => {
+            let mut chosen = Vec::new();
+            for name in list.split(',').map(str::trim).filter(|n| !n.is_empty()) {
+                let Some(&known) = SECTIONS.iter().find(|s| **s == name) else {
+                    anyhow::bail!("--only: unknown section `{name}` (sections: {})", SECTIONS.join(", "));
+                };
+                chosen.push(known);
+            }
+            if chosen.is_empty() {
+                anyhow::bail!("--only: no section named (sections: {})", SECTIONS.join(", "));
+            }
+            SECTIONS.iter().copied().filter(|s| chosen.contains(s)).collect()
+        }
+    };
     let ctx = Context::new(&ContextDesc { validation: Validation::Off, device: cli.device.clone() })?;
     let caps = ctx.capabilities().clone();
-    let progress = indicatif::ProgressBar::new(6).with_style(
+    let progress = indicatif::ProgressBar::new(only.len() as u64).with_style(
         indicatif::ProgressStyle::with_template("hair-bench [{bar:30}] {pos}/{len} {elapsed} {msg}")
             .unwrap_or_else(|_| indicatif::ProgressStyle::default_bar())
             .progress_chars("=> "),
     );
+    let mut command = String::from("hair-bench");
+    if cli.quick {
+        command.push_str(" --quick");
+    }
+    if let Some(list) = &cli.only {
+        command.push_str(&format!(" --only {list}"));
+    }
     let (width, height) = if cli.quick { (640, 360) } else { (1280, 720) };
-    let sizes: &[u64] = if cli.quick { &[2_000, 10_000] } else { &[10_000, 100_000] };
-    let frames = if cli.quick { 2 } else { 3 };
     let mut paths = vec![GenerationPath::Compute];
     if caps.mesh_shader.is_some() {
         paths.push(GenerationPath::Mesh);
     }
-    let generator = Generator::new(&ctx, Filtering::Hardware)?;
-    let camera = Camera {
-        eye: Vec3::new(0.0, 1.75, 0.55),
-        target: Vec3::new(0.0, 1.55, 0.0),
-        fov_y: 50f32.to_radians(),
+    let setup = Setup {
+        ctx: &ctx,
+        quick: cli.quick,
+        width,
+        height,
+        sizes: if cli.quick { &[2_000, 10_000] } else { &[10_000, 100_000] },
+        frames: if cli.quick { 2 } else { 3 },
+        paths,
+        camera: Camera {
+            eye: Vec3::new(0.0, 1.75, 0.55),
+            target: Vec3::new(0.0, 1.55, 0.0),
+            fov_y: 50f32.to_radians(),
+        },
+        character: [Character { hair: 0, transform: Mat4::IDENTITY }],
+        out: &cli.out,
+        provenance: format!(
+            "`cargo run --release -p hairkit-cli --bin {command}` on **{}** ({}, Vulkan {}.{})",
+            caps.device_name, caps.driver_info, caps.api_version.0, caps.api_version.1
+        ),
     };
-    let character = [Character { hair: 0, transform: Mat4::IDENTITY }];
-    let mut rows = Vec::new();
-    let mut memory = Vec::new();
-    for &strands in sizes {
-        let asset = asset(strands)?;
-        for precision in [TexturePrecision::F32, TexturePrecision::F16] {
-            let hair = GpuHair::upload(&ctx, &asset, precision)?;
-            memory.push((asset.total_strands(), precision, hair.bytes.total()));
+    std::fs::create_dir_all(&cli.out).with_context(|| format!("creating {}", cli.out.display()))?;
+    let mut sections = Vec::new();
+    for name in &only {
+        progress.set_message(*name);
+        sections.push(match *name {
+            "generation" => generation_section(&setup, &progress)?,
+            "memory" => memory_section(&setup)?,
+            "stored" => stored_section(&setup, &progress)?,
+            "accuracy" => accuracy_section(&setup)?,
+            "crowd" => crowd_section(&setup, &progress)?,
+            _ => passes_section(&setup)?,
+        });
+        progress.inc(1);
+    }
+    progress.finish_and_clear();
+
+    let report = cli.out.join("benchmarks.md");
+    let existing = std::fs::read_to_string(&report).unwrap_or_else(|_| "# Benchmarks\n".into());
+    write(&report, splice(&existing, &sections, cli.only.is_none()).as_bytes())?;
+    for section in &sections {
+        for (file, csv) in &section.csv {
+            write(&cli.out.join(file), csv.as_bytes())?;
         }
-        let hairs = [GpuHair::upload(&ctx, &asset, TexturePrecision::Auto)?];
-        for &path in &paths {
-            let view = FrameView {
-                camera,
-                width,
-                height,
-                path,
-                lod: LodParams { enabled: false, ..LodParams::default() },
-            };
-            progress.set_message(format!("generation: {strands} strands, {path} path"));
-            render_crowd(&ctx, &generator, &hairs, &character, &view)?; // warm-up: pipeline compilation
-            let mut generate = Vec::new();
-            let mut raster = Vec::new();
-            let mut total = Vec::new();
-            for _ in 0..frames {
-                let frame = render_crowd(&ctx, &generator, &hairs, &character, &view)?;
-                let t = &frame.timings;
-                generate.push(t.pass_ms("generate").unwrap_or(f64::NAN));
-                raster.push(t.pass_ms(&format!("raster ({path})")).unwrap_or(f64::NAN));
-                total.push(t.pass_ms("crowd frame").unwrap_or(f64::NAN));
+        println!("{}\n", section.markdown.trim());
+    }
+    println!("wrote {} ({}) and the CSV files beside it", report.display(), only.join(", "));
+    Ok(())
+}
+
+/// Generation + raster of one character per path and per evaluation (strand-coherent, the
+/// default, and per-vertex hardware filtering), LOD off.
+fn generation_section(setup: &Setup<'_>, progress: &indicatif::ProgressBar) -> Result<Section> {
+    let Setup { ctx, width, height, frames, camera, .. } = *setup;
+    let variants = [Filtering::StrandCoherent, Filtering::Hardware];
+    let generators: Vec<Generator> =
+        variants.iter().map(|&f| Generator::new(ctx, f)).collect::<gen_gpu::Result<_>>()?;
+    let mut rows = Vec::new();
+    for &strands in setup.sizes {
+        let hairs = [GpuHair::upload(ctx, &asset(strands)?, TexturePrecision::Auto)?];
+        for &path in &setup.paths {
+            for (&filtering, generator) in variants.iter().zip(&generators) {
+                let lod = LodParams { enabled: false, ..LodParams::default() };
+                let view = FrameView { camera, width, height, path, lod };
+                progress.set_message(format!("generation: {strands} strands, {path} path, {filtering:?}"));
+                render_crowd(ctx, generator, &hairs, &setup.character, &view)?; // warm-up: pipeline compilation
+                let (mut generate, mut raster, mut total) = (Vec::new(), Vec::new(), Vec::new());
+                let mut vertices = 0;
+                for _ in 0..frames {
+                    let frame = render_crowd(ctx, generator, &hairs, &setup.character, &view)?;
+                    let t = &frame.timings;
+                    generate.push(t.pass_ms("generate").unwrap_or(f64::NAN));
+                    raster.push(t.pass_ms(&format!("raster ({path})")).unwrap_or(f64::NAN));
+                    total.push(t.pass_ms("crowd frame").unwrap_or(f64::NAN));
+                    vertices = frame.stats.vertices;
+                }
+                rows.push(Row {
+                    strands: hairs[0].total_strands(),
+                    path,
+                    filtering,
+                    vertices,
+                    generate_ms: median(generate),
+                    raster_ms: median(raster),
+                    total_ms: median(total),
+                });
             }
-            rows.push(Row {
-                strands: asset.total_strands(),
-                path,
-                generate_ms: median(generate),
-                raster_ms: median(raster),
-                total_ms: median(total),
-            });
         }
     }
-
-    progress.inc(1);
     let mut md = String::new();
-    let command = if cli.quick { "hair-bench --quick" } else { "hair-bench" };
-    let _ = writeln!(md, "{BEGIN}\n## On-the-fly generation (`gen-gpu`)\n");
+    let _ = writeln!(md, "## On-the-fly generation (`gen-gpu`)\n");
     let _ = writeln!(
         md,
-        "`cargo run --release -p render --bin {command}` on **{}** ({}, Vulkan {}.{}); {width}×{height}, one character (the\n\
-         project's head cap, 6 layers), LOD off, 33 vertices per strand, placeholder shading. Medians of {frames} frames after\n\
-         a warm-up frame; GPU timestamps. On the mesh path generation happens inside the raster pass.\n",
-        caps.device_name, caps.driver_info, caps.api_version.0, caps.api_version.1
+        "{}; {width}×{height}, one character (the project's head cap, 6 layers), LOD off, 33 vertices per strand, placeholder shading. Medians of {frames} frames after a warm-up frame; GPU timestamps. *Strand-coherent* (the default) blends each slice's four texels once per strand and evaluates every vertex from those values; *per-vertex* samples the textures at every vertex (7 hardware trilinear fetches). On the mesh path generation happens inside the raster pass, so its rate counts raster time too.\n",
+        setup.provenance
     );
-    let _ =
-        writeln!(md, "| strands | path | generate (ms) | raster (ms) | frame (ms) |\n|---|---|---|---|---|");
+    let _ = writeln!(
+        md,
+        "| strands | path | evaluation | generate (ms) | vertices/s | raster (ms) | frame (ms) |\n|---|---|---|---|---|---|---|"
+    );
+    let mut csv = String::from("strands,path,evaluation,generate_ms,raster_ms,frame_ms,vertices_per_s\n");
     for r in &rows {
         let _ = writeln!(
             md,
-            "| {} | {} | {:.1} | {:.1} | {:.1} |",
-            r.strands, r.path, r.generate_ms, r.raster_ms, r.total_ms
+            "| {} | {} | {} | {:.1} | {:.1} M | {:.1} | {:.1} |",
+            r.strands,
+            r.path,
+            evaluation_name(r.filtering),
+            r.generate_ms,
+            r.vertices_per_s() * 1e-6,
+            r.raster_ms,
+            r.total_ms
+        );
+        let _ = writeln!(
+            csv,
+            "{},{},{},{:.3},{:.3},{:.3},{:.0}",
+            r.strands,
+            r.path,
+            evaluation_name(r.filtering),
+            r.generate_ms,
+            r.raster_ms,
+            r.total_ms,
+            r.vertices_per_s()
         );
     }
-    for &strands in sizes {
-        let find =
-            |p| rows.iter().find(|r| r.path == p && (r.strands as f64 / strands as f64 - 1.0).abs() < 0.01);
-        if let (Some(c), Some(m)) = (find(GenerationPath::Compute), find(GenerationPath::Mesh)) {
+    for &strands in setup.sizes {
+        let find = |p, f| {
+            rows.iter().find(|r| {
+                r.path == p && r.filtering == f && (r.strands as f64 / strands as f64 - 1.0).abs() < 0.01
+            })
+        };
+        use Filtering::{Hardware, StrandCoherent};
+        if let (Some(c), Some(v)) =
+            (find(GenerationPath::Compute, StrandCoherent), find(GenerationPath::Compute, Hardware))
+        {
             let _ = writeln!(
                 md,
-                "\nMesh path / compute path frame time at {strands} strands: **{:.2}×**.",
+                "\nStrand-coherent / per-vertex generation rate at {strands} strands (compute path): **{:.2}×** (goal ≥ 5×); frame time {:.2}×.",
+                c.vertices_per_s() / v.vertices_per_s(),
+                c.total_ms / v.total_ms
+            );
+        }
+        if let (Some(c), Some(m)) =
+            (find(GenerationPath::Compute, StrandCoherent), find(GenerationPath::Mesh, StrandCoherent))
+        {
+            let _ = writeln!(
+                md,
+                "\nMesh path / compute path frame time at {strands} strands (strand-coherent): **{:.2}×**.",
                 m.total_ms / c.total_ms
             );
         }
     }
-    let _ = writeln!(md, "\n### GPU memory: asset vs stored strands\n");
+    let plot = draw_generation_plot(setup.out, &rows)?;
+    let _ = writeln!(md, "\n![{}]({})", plot.1, plot.0);
+    Ok(Section { name: "generation", markdown: md, csv: vec![("bench-generation.csv", csv)] })
+}
+
+fn evaluation_name(filtering: Filtering) -> &'static str {
+    match filtering {
+        Filtering::StrandCoherent => "strand-coherent",
+        Filtering::Hardware => "per-vertex (hardware)",
+        Filtering::Manual => "per-vertex (manual)",
+    }
+}
+
+/// GPU memory of an asset against the same strands stored, and by hair-mesh resolution.
+fn memory_section(setup: &Setup<'_>) -> Result<Section> {
+    let ctx = setup.ctx;
+    let mut md = String::new();
+    let _ = writeln!(md, "### GPU memory: asset vs stored strands\n");
     let _ = writeln!(
         md,
-        "Stored strands as the compute path writes them: 33 vertices × 32 bytes (position, width, tangent, parameter); minimal stored form: 33 × 16 bytes (position, width).\n"
+        "{}. Stored strands as the compute path writes them: 33 vertices × 32 bytes (position, width, tangent, parameter); minimal stored form: 33 × 16 bytes (position, width).\n",
+        setup.provenance
     );
     let _ = writeln!(
         md,
         "| strands | textures | asset bytes | stored (32 B/vertex) | ratio | stored (16 B/vertex) | ratio |\n|---|---|---|---|---|---|---|"
     );
-    for (strands, precision, bytes) in &memory {
-        let full = strands * 33 * 32;
-        let minimal = strands * 33 * 16;
-        let _ = writeln!(
-            md,
-            "| {strands} | {precision:?} | {bytes} | {full} | {:.0}× | {minimal} | {:.0}× |",
-            full as f64 / *bytes as f64,
-            minimal as f64 / *bytes as f64
-        );
+    for &strands in setup.sizes {
+        let asset = asset(strands)?;
+        for precision in [TexturePrecision::F32, TexturePrecision::F16] {
+            let bytes = GpuHair::upload(ctx, &asset, precision)?.bytes.total();
+            let strands = asset.total_strands();
+            let (full, minimal) = (strands * 33 * 32, strands * 33 * 16);
+            let _ = writeln!(
+                md,
+                "| {strands} | {precision:?} | {bytes} | {full} | {:.0}× | {minimal} | {:.0}× |",
+                full as f64 / bytes as f64,
+                minimal as f64 / bytes as f64
+            );
+        }
     }
     // The ratio is a property of the hair mesh: strands per (bundle × slice). A sweep of hair-mesh
     // resolutions at 100,000 strands shows where it crosses the 2000× goal, for the paper's layout
@@ -228,7 +426,7 @@ fn run(cli: &Cli) -> Result<()> {
         let blocks = build(SliceLayout::Blocks, 4)?;
         let lattice = build(SliceLayout::Lattice, 1)?;
         let bytes = |asset: &HairAsset, precision| -> Result<u64> {
-            Ok(GpuHair::upload(&ctx, asset, precision)?.bytes.total())
+            Ok(GpuHair::upload(ctx, asset, precision)?.bytes.total())
         };
         let f16_blocks = bytes(&blocks, TexturePrecision::F16)?;
         let f16 = bytes(&lattice, TexturePrecision::F16)?;
@@ -257,91 +455,86 @@ fn run(cli: &Cli) -> Result<()> {
         "\nPer texel of a slice the F16 textures spend 8 bytes per hair-mesh slice (1 + 3L), 16 per layer for û and v̂, 2 per layer for w and 4 for uv; the bundle table 48 bytes per bundle. Coarse meshes are dominated by their sample sets (few bundles, so many strands in the largest one), dense ones by the textures."
     );
 
-    // On the fly vs stored: the same strands, generated every frame or drawn from the buffers
-    // an earlier frame filled.
-    let _ = writeln!(md, "\n### On-the-fly vs stored strands\n");
+    Ok(Section { name: "memory", markdown: md, csv: vec![("bench-memory.csv", sweep_csv)] })
+}
+
+/// The same strands generated every frame (both evaluations) or drawn from the buffers an
+/// earlier frame filled.
+fn stored_section(setup: &Setup<'_>, progress: &indicatif::ProgressBar) -> Result<Section> {
+    let Setup { ctx, width, height, frames, camera, .. } = *setup;
+    let mut md = String::new();
+    let _ = writeln!(md, "### On-the-fly vs stored strands\n");
     let _ = writeln!(
         md,
-        "Compute path; \"stored\" draws the strand buffers an earlier frame generated (vertex pulling, same shading), so only generation differs.\n"
+        "{}; {width}×{height}, compute path; \"stored\" draws the strand buffers an earlier frame generated (vertex pulling, same shading), so only generation differs. Medians of {frames} frames.\n",
+        setup.provenance
     );
     let _ = writeln!(
         md,
-        "| strands | on the fly (ms) | stored (ms) | time ratio (goal ≤ 1.05×) |\n|---|---|---|---|"
+        "| strands | on the fly, strand-coherent (ms) | on the fly, per-vertex (ms) | stored (ms) | ratio, strand-coherent (goal ≤ 1.05×) | ratio, per-vertex |\n|---|---|---|---|---|---|"
     );
-    let mut stored_csv = String::from("strands,on_the_fly_ms,stored_ms,ratio\n");
-    let mut stored_points = Vec::new();
-    for &strands in sizes {
+    let mut csv = String::from("strands,on_the_fly_ms,per_vertex_ms,stored_ms,ratio,per_vertex_ratio\n");
+    let coherent = Generator::new(ctx, Filtering::StrandCoherent)?;
+    let per_vertex = Generator::new(ctx, Filtering::Hardware)?;
+    for &strands in setup.sizes {
         progress.set_message(format!("on the fly vs stored: {strands} strands"));
-        let hairs = [GpuHair::upload(&ctx, &asset(strands)?, TexturePrecision::Auto)?];
+        let hairs = [GpuHair::upload(ctx, &asset(strands)?, TexturePrecision::Auto)?];
         let lod = LodParams { enabled: false, ..LodParams::default() };
         let view = FrameView { camera, width, height, path: GenerationPath::Compute, lod };
-        let buffers = prepare_crowd(&ctx, &generator, &hairs, &character, &view)?;
-        render_prepared(&ctx, &generator, &hairs, &character, &buffers, &view, true)?;
-        let mut live = Vec::new();
-        let mut stored = Vec::new();
+        let character = &setup.character;
+        let buffers = prepare_crowd(ctx, &coherent, &hairs, character, &view)?;
+        let per_vertex_buffers = prepare_crowd(ctx, &per_vertex, &hairs, character, &view)?;
+        render_prepared(ctx, &coherent, &hairs, character, &buffers, &view, true)?;
+        render_prepared(ctx, &per_vertex, &hairs, character, &per_vertex_buffers, &view, true)?;
+        let (mut live, mut live_per_vertex, mut stored) = (Vec::new(), Vec::new(), Vec::new());
         for _ in 0..frames {
-            let frame = |regenerate| -> Result<f64> {
-                let f = render_prepared(&ctx, &generator, &hairs, &character, &buffers, &view, regenerate)?;
-                Ok(f.timings.pass_ms("crowd frame").unwrap_or(f64::NAN))
-            };
-            live.push(frame(true)?);
-            stored.push(frame(false)?);
+            let frame =
+                |generator: &Generator, buffers: &[gen_gpu::FrameBuffers], regenerate| -> Result<f64> {
+                    let f = render_prepared(ctx, generator, &hairs, character, buffers, &view, regenerate)?;
+                    Ok(f.timings.pass_ms("crowd frame").unwrap_or(f64::NAN))
+                };
+            live.push(frame(&coherent, &buffers, true)?);
+            live_per_vertex.push(frame(&per_vertex, &per_vertex_buffers, true)?);
+            stored.push(frame(&coherent, &buffers, false)?);
         }
-        let (live, stored) = (median(live), median(stored));
+        let (live, live_per_vertex, stored) = (median(live), median(live_per_vertex), median(stored));
         let n = hairs[0].total_strands();
-        let _ = writeln!(md, "| {n} | {live:.1} | {stored:.1} | {:.2}× |", live / stored);
-        let _ = writeln!(stored_csv, "{n},{live:.3},{stored:.3},{:.4}", live / stored);
-        stored_points.push((n as f64, stored));
-    }
-    progress.inc(1);
-
-    progress.set_message("accuracy vs time");
-    let accuracy = accuracy_table(&ctx, cli.quick, width, height, frames)?;
-    md.push_str(&accuracy.markdown);
-    progress.inc(1);
-    let (crowd, crowd_rows) = crowd_table(&ctx, cli.quick, &progress)?;
-    md.push_str(&crowd.markdown);
-    progress.inc(1);
-    progress.set_message("render passes");
-    let effects = effects_table(&ctx, cli.quick, width, height, frames)?;
-    md.push_str(&effects.markdown);
-    progress.inc(1);
-    progress.set_message("plots");
-    let plots = draw_plots(&cli.out, &rows, &stored_points, &accuracy.csv, &crowd_rows)?;
-    let _ = writeln!(md, "\n### Plots\n");
-    for (file, caption) in &plots {
-        let _ = writeln!(md, "![{caption}]({file})\n");
-    }
-    progress.finish_and_clear();
-    let _ = writeln!(md, "{END}");
-
-    std::fs::create_dir_all(&cli.out).with_context(|| format!("creating {}", cli.out.display()))?;
-    let report = cli.out.join("benchmarks.md");
-    let existing = std::fs::read_to_string(&report).unwrap_or_else(|_| "# Benchmarks\n".into());
-    let updated = match (existing.find(BEGIN), existing.find(END)) {
-        (Some(b), Some(e)) if e > b => {
-            format!("{}{}{}", &existing[..b], md.trim_end(), &existing[e + END.len()..])
-        }
-        _ => format!("{}\n{}\n", existing.trim_end(), md.trim_end()),
-    };
-    write(&report, updated.as_bytes())?;
-    let mut csv = String::from("strands,path,generate_ms,raster_ms,frame_ms\n");
-    for r in &rows {
+        let _ = writeln!(
+            md,
+            "| {n} | {live:.1} | {live_per_vertex:.1} | {stored:.1} | **{:.2}×** | {:.2}× |",
+            live / stored,
+            live_per_vertex / stored
+        );
         let _ = writeln!(
             csv,
-            "{},{},{:.3},{:.3},{:.3}",
-            r.strands, r.path, r.generate_ms, r.raster_ms, r.total_ms
+            "{n},{live:.3},{live_per_vertex:.3},{stored:.3},{:.4},{:.4}",
+            live / stored,
+            live_per_vertex / stored
         );
     }
-    write(&cli.out.join("bench-generation.csv"), csv.as_bytes())?;
-    write(&cli.out.join("bench-stored.csv"), stored_csv.as_bytes())?;
-    write(&cli.out.join("bench-memory.csv"), sweep_csv.as_bytes())?;
-    write(&cli.out.join("bench-accuracy.csv"), accuracy.csv.as_bytes())?;
-    write(&cli.out.join("bench-effects.csv"), effects.csv.as_bytes())?;
-    write(&cli.out.join("bench-crowd.csv"), crowd.csv.as_bytes())?;
-    println!("{}", md.replace(BEGIN, "").replace(END, "").trim());
-    println!("\nwrote {} and the CSV files beside it", report.display());
-    Ok(())
+    Ok(Section { name: "stored", markdown: md, csv: vec![("bench-stored.csv", csv)] })
+}
+
+fn accuracy_section(setup: &Setup<'_>) -> Result<Section> {
+    let table = accuracy_table(setup.ctx, setup.quick, setup.width, setup.height, setup.frames)?;
+    let plot = draw_accuracy_plot(setup.out, &table.csv)?;
+    let markdown =
+        format!("{}\n\n_{}._\n\n![{}]({})\n", table.markdown.trim(), setup.provenance, plot.1, plot.0);
+    Ok(Section { name: "accuracy", markdown, csv: vec![("bench-accuracy.csv", table.csv)] })
+}
+
+fn crowd_section(setup: &Setup<'_>, progress: &indicatif::ProgressBar) -> Result<Section> {
+    let (table, rows) = crowd_table(setup.ctx, setup.quick, progress)?;
+    let plot = draw_crowd_plot(setup.out, &rows)?;
+    let markdown =
+        format!("{}\n\n_{}._\n\n![{}]({})\n", table.markdown.trim(), setup.provenance, plot.1, plot.0);
+    Ok(Section { name: "crowd", markdown, csv: vec![("bench-crowd.csv", table.csv)] })
+}
+
+fn passes_section(setup: &Setup<'_>) -> Result<Section> {
+    let table = effects_table(setup.ctx, setup.quick, setup.width, setup.height, setup.frames)?;
+    let markdown = format!("{}\n\n_{}._\n", table.markdown.trim(), setup.provenance);
+    Ok(Section { name: "passes", markdown, csv: vec![("bench-effects.csv", table.csv)] })
 }
 
 fn write(path: &Path, bytes: &[u8]) -> Result<()> {
@@ -504,26 +697,22 @@ fn crowd_table(
     Ok((Table { markdown: md, csv }, rows))
 }
 
-/// The report's charts, as (file name, caption).
-fn draw_plots(
-    out: &Path,
-    rows: &[Row],
-    stored: &[(f64, f64)],
-    accuracy_csv: &str,
-    crowd: &[CrowdRow],
-) -> Result<Vec<(String, String)>> {
+/// Frame time against strands per path and evaluation, as (file name, caption).
+fn draw_generation_plot(out: &Path, rows: &[Row]) -> Result<(String, String)> {
     use hairkit_cli::plots::{Chart, Series, draw};
-    std::fs::create_dir_all(out).with_context(|| format!("creating {}", out.display()))?;
-    let mut files = Vec::new();
-    let mut series: Vec<Series> = [GenerationPath::Compute, GenerationPath::Mesh]
-        .into_iter()
-        .map(|path| Series {
-            name: format!("{path} path (generated every frame)"),
-            points: rows.iter().filter(|r| r.path == path).map(|r| (r.strands as f64, r.total_ms)).collect(),
-        })
-        .filter(|s| !s.points.is_empty())
-        .collect();
-    series.push(Series { name: "stored strands (compute path buffers)".into(), points: stored.to_vec() });
+    let mut series: Vec<Series> = Vec::new();
+    for path in [GenerationPath::Compute, GenerationPath::Mesh] {
+        for filtering in [Filtering::StrandCoherent, Filtering::Hardware] {
+            let points: Vec<(f64, f64)> = rows
+                .iter()
+                .filter(|r| r.path == path && r.filtering == filtering)
+                .map(|r| (r.strands as f64, r.total_ms))
+                .collect();
+            if !points.is_empty() {
+                series.push(Series { name: format!("{path} path, {}", evaluation_name(filtering)), points });
+            }
+        }
+    }
     let chart = Chart {
         title: "Frame time vs strands (one character, LOD off)",
         x_label: "strands",
@@ -533,7 +722,11 @@ fn draw_plots(
         lines: true,
     };
     draw(&out.join("plot-generation.png"), &chart, &series)?;
-    files.push(("plot-generation.png".to_owned(), chart.title.to_owned()));
+    Ok(("plot-generation.png".to_owned(), chart.title.to_owned()))
+}
+
+fn draw_accuracy_plot(out: &Path, accuracy_csv: &str) -> Result<(String, String)> {
+    use hairkit_cli::plots::{Chart, Series, draw};
     // configuration, max_widths, mean_widths, max_percent, strands, flip, frame_ms, bytes
     let accuracy: Vec<Series> = accuracy_csv
         .lines()
@@ -554,7 +747,11 @@ fn draw_plots(
         lines: false,
     };
     draw(&out.join("plot-accuracy.png"), &chart, &accuracy)?;
-    files.push(("plot-accuracy.png".to_owned(), chart.title.to_owned()));
+    Ok(("plot-accuracy.png".to_owned(), chart.title.to_owned()))
+}
+
+fn draw_crowd_plot(out: &Path, crowd: &[CrowdRow]) -> Result<(String, String)> {
+    use hairkit_cli::plots::{Chart, Series, draw};
     let crowd_series: Vec<Series> = crowd
         .chunk_by(|a, b| a.scene == b.scene)
         .map(|group| Series {
@@ -575,8 +772,7 @@ fn draw_plots(
         lines: true,
     };
     draw(&out.join("plot-crowd.png"), &chart, &crowd_series)?;
-    files.push(("plot-crowd.png".to_owned(), chart.title.to_owned()));
-    Ok(files)
+    Ok(("plot-crowd.png".to_owned(), chart.title.to_owned()))
 }
 
 /// `α_s = 64 / α_v = 1024`.
@@ -608,6 +804,7 @@ fn accuracy_table(ctx: &Context, quick: bool, width: u32, height: u32, frames: u
     let character = [Character { hair: 0, transform: Mat4::IDENTITY }];
     let off = LodParams { enabled: false, ..LodParams::default() };
     let lod = |alpha: f64| LodParams { strand_alpha: alpha, vertex_alpha: alpha, ..LodParams::default() };
+    let hardware = GeneratorOptions { filtering: Filtering::Hardware, ..GeneratorOptions::default() };
     let configs: Vec<(&str, TexturePrecision, GeneratorOptions, LodParams)> = vec![
         (
             "exact cubic / f32 / manual filtering",
@@ -620,16 +817,18 @@ fn accuracy_table(ctx: &Context, quick: bool, width: u32, height: u32, frames: u
             off,
         ),
         (
-            "quadratics / f32 / manual filtering",
+            "quadratics / f32 / per-vertex manual filtering",
             TexturePrecision::F32,
             GeneratorOptions { filtering: Filtering::Manual, ..GeneratorOptions::default() },
             off,
         ),
-        ("quadratics / f32 / hardware trilinear", TexturePrecision::F32, GeneratorOptions::default(), off),
-        ("quadratics / f16 / hardware trilinear", TexturePrecision::F16, GeneratorOptions::default(), off),
-        ("f32 hardware / LOD α = 1", TexturePrecision::F32, GeneratorOptions::default(), lod(1.0)),
-        ("f32 hardware / LOD α = 4", TexturePrecision::F32, GeneratorOptions::default(), lod(4.0)),
-        ("f32 hardware / LOD α = 16", TexturePrecision::F32, GeneratorOptions::default(), lod(16.0)),
+        ("quadratics / f32 / strand-coherent", TexturePrecision::F32, GeneratorOptions::default(), off),
+        ("quadratics / f32 / hardware trilinear", TexturePrecision::F32, hardware, off),
+        ("quadratics / f16 / strand-coherent", TexturePrecision::F16, GeneratorOptions::default(), off),
+        ("quadratics / f16 / hardware trilinear", TexturePrecision::F16, hardware, off),
+        ("f32 strand-coherent / LOD α = 1", TexturePrecision::F32, GeneratorOptions::default(), lod(1.0)),
+        ("f32 strand-coherent / LOD α = 4", TexturePrecision::F32, GeneratorOptions::default(), lod(4.0)),
+        ("f32 strand-coherent / LOD α = 16", TexturePrecision::F32, GeneratorOptions::default(), lod(16.0)),
     ];
     let mut md = String::new();
     let _ = writeln!(md, "\n### Accuracy vs time\n");

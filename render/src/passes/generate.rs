@@ -35,26 +35,22 @@ fn frame<'a>(state: &'a FrameState<'_>, i: usize) -> Option<&'a gen_gpu::FrameBu
     state.frames.iter().find(|(c, _)| *c == i).map(|(_, f)| f)
 }
 
-pub(crate) fn record_lod(
+/// Records character `i`'s LOD pass (`generate == false`) or its generation pass, when the
+/// character is in this submission's batch.
+pub(crate) fn record(
     r: &SceneRenderer,
     rec: &mut Recorder<'_>,
     state: &FrameState<'_>,
     i: usize,
+    generate: bool,
 ) -> gen_gpu::Result<()> {
     if let Some(frame) = frame(state, i) {
-        r.generator.record_lod(rec, &r.hairs[r.characters[i].hair], frame);
-    }
-    Ok(())
-}
-
-pub(crate) fn record_generate(
-    r: &SceneRenderer,
-    rec: &mut Recorder<'_>,
-    state: &FrameState<'_>,
-    i: usize,
-) -> gen_gpu::Result<()> {
-    if let Some(frame) = frame(state, i) {
-        r.generator.record_generate(rec, &r.hairs[r.characters[i].hair], frame);
+        let hair = &r.hairs[r.characters[i].hair];
+        if generate {
+            r.generator.record_generate(rec, hair, frame);
+        } else {
+            r.generator.record_lod(rec, hair, frame);
+        }
     }
     Ok(())
 }

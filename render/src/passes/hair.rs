@@ -50,11 +50,8 @@ pub(crate) fn record_prepass(
 ) -> gen_gpu::Result<()> {
     let Some(generator) = &r.depth_prepass else { return Ok(()) };
     let view = &state.plan.view;
-    state.target.begin_rendering(rec, clear);
     let solid = state.frames.iter().filter(|(i, _)| r.may_cover_pixels(&r.characters[*i], view));
-    let drawn = draw_characters(r, rec, generator, solid, state.stored_params, &[], view.camera.eye);
-    rec.end_rendering();
-    drawn
+    draw_into_target(r, rec, state, clear, generator, solid, &[])
 }
 
 pub(crate) fn record_raster(
@@ -63,10 +60,23 @@ pub(crate) fn record_raster(
     state: &FrameState<'_>,
     clear: Option<[f32; 3]>,
 ) -> gen_gpu::Result<()> {
-    let eye = state.plan.view.camera.eye;
+    draw_into_target(r, rec, state, clear, &r.generator, state.frames, &state.lighting)
+}
+
+/// One rendering scope on the scene target (cleared to `clear`, or loaded) drawing `batch` and
+/// the stored-strand characters with `generator`: the body of every strand-drawing pass.
+pub(crate) fn draw_into_target<'b>(
+    r: &SceneRenderer,
+    rec: &mut Recorder<'_>,
+    state: &FrameState<'_>,
+    clear: Option<[f32; 3]>,
+    generator: &Generator,
+    batch: impl IntoIterator<Item = &'b (usize, FrameBuffers)>,
+    extra: &[(u32, &Buffer)],
+) -> gen_gpu::Result<()> {
     state.target.begin_rendering(rec, clear);
-    let drawn =
-        draw_characters(r, rec, &r.generator, state.frames, state.stored_params, &state.lighting, eye);
+    let eye = state.plan.view.camera.eye;
+    let drawn = draw_characters(r, rec, generator, batch, state.stored_params, extra, eye);
     rec.end_rendering();
     drawn
 }

@@ -90,8 +90,8 @@ pub(crate) fn record(
     let clear = run.untouched(state.plan.ids.color).then_some(r.scene.scene.output.background);
     match pass.payload {
         ScenePass::Shadow(_) => Ok(()),
-        ScenePass::LodCull(i) => generate::record_lod(r, rec, state, i),
-        ScenePass::Generate(i) => generate::record_generate(r, rec, state, i),
+        ScenePass::LodCull(i) => generate::record(r, rec, state, i, false),
+        ScenePass::Generate(i) => generate::record(r, rec, state, i, true),
         ScenePass::ClearOit => oit::record_clear(rec, state),
         ScenePass::Occluders => occluders::record(r, rec, state, clear),
         ScenePass::DepthPrepass => hair::record_prepass(r, rec, state, clear),

@@ -77,12 +77,7 @@ pub(crate) fn record_fill(
     clear: Option<[f32; 3]>,
 ) -> gen_gpu::Result<()> {
     let (Some(oit), Some(extra)) = (&r.oit, fill_buffers(state)) else { return Ok(()) };
-    let eye = state.plan.view.camera.eye;
-    state.target.begin_rendering(rec, clear);
-    let drawn =
-        super::hair::draw_characters(r, rec, &oit.fill, state.frames, state.stored_params, &extra, eye);
-    rec.end_rendering();
-    drawn
+    super::hair::draw_into_target(r, rec, state, clear, &oit.fill, state.frames, &extra)
 }
 
 pub(crate) fn record_resolve(
