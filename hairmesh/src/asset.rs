@@ -118,6 +118,8 @@ pub struct SampleSet {
 pub enum LayerSource {
     /// Extruded along smoothed vertex normals ([`HairMesh::extrude`]).
     Extruded(crate::hair_mesh::ExtrudeParams),
+    /// Laid over the head ([`HairMesh::drape`]).
+    Draped(crate::hair_mesh::DrapeParams),
     /// One morph target of the scalp file per layer ([`HairMesh::from_morph_targets`]).
     MorphTargets,
 }

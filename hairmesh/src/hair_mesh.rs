@@ -48,6 +48,27 @@ impl Default for ExtrudeParams {
     }
 }
 
+/// How [`HairMesh::drape`] lays hair over a head.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+pub struct DrapeParams {
+    /// Number of layers above the root layer (L ≥ 1).
+    pub layers: u32,
+    /// Hair length (arc length from the root to the tip), in the file's units.
+    pub length: f64,
+    /// The centre of the head the hair flows around (the skull's centre, roughly).
+    pub centre: DVec3,
+    /// How far the hair moves away from the head per unit of length while it flows over it
+    /// (0 = it keeps its root's distance from `centre`).
+    pub lift: f64,
+    /// The direction gravity pulls (the file's "down").
+    pub gravity: DVec3,
+    /// Added to the gravity direction while the hair flows over the head: the way it is
+    /// combed (e.g. backwards, away from the face; sideways for a side part). The hair never
+    /// flows from the direction opposite to this sum, so put that direction off the scalp
+    /// (into the face for hair combed back).
+    pub comb: DVec3,
+}
+
 /// Most layers a hair mesh may have (the texture holds 1 + 3L slices).
 pub const MAX_LAYERS: u32 = 64;
 
@@ -122,6 +143,68 @@ impl HairMesh {
             })
             .collect();
         Ok(Self { layers, faces, uvs: scalp.uvs.clone() })
+    }
+
+    /// Builds the hair mesh by laying hair over a head: each vertex column flows over a sphere
+    /// around `centre` (its radius the root's distance, growing by `lift` per unit length),
+    /// turning from the root's direction towards `gravity + comb` at one radian per radius of
+    /// length, until the head's surface turns vertical (the direction from the centre is
+    /// perpendicular to gravity); from there it hangs straight down. Hair that starts below
+    /// that line hangs from its root. Roots keep their positions; neighbouring roots get
+    /// neighbouring paths, so bundles stay well shaped.
+    pub fn drape(scalp: &ScalpMesh, params: &DrapeParams) -> Result<Self> {
+        let bad = |message: String| HairMeshError::InvalidParameter { what: "drape", message };
+        if params.layers == 0 || params.layers > MAX_LAYERS {
+            return Err(bad(format!("{} layers (expected 1..={MAX_LAYERS})", params.layers)));
+        }
+        if !(params.length.is_finite() && params.length > 0.0) {
+            return Err(bad(format!("length {} (expected a positive number)", params.length)));
+        }
+        if !(params.centre.is_finite() && params.lift.is_finite() && params.lift >= 0.0) {
+            return Err(bad("the centre must be finite and the lift finite and ≥ 0".into()));
+        }
+        let gravity = params
+            .gravity
+            .try_normalize()
+            .ok_or_else(|| bad(format!("gravity {} has no direction", params.gravity)))?;
+        let flow = (gravity + params.comb)
+            .try_normalize()
+            .ok_or_else(|| bad(format!("gravity + comb = {} has no direction", gravity + params.comb)))?;
+        let l = params.layers as usize;
+        // Sub-steps per layer of the march along each column (the path is smooth; 16 keep the
+        // arc-length error far below a layer's spacing).
+        const STEPS: usize = 16;
+        let ds = params.length / (l * STEPS) as f64;
+        let mut layers = vec![Vec::with_capacity(scalp.positions.len()); l + 1];
+        for &root in &scalp.positions {
+            let r0 = root - params.centre;
+            let radius0 = r0.length();
+            let mut dir = r0.try_normalize().unwrap_or(-gravity);
+            let mut p = root;
+            let mut hanging = dir.dot(gravity) >= 0.0;
+            let mut s = 0.0;
+            layers[0].push(root);
+            for layer in layers.iter_mut().skip(1) {
+                for _ in 0..STEPS {
+                    s += ds;
+                    if hanging {
+                        p += gravity * ds;
+                        continue;
+                    }
+                    let radius = (radius0 + params.lift * s).max(1e-12);
+                    // Turn towards the flow direction by ds / radius, about the axis between them
+                    // (any perpendicular when they are opposite).
+                    let axis =
+                        dir.cross(flow).try_normalize().unwrap_or_else(|| dir.any_orthonormal_vector());
+                    let angle = (ds / radius).min(dir.angle_between(flow));
+                    dir = glam::DQuat::from_axis_angle(axis, angle).mul_vec3(dir).normalize();
+                    p = params.centre + dir * radius;
+                    hanging = dir.dot(gravity) >= 0.0;
+                }
+                layer.push(p);
+            }
+        }
+        Ok(Self { layers, faces: bundle_faces(scalp), uvs: scalp.uvs.clone() })
     }
 
     /// Builds the hair mesh from the scalp's morph targets: layer k is target k.
@@ -317,6 +400,52 @@ mod tests {
         };
         assert!(vertex_normals(&scalp).iter().all(|n| (n.length() - 1.0).abs() < 1e-12));
         assert_eq!(bundle_faces(&scalp).len(), 2, "no quad made from degenerate triangles");
+    }
+
+    #[test]
+    fn draped_hair_flows_over_the_head_and_hangs() {
+        // A cap of a unit sphere around the origin: top and back hemisphere roots.
+        let mut positions = Vec::new();
+        for i in 0..=8 {
+            for j in 0..=8 {
+                let (theta, phi) =
+                    (0.1 + 1.2 * f64::from(i) / 8.0, std::f64::consts::PI * f64::from(j) / 8.0);
+                positions.push(DVec3::new(theta.sin() * phi.cos(), theta.cos(), -theta.sin() * phi.sin()));
+            }
+        }
+        let faces = (0..8u32)
+            .flat_map(|i| {
+                (0..8u32).map(move |j| vec![i * 9 + j, i * 9 + j + 1, (i + 1) * 9 + j + 1, (i + 1) * 9 + j])
+            })
+            .collect();
+        let scalp = ScalpMesh { positions, faces, ..Default::default() };
+        let params = DrapeParams {
+            layers: 8,
+            length: 3.0,
+            centre: DVec3::ZERO,
+            lift: 0.05,
+            gravity: DVec3::NEG_Y,
+            comb: DVec3::new(0.0, 0.0, -2.0),
+        };
+        let hm = HairMesh::drape(&scalp, &params).expect("drape");
+        for v in 0..hm.vertex_count() {
+            let column = hm.column(v as u32);
+            assert_eq!(column[0], scalp.positions[v]);
+            // Never into the head, arc length = the hair length, the tip below the root.
+            assert!(column.iter().all(|p| p.length() >= 1.0 - 1e-9), "{column:?}");
+            let arc: f64 = column.windows(2).map(|p| p[0].distance(p[1])).sum();
+            assert!(arc <= 3.0 * 1.01 && arc > 2.5, "arc {arc}");
+            assert!(column[8].y < column[0].y - 1.0, "tip {} root {}", column[8], column[0]);
+        }
+        for bad in [
+            DrapeParams { layers: 0, ..params },
+            DrapeParams { length: f64::NAN, ..params },
+            DrapeParams { lift: -1.0, ..params },
+            DrapeParams { gravity: DVec3::ZERO, ..params },
+            DrapeParams { comb: DVec3::Y, ..params },
+        ] {
+            assert!(HairMesh::drape(&scalp, &bad).is_err(), "{bad:?}");
+        }
     }
 
     #[test]

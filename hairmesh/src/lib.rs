@@ -22,5 +22,5 @@ pub mod teapot;
 pub mod texture;
 
 pub use error::{HairMeshError, Result};
-pub use hair_mesh::{BundleFace, ExtrudeParams, HairMesh};
+pub use hair_mesh::{BundleFace, DrapeParams, ExtrudeParams, HairMesh};
 pub use scalp::{ScalpMesh, ScalpSelector};

@@ -54,6 +54,30 @@ fn convert_and_info_on_the_readme_examples() {
     let (ok, stdout, stderr) = hairmesh(&["info", out.to_str().expect("utf-8")]);
     assert!(ok, "{stderr}");
     assert!(stdout.contains("square set 0") && stdout.contains("F16"), "{stdout}");
+    // The README's hairline and draped long hair on the same head; `info` names the provenance.
+    let draped = dir.path().join("lee_draped");
+    let (ok, _, stderr) = hairmesh(&[
+        "convert",
+        &lee,
+        "-o",
+        draped.to_str().expect("utf-8"),
+        "--scalp",
+        "above:0,0.8192,-0.5735,1.3435",
+        "--drape",
+        "0,1.9,-0.2",
+        "--comb",
+        "0,0,-2.5",
+        "--layers",
+        "6",
+        "--length",
+        "4.5",
+        "--strands",
+        "3000",
+    ]);
+    assert!(ok, "{stderr}");
+    let (ok, stdout, stderr) = hairmesh(&["info", draped.to_str().expect("utf-8")]);
+    assert!(ok, "{stderr}");
+    assert!(stdout.contains("draped around") && stdout.contains("above:0,0.8192"), "{stdout}");
     let (ok, stdout, _) = hairmesh(&["info", &repo("tests/data/strands/tressfx/v4/Ratboy_mohawk.tfx")]);
     assert!(ok && stdout.contains("2228"), "{stdout}");
     let (ok, stdout, _) = hairmesh(&["info", &repo("tests/data/strands/tressfx/v4/Ratboy_mohawk.tfxbone")]);
@@ -75,6 +99,8 @@ fn bad_input_is_refused_and_writes_nothing() {
         (vec!["convert", &cap, "-o", o, "--strands", "0"], "strands"),
         (vec!["convert", &cap, "-o", o, "--density", "1", "--strands", "5"], "cannot be used with"),
         (vec!["convert", &cap, "-o", o, "--morph-layers"], "no morph targets"),
+        (vec!["convert", &cap, "-o", o, "--drape", "0,1.6"], "three finite numbers"),
+        (vec!["convert", &cap, "-o", o, "--drape", "0,1.6,0", "--comb", "0,1,0"], "no direction"),
         (vec!["info", "nothing.txt"], "nothing.txt"),
     ] {
         let (ok, _, stderr) = hairmesh(&args);

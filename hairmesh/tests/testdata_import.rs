@@ -132,7 +132,7 @@ fn scalp_selections_of_the_real_heads() {
 fn real_heads_become_hair_meshes() {
     use hairmesh::{BundleFace, ExtrudeParams, HairMesh};
     for (file, selector, length) in [
-        ("heads/LeePerrySmith/LeePerrySmith.glb", "above:0,1,0,1.5", 3.0),
+        ("heads/LeePerrySmith/LeePerrySmith.glb", "above:0,0.8192,-0.5735,1.3435", 3.0),
         ("heads/sintel/sintel_bust.obj", "above:0,0.9138,-0.4061,32", 15.0),
     ] {
         let selector = ScalpSelector::parse(selector).expect("valid selector");
@@ -154,5 +154,90 @@ fn real_heads_become_hair_meshes() {
         assert!(hm.layers.iter().flatten().all(|p| p.is_finite()));
         // Both heads were modelled in quads: most triangles pair back up.
         assert!(quads * 2 > hm.faces.len(), "{file}: only {quads} of {} bundles are quads", hm.faces.len());
+    }
+}
+
+/// The documented hairlines: hair from each real head's selection, laid over the head, has no
+/// root below the hairline and keeps clear of the face.
+#[test]
+fn real_heads_get_hair_above_their_hairlines_and_off_their_faces() {
+    use glam::DVec3;
+    use hairmesh::{DrapeParams, HairMesh};
+    struct Head {
+        file: &'static str,
+        selector: &'static str,
+        /// The hairline as a plane: every root has `dot(normal, root) > offset`.
+        hairline: (DVec3, f64),
+        skull: DVec3,
+        length: f64,
+        /// Below the hairline in front: (x half-width, y range, the face's z from which on no
+        /// hair may be).
+        face: (f64, (f64, f64), f64),
+    }
+    let heads = [
+        // Face towards +Z, top of the head at y = 3.97, nose tip at z = 2.59: the hairline at
+        // y ≈ 2.9 over the forehead, above the ears at the sides, y ≈ 0.3 at the nape.
+        Head {
+            file: "heads/LeePerrySmith/LeePerrySmith.glb",
+            selector: "above:0,0.8192,-0.5735,1.3435",
+            hairline: (DVec3::new(0.0, 1.0, -0.7), 1.3),
+            skull: DVec3::new(0.0, 1.9, -0.2),
+            length: 4.5,
+            face: (1.2, (-0.6, 2.4), 1.5),
+        },
+        // Centimetres, face towards +Z, top at y = 45.5, nose tip at (0, 28.4, 11.9); the face
+        // between the temples (|x| < 5) and below the brows (y < 36).
+        Head {
+            file: "heads/sintel/sintel_bust.obj",
+            selector: "above:0,0.9138,-0.4061,32",
+            hairline: (DVec3::new(0.0, 0.9138, -0.4061), 30.0),
+            skull: DVec3::new(0.0, 34.0, -0.5),
+            length: 25.0,
+            face: (5.0, (22.0, 36.0), 6.0),
+        },
+    ];
+    for head in heads {
+        let selector = ScalpSelector::parse(head.selector).expect("valid selector");
+        let scalp = load_scalp(&testdata().join(head.file), &selector).expect("scalp loads");
+        let hm = HairMesh::drape(
+            &scalp,
+            &DrapeParams {
+                layers: 6,
+                length: head.length,
+                centre: head.skull,
+                lift: 0.04,
+                gravity: DVec3::NEG_Y,
+                comb: DVec3::new(0.0, 0.0, -2.5),
+            },
+        )
+        .expect("drapes");
+        let (normal, offset) = head.hairline;
+        let lowest = hm.layers[0].iter().map(|r| normal.dot(*r)).fold(f64::INFINITY, f64::min);
+        assert!(lowest > offset, "{}: a root at {lowest} is below the hairline {offset}", head.file);
+        let (half_width, (y0, y1), front) = head.face;
+        let in_face = |p: &&DVec3| p.x.abs() < half_width && p.y > y0 && p.y < y1 && p.z > front;
+        let covering: Vec<&DVec3> = hm.layers.iter().flatten().filter(in_face).collect();
+        assert!(
+            covering.is_empty(),
+            "{}: {} hair points over the face, e.g. {}",
+            head.file,
+            covering.len(),
+            covering[0]
+        );
+        // In front of the face (between the temples, below the hairline) the hair's bounds stay
+        // behind it.
+        let front_of_hair = hm
+            .layers
+            .iter()
+            .flatten()
+            .filter(|p| p.y < y1 && p.x.abs() < half_width)
+            .map(|p| p.z)
+            .fold(f64::NEG_INFINITY, f64::max);
+        assert!(front_of_hair < front, "{}: hair below the hairline reaches z = {front_of_hair}", head.file);
+        eprintln!(
+            "{}: {} roots, lowest {lowest:.2} > {offset}; hair in front of the face reaches z = {front_of_hair:.2} < {front}",
+            head.file,
+            hm.vertex_count()
+        );
     }
 }

@@ -238,19 +238,27 @@ fn main() -> ExitCode {
             "lee_perry_smith_scalp_with_its_head_matches_its_golden_image",
             Requirements::NONE,
             |ctx| {
-                // A scalp nobody here modelled: the top of the LeePerrySmith head (read from
-                // tests/data at run time), converted into a hair asset in a temporary
-                // folder and drawn over the whole head as its occluder, OIT and shadows.
+                // A scalp nobody here modelled: the LeePerrySmith head above its documented
+                // hairline (read from tests/data at run time), the hair laid over the head and
+                // combed back (the demo's long style), converted into a hair asset in a
+                // temporary folder and drawn over the whole head as its occluder, OIT and shadows.
                 use hairmesh::asset::{AssetParams, HairAsset, StrandCount};
-                use hairmesh::hair_mesh::{ExtrudeParams, HairMesh};
+                use hairmesh::hair_mesh::{DrapeParams, HairMesh};
                 let dir = tempfile::tempdir()?;
                 let head = repo("tests/data/heads/LeePerrySmith/LeePerrySmith.glb");
-                let scalp =
-                    hairmesh::import::load_scalp(&head, &hairmesh::ScalpSelector::parse("above:0,1,0,1.5")?)
-                        .with_context(|| format!("{} (the repository's test data)", head.display()))?;
-                let hair_mesh = HairMesh::extrude(
+                let selector = hairmesh::ScalpSelector::parse("above:0,0.8192,-0.5735,1.3435")?;
+                let scalp = hairmesh::import::load_scalp(&head, &selector)
+                    .with_context(|| format!("{} (the repository's test data)", head.display()))?;
+                let hair_mesh = HairMesh::drape(
                     &scalp,
-                    &ExtrudeParams { layers: 4, length: 1.6, droop: 0.5, ..ExtrudeParams::default() },
+                    &DrapeParams {
+                        layers: 6,
+                        length: 4.5,
+                        centre: glam::DVec3::new(0.0, 1.9, -0.2),
+                        lift: 0.04,
+                        gravity: glam::DVec3::NEG_Y,
+                        comb: glam::DVec3::new(0.0, 0.0, -2.5),
+                    },
                 )?;
                 let style = hairmesh::style::Style {
                     width: 0.012,

@@ -7,7 +7,7 @@
 //!               [--size WxH] [--seed S]
 //! ```
 
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 use std::time::Instant;
 
 use anyhow::{Context as _, Result, bail};
@@ -37,17 +37,17 @@ enum Command {
         /// Output folder.
         #[arg(short, long, default_value = "target/demo")]
         out: PathBuf,
-        /// The scalp to convert (glTF or OBJ).
-        #[arg(long, default_value = "assets/head_cap.gltf")]
-        scalp: PathBuf,
-        /// Strands per character.
-        #[arg(long, default_value_t = 3000)]
+        /// The folder with the heads (`LeePerrySmith/LeePerrySmith.glb`, `sintel/…`).
+        #[arg(long, default_value = concat!(env!("CARGO_MANIFEST_DIR"), "/../tests/data"))]
+        data: PathBuf,
+        /// Strands per generated hairstyle.
+        #[arg(long, default_value_t = 20_000)]
         strands: u64,
-        /// Characters in the crowd.
-        #[arg(long, default_value_t = 6)]
+        /// People in the picture (they take the three looks in turn).
+        #[arg(long, default_value_t = 3)]
         characters: u32,
         /// Image size, WIDTHxHEIGHT.
-        #[arg(long, default_value = "640x360", value_parser = parse_size)]
+        #[arg(long, default_value = "960x400", value_parser = parse_size)]
         size: (u32, u32),
         #[command(flatten)]
         device: DeviceArgs,
@@ -193,15 +193,15 @@ fn run(cli: Cli) -> Result<()> {
             );
             Ok(())
         }
-        Command::Demo { out, scalp, strands, characters, size, device } => {
-            demo(&DemoOptions { out, scalp, strands, characters, size }, &device)
+        Command::Demo { out, data, strands, characters, size, device } => {
+            demo(&DemoOptions { out, data, strands, characters, size }, &device)
         }
     }
 }
 
 struct DemoOptions {
     out: PathBuf,
-    scalp: PathBuf,
+    data: PathBuf,
     strands: u64,
     characters: u32,
     size: (u32, u32),
@@ -214,9 +214,16 @@ fn timed<T>(what: &str, f: impl FnOnce() -> Result<T>) -> Result<T> {
     Ok(value)
 }
 
+/// The LeePerrySmith scan's hairline (file units: face towards +Z, top of the head at y = 3.97):
+/// faces whose centroid has `y − 0.7 z > 1.64`, i.e. the hairline at y ≈ 2.9 over the forehead,
+/// above the ears at the sides and at y ≈ 0.3 at the nape.
+pub const LEE_PERRY_SMITH_SCALP: &str = "above:0,0.8192,-0.5735,1.3435";
+/// The centre of its skull, which draped hair flows around.
+const LEE_PERRY_SMITH_SKULL: [f64; 3] = [0.0, 1.9, -0.2];
+
 fn demo(o: &DemoOptions, device: &DeviceArgs) -> Result<()> {
     use hairmesh::asset::{AssetParams, HairAsset, StrandCount};
-    use hairmesh::hair_mesh::{ExtrudeParams, HairMesh};
+    use hairmesh::hair_mesh::{DrapeParams, ExtrudeParams, HairMesh};
     use hairmesh::style::{Clump, Curl, Style, Wave};
 
     if o.characters == 0 || o.characters > 400 {
@@ -234,41 +241,68 @@ fn demo(o: &DemoOptions, device: &DeviceArgs) -> Result<()> {
         device.path(&ctx)?
     );
 
-    println!("== convert {}", o.scalp.display());
-    let scalp = timed("import", || {
-        hairmesh::import::load_scalp(&o.scalp, &hairmesh::ScalpSelector::All)
-            .with_context(|| format!("{} (run from the repository root, or pass --scalp)", o.scalp.display()))
+    let head = o.data.join("heads/LeePerrySmith/LeePerrySmith.glb");
+    let bust = o.data.join("heads/sintel/sintel_bust.obj");
+    let groom = o.data.join("strands/tressfx/v4/sintel_hair_full_16points.tfx");
+    for file in [&head, &bust, &groom] {
+        if !file.is_file() {
+            bail!(
+                "{} is missing (the demo reads the repository's tests/data; pass --data DIR)",
+                file.display()
+            );
+        }
+    }
+    println!("== convert {} (scalp `{LEE_PERRY_SMITH_SCALP}`)", head.display());
+    let scalp = timed("import and scalp selection", || {
+        let selector = hairmesh::ScalpSelector::parse(LEE_PERRY_SMITH_SCALP)?;
+        hairmesh::import::load_scalp(&head, &selector).with_context(|| format!("{}", head.display()))
     })?;
-    let variants = [
+    let long = HairMesh::drape(
+        &scalp,
+        &DrapeParams {
+            layers: 6,
+            length: 4.5,
+            centre: glam::DVec3::from_array(LEE_PERRY_SMITH_SKULL),
+            lift: 0.04,
+            gravity: glam::DVec3::NEG_Y,
+            comb: glam::DVec3::new(0.0, 0.0, -2.5),
+        },
+    )?;
+    let short = HairMesh::extrude(
+        &scalp,
+        &ExtrudeParams { layers: 3, length: 0.45, droop: 0.5, ..ExtrudeParams::default() },
+    )?;
+    let looks = [
         (
-            ExtrudeParams { layers: 4, length: 0.14, droop: 0.8, ..ExtrudeParams::default() },
+            "long, combed back",
+            long,
             Style {
-                width: 0.0015,
-                curl: Curl { radius: 0.004, frequency: 30.0, phase: 0.0 },
-                clump: Clump { strength: 0.3, exponent: 1.5 },
-                length_variation: 0.25,
-                ..Style::default()
-            },
-        ),
-        (
-            ExtrudeParams { layers: 6, length: 0.3, droop: 1.4, ..ExtrudeParams::default() },
-            Style {
-                width: 0.0015,
-                wave: Wave { amplitude: 0.008, frequency: 8.0 },
-                clump: Clump { strength: 0.5, exponent: 1.0 },
-                length_variation: 0.15,
+                width: 0.008,
+                wave: Wave { amplitude: 0.06, frequency: 1.2 },
+                clump: Clump { strength: 0.45, exponent: 1.2 },
+                length_variation: 0.2,
                 seed: 7,
                 ..Style::default()
             },
         ),
+        (
+            "short and curly",
+            short,
+            Style {
+                width: 0.008,
+                curl: Curl { radius: 0.05, frequency: 5.0, phase: 0.0 },
+                clump: Clump { strength: 0.3, exponent: 1.5 },
+                length_variation: 0.3,
+                ..Style::default()
+            },
+        ),
     ];
-    let assets = timed("hair meshes, textures and root sets (2 styles)", || {
-        variants
+    let assets = timed("hair meshes, textures and root sets (2 hairstyles)", || {
+        looks
             .iter()
-            .map(|(extrude, style)| {
-                let hm = HairMesh::extrude(&scalp, extrude)?;
+            .map(|(_, hm, style)| {
                 Ok(HairAsset::build(
-                    &hm,
+                    hm,
                     &AssetParams {
                         strands: StrandCount::Total(o.strands),
                         sample_sets: 1,
@@ -280,16 +314,11 @@ fn demo(o: &DemoOptions, device: &DeviceArgs) -> Result<()> {
             })
             .collect::<Result<Vec<_>>>()
     })?;
-    let hairs = timed("upload", || {
-        assets
-            .iter()
-            .map(|a| Ok(gen_gpu::GpuHair::upload(&ctx, a, gen_gpu::TexturePrecision::Auto)?))
-            .collect::<Result<Vec<_>>>()
-    })?;
-    for (i, h) in hairs.iter().enumerate() {
+    for ((name, _, _), asset) in looks.iter().zip(&assets) {
+        let h = gen_gpu::GpuHair::upload(&ctx, asset, gen_gpu::TexturePrecision::Auto)?;
         let stored = h.total_strands() * gen_gpu::MAX_VERTICES * gen_gpu::VERTEX_BYTES;
         println!(
-            "  style {i}: {} bundles, {} strands; GPU asset {} bytes ({:?}) vs {} bytes as stored vertices ({:.0}x)",
+            "  {name}: {} bundles, {} strands; GPU asset {} bytes ({:?}) vs {} bytes as stored vertices ({:.0}x)",
             h.bundle_count(),
             h.total_strands(),
             h.bytes.total(),
@@ -298,8 +327,6 @@ fn demo(o: &DemoOptions, device: &DeviceArgs) -> Result<()> {
             stored as f64 / h.bytes.total() as f64
         );
     }
-    // The converted assets as asset folders, and a scene of a loose grid of characters facing
-    // the camera, each turned a little, with OIT and self-shadowing.
     let asset_dirs: Vec<PathBuf> =
         (0..assets.len()).map(|i| o.out.join(format!("assets/style{i}"))).collect();
     timed("write asset folders", || {
@@ -308,52 +335,70 @@ fn demo(o: &DemoOptions, device: &DeviceArgs) -> Result<()> {
                 dir,
                 asset,
                 hairmesh::asset_io::Precision::F32,
-                "metres",
-                o.scalp.to_str(),
+                "file units",
+                head.to_str(),
             )?;
         }
         Ok(())
     })?;
-    let columns = (f64::from(o.characters).sqrt().ceil() as u32).max(1);
+    // People in rows of up to five, taking the three looks in turn: the two generated styles on
+    // the LeePerrySmith scan, and the artist's Sintel groom (TressFX, drawn as stored strands)
+    // on the Sintel bust, scaled to the same head size. Each head is an occluder: it hides the
+    // hair behind it and casts and receives the hair's shadows.
+    let columns = o.characters.min(5);
     let rows = o.characters.div_ceil(columns);
-    // Linear RGB.
-    let colors = [
-        [0.0073, 0.0039, 0.0018],
-        [0.26, 0.089, 0.013],
-        [0.32, 0.047, 0.0065],
-        [0.45, 0.26, 0.073],
-        [0.051, 0.016, 0.0048],
-    ];
-    let scalp_mesh = std::path::absolute(&o.scalp).with_context(|| format!("{}", o.scalp.display()))?;
+    let absolute = |p: &Path| std::path::absolute(p).with_context(|| format!("{}", p.display()));
+    let (head, bust, groom) = (absolute(&head)?, absolute(&bust)?, absolute(&groom)?);
     let characters: Vec<serde_json::Value> = (0..o.characters)
         .map(|i| {
             let (col, row) = (i % columns, i / columns);
-            let x = (col as f32 - (columns - 1) as f32 / 2.0) * 0.45;
-            let z = -(row as f32) * 0.5;
-            let turn = (i as f32 * 2.4).sin() * 35.0;
-            serde_json::json!({
-                // Relative to the scene file, which is written into the same output folder.
-                "hair": format!("assets/style{}", i as usize % asset_dirs.len()),
-                "transform": { "translation": [x, 0.0, z], "rotation_y_degrees": turn },
-                "color": colors[i as usize % colors.len()],
-                // The scalp itself, drawn under the hair: it hides the hair behind the head and
-                // casts and receives shadows.
-                "occluder": { "mesh": scalp_mesh },
-            })
+            let x = (col as f32 - (columns - 1) as f32 / 2.0) * 6.5;
+            let z = -(row as f32) * 7.0;
+            match i % 3 {
+                2 => serde_json::json!({
+                    // The groom is in metres on a bust in centimetres 1.195 m below it (the
+                    // artist's guide file); ×19 brings it to the scan's head size.
+                    "hair": groom,
+                    "strand_width": 0.0004,
+                    "transform": { "translation": [x, -27.6, z], "scale": 19.0 },
+                    "color": [0.171, 0.0397, 0.00719],
+                    "occluder": { "mesh": bust, "transform": { "scale": 0.01, "translation": [0, 1.195, 0] }, "color": [0.62, 0.45, 0.36] },
+                }),
+                look => serde_json::json!({
+                    // Relative to the scene file, which is written into the same output folder.
+                    "hair": format!("assets/style{look}"),
+                    "transform": { "translation": [x, 0.0, z], "rotation_y_degrees": if look == 0 { 12.0 } else { -12.0 } },
+                    "color": if look == 0 { [0.11, 0.045, 0.014] } else { [0.012, 0.0065, 0.003] },
+                    "occluder": { "mesh": head, "color": [0.62, 0.45, 0.36] },
+                }),
+            }
         })
         .collect();
     let (width, height) = o.size;
+    // Far enough back that the front row (6.5 units a person, shoulders ±4.3) fills the width
+    // or the height (heads 9 units from the shoulders' bottom to the hair's top), whichever
+    // binds first; each further row adds its depth.
+    let fov_y = 36f32.to_radians();
+    let aspect = width as f32 / height.max(1) as f32;
+    let fit_width = (columns as f32 * 6.5 / 2.0 + 0.5) / ((fov_y / 2.0).tan() * aspect);
+    let fit_height = 5.5 / (fov_y / 2.0).tan();
+    let distance = fit_width.max(fit_height) + 3.0 * (rows - 1) as f32;
     let scene_json = serde_json::json!({
         "output": { "width": width, "height": height },
-        "camera": { "eye": [0.0, 2.3, 0.7 + 0.3 * columns as f32], "target": [0.0, 1.5, -0.25 * rows as f32], "fov_y_degrees": 50 },
+        "camera": {
+            "eye": [0.0, 2.6, distance],
+            "target": [0.0, 0.9, -3.5 * (rows - 1) as f32],
+            "fov_y_degrees": 36
+        },
         "lights": [
-            { "directional": { "direction": [0.4, 0.8, 0.5], "color": [1.0, 0.97, 0.92] } },
-            { "directional": { "direction": [-0.6, 0.3, -0.5], "color": [0.2, 0.25, 0.35], "cast_shadows": false } }
+            { "directional": { "direction": [0.35, 0.7, 0.6], "color": [1.0, 0.96, 0.9] } },
+            { "directional": { "direction": [-0.6, 0.2, 0.5], "color": [0.25, 0.28, 0.35], "cast_shadows": false } },
+            { "directional": { "direction": [0.0, 0.4, -1.0], "color": [0.35, 0.35, 0.4], "cast_shadows": false } }
         ],
         "characters": characters,
         "effects": { "transparency": "oit", "shadows": true }
     });
-    let scene_path = o.out.join("crowd.json");
+    let scene_path = o.out.join("people.json");
     std::fs::create_dir_all(&o.out).with_context(|| format!("creating {}", o.out.display()))?;
     std::fs::write(&scene_path, serde_json::to_vec_pretty(&scene_json)?)
         .with_context(|| format!("writing {}", scene_path.display()))?;
@@ -367,7 +412,7 @@ fn demo(o: &DemoOptions, device: &DeviceArgs) -> Result<()> {
         paths.retain(|p| *p == chosen);
     }
     println!(
-        "\n== crowd: {} characters, {width}x{height}, scalp occluders, OIT + deep-opacity shadows ({})",
+        "\n== people: {} characters, {width}x{height}, heads as occluders, OIT + deep-opacity shadows ({})",
         o.characters,
         scene_path.display()
     );
@@ -380,7 +425,7 @@ fn demo(o: &DemoOptions, device: &DeviceArgs) -> Result<()> {
         }
         let first = renderer.render(&ctx)?;
         let frame = renderer.render(&ctx)?;
-        let file = o.out.join(format!("crowd-{path}.png"));
+        let file = o.out.join(format!("people-{path}.png"));
         render::output::write_png(&file, &frame.image)?;
         println!("{path} path -> {}", file.display());
         println!(

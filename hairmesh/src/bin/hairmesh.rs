@@ -2,7 +2,7 @@
 //!
 //! ```text
 //! hairmesh convert INPUT -o DIR [--layers N] [--length X] [--droop X] [--density D | --strands N]
-//!                  [--scalp SELECTOR] [--morph-layers] [--style FILE] [--seed N] [--sample-sets N] [--layout lattice|blocks]
+//!                  [--scalp SELECTOR] [--morph-layers | --drape CX,CY,CZ [--comb X,Y,Z] [--lift X]] [--style FILE] [--seed N] [--sample-sets N] [--layout lattice|blocks]
 //!                  [--f16]
 //! hairmesh info PATH          (an asset folder, hair.json, .tfx, .tfxbone or .hair)
 //! hairmesh head-cap -o FILE   (write the project's procedural head cap as glTF)
@@ -16,7 +16,7 @@ use clap::{Parser, Subcommand};
 use hairmesh::ScalpSelector;
 use hairmesh::asset::{AssetParams, HairAsset, LayerSource, ScalpProvenance, StrandCount};
 use hairmesh::asset_io::{Precision, read_asset, write_asset};
-use hairmesh::hair_mesh::{BundleFace, ExtrudeParams, HairMesh};
+use hairmesh::hair_mesh::{BundleFace, DrapeParams, ExtrudeParams, HairMesh};
 use hairmesh::import::load_scalp;
 use hairmesh::style::Style;
 use hairmesh::texture::SliceLayout;
@@ -63,8 +63,19 @@ struct ConvertArgs {
     #[arg(long, default_value = "all")]
     scalp: String,
     /// Take the layers from the file's morph targets (one per layer) instead of extruding.
-    #[arg(long)]
+    #[arg(long, conflicts_with = "drape")]
     morph_layers: bool,
+    /// Lay the hair over the head around this centre (CX,CY,CZ, the skull's centre) instead of
+    /// extruding along the normals: it flows towards gravity + `--comb`, then hangs.
+    #[arg(long, value_name = "CX,CY,CZ", value_parser = parse_vec3)]
+    drape: Option<glam::DVec3>,
+    /// With `--drape`: the direction the hair is combed, added to gravity (e.g. 0,0,-2 combs it
+    /// back when the face looks along +Z).
+    #[arg(long, value_name = "X,Y,Z", value_parser = parse_vec3, default_value = "0,0,0")]
+    comb: glam::DVec3,
+    /// With `--drape`: how far the hair moves off the head per unit of length.
+    #[arg(long, default_value_t = 0.05)]
+    lift: f64,
     /// Style as JSON (fields of hairmesh::style::Style; unknown fields are errors).
     #[arg(long)]
     style: Option<PathBuf>,
@@ -81,6 +92,17 @@ struct ConvertArgs {
     /// Store textures as half floats.
     #[arg(long)]
     f16: bool,
+}
+
+fn parse_vec3(text: &str) -> Result<glam::DVec3, String> {
+    let v: Vec<f64> = text
+        .split(',')
+        .map(|s| s.trim().parse::<f64>().map_err(|e| format!("`{s}`: {e}")))
+        .collect::<Result<_, _>>()?;
+    match v[..] {
+        [x, y, z] if v.iter().all(|c| c.is_finite()) => Ok(glam::DVec3::new(x, y, z)),
+        _ => Err(format!("`{text}`: expected three finite numbers X,Y,Z")),
+    }
 }
 
 impl ConvertArgs {
@@ -103,7 +125,7 @@ impl ConvertArgs {
 #[derive(Subcommand, Debug)]
 enum Command {
     /// Convert a scalp mesh (.gltf, .glb, .obj) into a hair asset folder.
-    Convert(ConvertArgs),
+    Convert(Box<ConvertArgs>),
     /// Describe an asset or a strand file.
     Info { path: PathBuf },
     /// Write the project's procedural head cap (the demo's scalp) as glTF.
@@ -154,9 +176,19 @@ fn convert(o: &ConvertArgs) -> Result<()> {
     }
     let (lo, hi) = scalp.bounds().context("empty scalp")?;
     let length = o.length.unwrap_or(0.6 * lo.distance(hi));
+    let drape = |centre| DrapeParams {
+        layers: o.layers,
+        length,
+        centre,
+        lift: o.lift,
+        gravity: glam::DVec3::NEG_Y,
+        comb: o.comb,
+    };
     let hm = step("building the hair mesh", || {
         Ok(if o.morph_layers {
             HairMesh::from_morph_targets(&scalp)?
+        } else if let Some(centre) = o.drape {
+            HairMesh::drape(&scalp, &drape(centre))?
         } else {
             HairMesh::extrude(
                 &scalp,
@@ -179,6 +211,8 @@ fn convert(o: &ConvertArgs) -> Result<()> {
         selector: o.scalp.clone(),
         layers: if o.morph_layers {
             LayerSource::MorphTargets
+        } else if let Some(centre) = o.drape {
+            LayerSource::Draped(drape(centre))
         } else {
             LayerSource::Extruded(ExtrudeParams {
                 layers: o.layers,
@@ -281,6 +315,10 @@ fn info(path: &Path) -> Result<()> {
                     LayerSource::Extruded(e) => {
                         format!("extruded ({} layers, length {}, droop {})", e.layers, e.length, e.droop)
                     }
+                    LayerSource::Draped(d) => format!(
+                        "draped around {} ({} layers, length {}, comb {}, lift {})",
+                        d.centre, d.layers, d.length, d.comb, d.lift
+                    ),
                     LayerSource::MorphTargets => "morph targets".into(),
                 };
                 println!("scalp:    {} (faces `{}`), {layers}", p.file, p.selector);
