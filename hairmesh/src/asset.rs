@@ -251,6 +251,12 @@ impl HairAsset {
         let margin = style.max_displacement();
         let areas: Vec<f64> = hm.faces.iter().map(|f| bundle_info(hm, f, 1, margin).area).collect();
         let total_area: f64 = areas.iter().sum();
+        if !(total_area > 0.0 && total_area.is_finite()) {
+            return Err(bad(format!(
+                "the hair mesh's {} root faces have no area (every face is degenerate): there is nowhere to put roots",
+                hm.faces.len()
+            )));
+        }
         let counts: Vec<u32> = match params.strands {
             StrandCount::Density(d) if d.is_finite() && d > 0.0 => {
                 let total = d * total_area;

@@ -476,15 +476,14 @@ fn read_texture(path: &Path, field: &str, m: &Manifest, file: &TextureFile) -> R
     // Compressed EXR of this size can hardly exceed 4× its raw f32 size plus headers.
     let limit = u64::from(w) * u64::from(h) * u64::from(d) * u64::from(file.channels) * 16 + (1 << 20);
     let bytes = read_limited(path, limit)?;
-    let image = read()
-        .no_deep_data()
-        .largest_resolution_level()
-        .all_channels()
-        .first_valid_layer()
-        .all_attributes()
-        .from_buffered(std::io::Cursor::new(bytes))
+    // The header first: the decoder sizes its buffers from the header's data window and
+    // channel list, so a damaged header could ask for any amount of memory.
+    let meta = MetaData::read_from_buffered(std::io::Cursor::new(&bytes), false)
         .map_err(|e| err(format!("not a readable OpenEXR file: {e}")))?;
-    let size = image.layer_data.size;
+    let [header] = meta.headers.as_slice() else {
+        return Err(err(format!("{} layers (expected 1)", meta.headers.len())));
+    };
+    let size = header.layer_size;
     if (size.0 as u64, size.1 as u64) != (u64::from(w), u64::from(h) * u64::from(d)) {
         return Err(err(format!(
             "image is {}×{}, the manifest says {}×{} ({} slices of {})",
@@ -496,6 +495,25 @@ fn read_texture(path: &Path, field: &str, m: &Manifest, file: &TextureFile) -> R
             h
         )));
     }
+    if header.deep || header.channels.list.len() != file.channels as usize {
+        return Err(err(format!(
+            "{} channels{} (expected {} flat channels)",
+            header.channels.list.len(),
+            if header.deep { ", deep data" } else { "" },
+            file.channels
+        )));
+    }
+    if header.channels.list.iter().any(|c| c.sampling != Vec2(1, 1)) {
+        return Err(err("subsampled channels (expected one sample per pixel)".into()));
+    }
+    let image = read()
+        .no_deep_data()
+        .largest_resolution_level()
+        .all_channels()
+        .first_valid_layer()
+        .all_attributes()
+        .from_buffered(std::io::Cursor::new(bytes))
+        .map_err(|e| err(format!("not a readable OpenEXR file: {e}")))?;
     let channels = &image.layer_data.channel_data.list;
     let mut names: Vec<String> = channels.iter().map(|c| c.name.to_string()).collect();
     names.sort();

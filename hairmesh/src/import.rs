@@ -56,6 +56,25 @@ pub fn load_scalp(path: &Path, selector: &ScalpSelector) -> Result<ScalpMesh> {
         };
         return Err(HairMeshError::NoFaces { path: path.into(), detail });
     }
+    // Faces that are all degenerate (collinear or repeated vertices) leave nothing to put roots
+    // on; compare with the selection's own extent so any unit works.
+    let (lo, hi) = mesh.bounds().unwrap_or_default();
+    let extent = (hi - lo).max_element();
+    let area = mesh.area();
+    if area.is_nan() || area <= 1e-12 * extent * extent {
+        return Err(HairMeshError::Format {
+            path: path.into(),
+            message: format!(
+                "the scalp ({} faces{}) has no area: every face is degenerate (its vertices on one line or repeated)",
+                mesh.faces.len(),
+                if *selector == ScalpSelector::All {
+                    String::new()
+                } else {
+                    format!(" after selecting {selector:?}")
+                }
+            ),
+        });
+    }
     Ok(mesh)
 }
 
@@ -81,6 +100,7 @@ fn load_gltf(path: &Path, selector: &ScalpSelector) -> Result<ScalpMesh> {
             return Err(HairMeshError::UnsupportedExtension { path: path.into(), extension: ext.into() });
         }
     }
+    check_primitive_accessors(path, gltf.document.as_json())?;
     let mut problems = Vec::new();
     {
         use gltf::json::validation::Validate;
@@ -137,6 +157,41 @@ fn load_gltf(path: &Path, selector: &ScalpSelector) -> Result<ScalpMesh> {
         }
     }
     Ok(mesh)
+}
+
+/// Every accessor a mesh primitive names must exist before the gltf crate validates the
+/// document: its validation indexes the POSITION accessor without checking (it panics on
+/// `"POSITION": 0` with no accessors).
+fn check_primitive_accessors(path: &Path, root: &gltf::json::Root) -> Result<()> {
+    let count = root.accessors.len();
+    for (m, mesh) in root.meshes.iter().enumerate() {
+        for (p, prim) in mesh.primitives.iter().enumerate() {
+            let mut named: Vec<(String, usize)> = prim
+                .attributes
+                .iter()
+                .map(|(semantic, i)| (format!("attributes.{semantic:?}"), i.value()))
+                .collect();
+            named.extend(prim.indices.iter().map(|i| ("indices".to_owned(), i.value())));
+            for (t, target) in prim.targets.iter().flatten().enumerate() {
+                for (what, index) in [
+                    ("POSITION", &target.positions),
+                    ("NORMAL", &target.normals),
+                    ("TANGENT", &target.tangents),
+                ] {
+                    named.extend(index.iter().map(|i| (format!("targets[{t}].{what}"), i.value())));
+                }
+            }
+            if let Some((field, index)) = named.into_iter().find(|(_, i)| *i >= count) {
+                return Err(HairMeshError::Format {
+                    path: path.into(),
+                    message: format!(
+                        "meshes[{m}].primitives[{p}].{field}: accessor {index} does not exist (the file has {count} accessors)"
+                    ),
+                });
+            }
+        }
+    }
+    Ok(())
 }
 
 fn load_buffers(path: &Path, base: &Path, gltf: &gltf::Gltf) -> Result<Vec<Vec<u8>>> {
@@ -306,9 +361,59 @@ fn add_primitive(
     Ok(())
 }
 
+/// Every face index of an OBJ file must name an element defined before it (1-based, or
+/// negative and relative): tobj multiplies indices without overflow checks and panics on a
+/// huge one (found by the fuzz tests).
+fn check_obj_indices(bytes: &[u8]) -> std::result::Result<(), String> {
+    let text = String::from_utf8_lossy(bytes);
+    // Elements defined so far: positions, texture coordinates, normals.
+    let mut defined = [0i64; 3];
+    const NAMES: [&str; 3] = ["vertex", "texture coordinate", "normal"];
+    for (number, line) in text.lines().enumerate() {
+        let mut words = line.split_whitespace();
+        match words.next() {
+            Some("v") => defined[0] += 1,
+            Some("vt") => defined[1] += 1,
+            Some("vn") => defined[2] += 1,
+            Some("f" | "l" | "p") => {
+                for corner in words {
+                    for (slot, field) in corner.split('/').enumerate().take(3) {
+                        if field.is_empty() && slot > 0 {
+                            continue;
+                        }
+                        let bad = || {
+                            format!(
+                                "line {}: `{corner}` is not a face corner (v, v/vt, v//vn or v/vt/vn)",
+                                number + 1
+                            )
+                        };
+                        let index: i64 = field.parse().map_err(|_| bad())?;
+                        let resolved = if index < 0 {
+                            defined[slot].saturating_add(index).saturating_add(1)
+                        } else {
+                            index
+                        };
+                        if index == 0 || resolved < 1 || resolved > defined[slot] {
+                            return Err(format!(
+                                "line {}: {} index {index} does not name one of the {} defined before it",
+                                number + 1,
+                                NAMES[slot],
+                                defined[slot]
+                            ));
+                        }
+                    }
+                }
+            }
+            _ => {}
+        }
+    }
+    Ok(())
+}
+
 fn load_obj(path: &Path, selector: &ScalpSelector) -> Result<ScalpMesh> {
     let format = |message: String| HairMeshError::Format { path: path.into(), message };
     let bytes = read_file(path)?;
+    check_obj_indices(&bytes).map_err(format)?;
     let options =
         tobj::LoadOptions { single_index: true, triangulate: false, ignore_points: true, ignore_lines: true };
     let (models, _) = tobj::load_obj_buf(&mut std::io::Cursor::new(bytes), &options, |_| {

@@ -225,6 +225,22 @@ fn hostile_asset_folders_give_clear_errors() {
         &["hair_mesh.exr", "mesh.layers[2][3]", "disagree"],
     );
     corrupt("missing uvs", |d| edit_json(d, |v| v["mesh"]["uvs"] = serde_json::Value::Null), &["mesh.uvs"]);
+    // The fuzz tests found an EXR header that made the decoder allocate 791 TB (the process
+    // aborted). Headers are now checked against the manifest before anything is decoded; here a
+    // data window that disagrees with it is refused from the header alone.
+    corrupt(
+        "data window",
+        |d| {
+            let p = d.join("u.exr");
+            let mut bytes = std::fs::read(&p).expect("read");
+            let at = bytes.windows(10).position(|w| w == b"dataWindow").expect("dataWindow attribute");
+            // name\0 "box2i"\0 size (4 bytes), then xMin, yMin, xMax, yMax as i32.
+            let x_max = at + b"dataWindow\0box2i\0".len() + 4 + 8;
+            bytes[x_max..x_max + 4].copy_from_slice(&4095i32.to_le_bytes());
+            std::fs::write(&p, bytes).expect("write");
+        },
+        &["u.exr", "textures.u", "the manifest says"],
+    );
 }
 
 /// A version-2 folder (no hair mesh in its manifest) is refused with what to do, and reading

@@ -98,6 +98,28 @@ fn malformed_files_give_clear_errors() {
         ("nan.obj", b"v nan 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n", "nan.obj"),
         ("lines.obj", b"v 0 0 0\nv 1 0 0\nl 1 2\n", "no triangles"),
         ("scalp.txt", b"", "unknown file type"),
+        // Issue #17: an attribute naming an accessor that does not exist used to panic inside
+        // the gltf crate's validation.
+        (
+            "no_accessors.gltf",
+            br#"{"asset":{"version":"2.0"},"meshes":[{"primitives":[{"attributes":{"POSITION":0}}]}]}"#,
+            "accessor 0",
+        ),
+        (
+            "bad_indices.gltf",
+            br#"{"asset":{"version":"2.0"},"meshes":[{"primitives":[{"attributes":{"POSITION":0},"indices":7}]}],"accessors":[{"componentType":5126,"count":3,"type":"VEC3"}]}"#,
+            "accessor 7",
+        ),
+        // Found by the fuzz tests: tobj multiplied a huge texture-coordinate index without an
+        // overflow check and panicked.
+        (
+            "huge_index.obj",
+            b"v 0 0 0\nv 1 0 0\nv 0 1 0\nvt 0 0\nf 1/9223372036854775807 2/1 3/1\n",
+            "texture coordinate index 9223372036854775807",
+        ),
+        ("not_a_corner.obj", b"v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 x\n", "line 4"),
+        // Every triangle on one line: no area to put roots on.
+        ("collinear.obj", b"v 0 0 0\nv 1 0 0\nv 2 0 0\nv 3 0 0\nf 1 2 3\nf 2 3 4\n", "no area"),
     ];
     for (name, bytes, expected) in cases {
         let path = dir.path().join(name);
