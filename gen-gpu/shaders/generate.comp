@@ -53,14 +53,8 @@ void generate_per_workgroup() {
     BundleLod l = lods[bundle];
     uint thread = gl_LocalInvocationID.x;
     uint segments = 1u << l.level;
-    // The mesh path's rule, so both paths generate the same strands.
-    bool from_control = strand_coherent(strands_per_mesh_group(l.level));
-    if (from_control) {
-        strand_load_control(bundle, root_parameter(bundle, strand), thread);
-        barrier();
-    }
     for (uint k = thread; k <= segments; k += STRAND_THREADS) {
-        strand_compute_vertex(bundle, strand, l, 0u, k, from_control);
+        strand_compute_vertex(bundle, strand, l, 0u, k, false);
     }
     barrier();
     for (uint k = thread; k <= segments; k += STRAND_THREADS) {

@@ -414,8 +414,6 @@ shared vec3 strand_positions[MAX_VERTICES];
 // variant, the reference).
 
 const uint MAX_LAYERS = HK_MAX_LAYERS;
-const uint FROM_STRAND = 0u;
-const uint FROM_CENTRE = 1u;
 shared vec3 coherent_curve[2u * (1u + 3u * MAX_LAYERS)]; // strand slices, then centre slices
 shared vec4 coherent_u_w[MAX_LAYERS + 1u];                 // xyz u, w w
 shared vec3 coherent_v[MAX_LAYERS + 1u];
@@ -451,54 +449,83 @@ void strand_load_control(uint bundle, vec2 root, uint thread) {
     }
 }
 
-// The z step of fetch() (clamp to edge) on a blended slice table: `first` and `count` select
-// the strand's or the centre's slices.
-vec3 coherent_curve_at(uint source, float zc) {
-    int last = int(3u * coherent_layers());
-    float f = clamp(zc - 0.5, 0.0, float(last));
-    float i0 = floor(f);
-    int base = int(source * uint(last + 1));
-    int a = int(i0);
-    return mix(coherent_curve[base + a], coherent_curve[base + min(a + 1, last)], f - i0);
+// One segment's control data: its four curve slices for the strand and the bundle centre and
+// its two u, v, w layer slices, blended at the strand's root. Both coherent variants evaluate
+// vertices from it; they differ in where it comes from (the workgroup's tables, or blends made
+// by the invocation when tau enters the segment).
+struct SegmentControl {
+    int segment; // -1 before the first
+    vec3 strand[4];
+    vec3 centre[4];
+    vec4 u_w[2];
+    vec3 v[2];
+};
+
+// The segment's control data from the workgroup's tables (strand_load_control).
+SegmentControl shared_segment(int segment) {
+    SegmentControl c;
+    c.segment = segment;
+    int centre = int(1u + 3u * coherent_layers());
+    for (int i = 0; i < 4; ++i) {
+        c.strand[i] = coherent_curve[3 * segment + i];
+        c.centre[i] = coherent_curve[centre + 3 * segment + i];
+    }
+    for (int i = 0; i < 2; ++i) {
+        c.u_w[i] = coherent_u_w[segment + i];
+        c.v[i] = coherent_v[segment + i];
+    }
+    return c;
 }
 
-// curve_position() from the blended slices.
-vec3 coherent_curve_position(uint source, float tau) {
+// The z step of fetch() (clamp to edge) on a segment's four slices (first = 3 segment).
+vec3 window_at(vec3 w[4], int first, float zc) {
+    float f = clamp(zc - 0.5, 0.0, float(3u * coherent_layers()));
+    float i0 = floor(f);
+    int a = int(i0) - first;
+    return mix(w[clamp(a, 0, 3)], w[clamp(a + 1, 0, 3)], f - i0);
+}
+
+// curve_position() on a segment's four slices.
+vec3 window_curve_position(vec3 w[4], int segment, float t_curve) {
+    vec3 p;
     if (EXACT_CUBIC == 1u) {
         float local;
-        int z = int(3.0 * curve_segment(tau, local));
-        int base = int(source * (1u + 3u * coherent_layers()));
-        vec3 p = cubic_point(coherent_curve[base + z], coherent_curve[base + z + 1], coherent_curve[base + z + 2],
-                             coherent_curve[base + z + 3], local);
-        return params.normalization.xyz + p * params.normalization.w;
+        curve_segment(t_curve, local);
+        p = cubic_point(w[0], w[1], w[2], w[3], local);
+    } else {
+        float za;
+        float zb;
+        float q = quadratic_slices(t_curve, za, zb);
+        p = mix(window_at(w, 3 * segment, za), window_at(w, 3 * segment, zb), q);
     }
-    float za;
-    float zb;
-    float q = quadratic_slices(tau, za, zb);
-    vec3 p = mix(coherent_curve_at(source, za), coherent_curve_at(source, zb), q);
     return params.normalization.xyz + p * params.normalization.w;
 }
 
-// strand_point() from the strand's control data (strand_load_control).
-vec3 coherent_strand_point(uint bundle, uint strand, float tau) {
-    uint seed = strand_seed(bundle, strand);
-    float t_curve = tau * length_scale(seed);
-    vec3 position = coherent_curve_position(FROM_STRAND, t_curve);
+// strand_point() from the control data of the segment t_curve = tau * length_scale lies in.
+vec3 control_strand_point(uint seed, float tau, float t_curve, SegmentControl c) {
+    vec3 position = window_curve_position(c.strand, c.segment, t_curve);
     if (tau <= 0.0) {
         return position;
     }
-    vec3 centre = coherent_curve_position(FROM_CENTRE, t_curve);
-    int last = int(coherent_layers());
-    float f = clamp(t_curve * float(params.layout_info.w), 0.0, float(last));
+    vec3 centre = window_curve_position(c.centre, c.segment, t_curve);
+    float f = clamp(t_curve * float(params.layout_info.w), 0.0, float(coherent_layers()));
     float i0 = floor(f);
-    int a = int(i0);
-    int b = min(a + 1, last);
-    vec4 u_w = mix(coherent_u_w[a], coherent_u_w[b], f - i0);
+    int a = clamp(int(i0) - c.segment, 0, 1);
+    int b = clamp(int(i0) + 1 - c.segment, 0, 1);
+    vec4 u_w = mix(c.u_w[a], c.u_w[b], f - i0);
     vec3 fu;
     vec3 fv;
     vec3 fw;
-    styling_frame(u_w.xyz, mix(coherent_v[a], coherent_v[b], f - i0), fu, fv, fw);
+    styling_frame(u_w.xyz, mix(c.v[a], c.v[b], f - i0), fu, fv, fw);
     return style_apply(seed, tau, position, centre, fu, fv, fw, u_w.w);
+}
+
+// strand_point() from the workgroup's control data (strand_load_control).
+vec3 coherent_strand_point(uint bundle, uint strand, float tau) {
+    uint seed = strand_seed(bundle, strand);
+    float t_curve = tau * length_scale(seed);
+    float local;
+    return control_strand_point(seed, tau, t_curve, shared_segment(int(curve_segment(t_curve, local))));
 }
 
 // Whether a workgroup evaluates its strand from control data: when a strand has a mesh
@@ -583,15 +610,6 @@ HK_STRAND_VERTEX_FUNCTIONS(_of_group, strand_positions)
 // workgroup variant's bit for bit.
 vec3 thread_positions[MAX_VERTICES];
 
-// One segment's control data.
-struct SegmentControl {
-    int segment; // -1 before the first
-    vec3 strand[4];
-    vec3 centre[4];
-    vec4 u_w[2];
-    vec3 v[2];
-};
-
 void load_segment(uint bundle, vec2 root, int segment, inout SegmentControl c) {
     vec2 centre = centre_parameter(bundle);
     c.segment = segment;
@@ -605,32 +623,8 @@ void load_segment(uint bundle, vec2 root, int segment, inout SegmentControl c) {
     }
 }
 
-// coherent_curve_at() on a segment's four slices (first = 3 segment).
-vec3 window_at(vec3 w[4], int first, float zc) {
-    float f = clamp(zc - 0.5, 0.0, float(3u * coherent_layers()));
-    float i0 = floor(f);
-    int a = int(i0) - first;
-    return mix(w[clamp(a, 0, 3)], w[clamp(a + 1, 0, 3)], f - i0);
-}
-
-// coherent_curve_position() on a segment's four slices.
-vec3 window_curve_position(vec3 w[4], int segment, float t_curve) {
-    vec3 p;
-    if (EXACT_CUBIC == 1u) {
-        float local;
-        curve_segment(t_curve, local);
-        p = cubic_point(w[0], w[1], w[2], w[3], local);
-    } else {
-        float za;
-        float zb;
-        float q = quadratic_slices(t_curve, za, zb);
-        p = mix(window_at(w, 3 * segment, za), window_at(w, 3 * segment, zb), q);
-    }
-    return params.normalization.xyz + p * params.normalization.w;
-}
-
-// coherent_strand_point() from the segment control data, loading a segment when tau enters it.
-// `seed` is strand_seed(bundle, strand), `scale` its length_scale(seed): per strand.
+// coherent_strand_point() with the invocation's own control data, loading a segment when tau
+// enters it. `seed` is strand_seed(bundle, strand), `scale` its length_scale(seed): per strand.
 vec3 thread_strand_point(uint bundle, uint seed, float scale, vec2 root, float tau, inout SegmentControl c) {
     float t_curve = tau * scale;
     float local;
@@ -638,21 +632,7 @@ vec3 thread_strand_point(uint bundle, uint seed, float scale, vec2 root, float t
     if (segment != c.segment) {
         load_segment(bundle, root, segment, c);
     }
-    vec3 position = window_curve_position(c.strand, segment, t_curve);
-    if (tau <= 0.0) {
-        return position;
-    }
-    vec3 centre = window_curve_position(c.centre, segment, t_curve);
-    float f = clamp(t_curve * float(params.layout_info.w), 0.0, float(coherent_layers()));
-    float i0 = floor(f);
-    int a = clamp(int(i0) - segment, 0, 1);
-    int b = clamp(int(i0) + 1 - segment, 0, 1);
-    vec4 u_w = mix(c.u_w[a], c.u_w[b], f - i0);
-    vec3 fu;
-    vec3 fv;
-    vec3 fw;
-    styling_frame(u_w.xyz, mix(c.v[a], c.v[b], f - i0), fu, fv, fw);
-    return style_apply(seed, tau, position, centre, fu, fv, fw, u_w.w);
+    return control_strand_point(seed, tau, t_curve, c);
 }
 
 HK_STRAND_VERTEX_FUNCTIONS(_of_thread, thread_positions)

@@ -172,6 +172,14 @@ pub(crate) struct FrameIds {
 }
 
 impl FrameIds {
+    /// What a pass that shades with the scene's lights reads: the light table, and the shadow
+    /// maps when the scene has them.
+    pub(crate) fn shading_reads(&self) -> Vec<(Res, Access)> {
+        let mut r = vec![(self.lights, Access::FragmentRead)];
+        r.extend(self.shadow.as_ref().map(|s| (s.maps, Access::FragmentRead)));
+        r
+    }
+
     /// The attachments a pass rendering into the scene target writes.
     pub(crate) fn target_writes(&self) -> Vec<(Res, Access)> {
         let mut w = vec![(self.color, Access::ColorAttachment), (self.depth, Access::DepthAttachment)];

@@ -180,6 +180,16 @@ impl<P> PassBuilder<'_, P> {
         self
     }
 
+    /// [`Self::read`] of each, in order.
+    pub fn reads(self, reads: impl IntoIterator<Item = (Res, Access)>) -> Self {
+        reads.into_iter().fold(self, |pass, (res, access)| pass.read(res, access))
+    }
+
+    /// [`Self::write`] of each, in order.
+    pub fn writes(self, writes: impl IntoIterator<Item = (Res, Access)>) -> Self {
+        writes.into_iter().fold(self, |pass, (res, access)| pass.write(res, access))
+    }
+
     pub fn cached(mut self, cached: bool) -> Self {
         self.node.cached = cached;
         self

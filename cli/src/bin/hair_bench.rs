@@ -515,26 +515,36 @@ fn stored_section(setup: &Setup<'_>, progress: &indicatif::ProgressBar) -> Resul
     Ok(Section { name: "stored", markdown: md, csv: vec![("bench-stored.csv", csv)] })
 }
 
+/// A table's section: its markdown, the command and device that measured it, its plot.
+fn table_section(
+    name: &'static str,
+    csv_file: &'static str,
+    table: Table,
+    setup: &Setup<'_>,
+    plot: Option<(String, String)>,
+) -> Section {
+    let mut markdown = format!("{}\n\n_{}._\n", table.markdown.trim(), setup.provenance);
+    if let Some((file, caption)) = plot {
+        markdown.push_str(&format!("\n![{caption}]({file})\n"));
+    }
+    Section { name, markdown, csv: vec![(csv_file, table.csv)] }
+}
+
 fn accuracy_section(setup: &Setup<'_>) -> Result<Section> {
     let table = accuracy_table(setup.ctx, setup.quick, setup.width, setup.height, setup.frames)?;
     let plot = draw_accuracy_plot(setup.out, &table.csv)?;
-    let markdown =
-        format!("{}\n\n_{}._\n\n![{}]({})\n", table.markdown.trim(), setup.provenance, plot.1, plot.0);
-    Ok(Section { name: "accuracy", markdown, csv: vec![("bench-accuracy.csv", table.csv)] })
+    Ok(table_section("accuracy", "bench-accuracy.csv", table, setup, Some(plot)))
 }
 
 fn crowd_section(setup: &Setup<'_>, progress: &indicatif::ProgressBar) -> Result<Section> {
     let (table, rows) = crowd_table(setup.ctx, setup.quick, progress)?;
     let plot = draw_crowd_plot(setup.out, &rows)?;
-    let markdown =
-        format!("{}\n\n_{}._\n\n![{}]({})\n", table.markdown.trim(), setup.provenance, plot.1, plot.0);
-    Ok(Section { name: "crowd", markdown, csv: vec![("bench-crowd.csv", table.csv)] })
+    Ok(table_section("crowd", "bench-crowd.csv", table, setup, Some(plot)))
 }
 
 fn passes_section(setup: &Setup<'_>) -> Result<Section> {
     let table = effects_table(setup.ctx, setup.quick, setup.width, setup.height, setup.frames)?;
-    let markdown = format!("{}\n\n_{}._\n", table.markdown.trim(), setup.provenance);
-    Ok(Section { name: "passes", markdown, csv: vec![("bench-effects.csv", table.csv)] })
+    Ok(table_section("passes", "bench-effects.csv", table, setup, None))
 }
 
 fn write(path: &Path, bytes: &[u8]) -> Result<()> {

@@ -266,14 +266,12 @@ impl<'a> Recorder<'a> {
         src: (vk::PipelineStageFlags2, vk::AccessFlags2),
         dst: (vk::PipelineStageFlags2, vk::AccessFlags2),
     ) {
-        let barriers = [vk::MemoryBarrier2::default()
+        let barrier = vk::MemoryBarrier2::default()
             .src_stage_mask(src.0)
             .src_access_mask(src.1)
             .dst_stage_mask(dst.0)
-            .dst_access_mask(dst.1)];
-        let dep = vk::DependencyInfo::default().memory_barriers(&barriers);
-        // SAFETY: recording.
-        unsafe { self.device().cmd_pipeline_barrier2(self.cmd, &dep) };
+            .dst_access_mask(dst.1);
+        self.pipeline_barrier(&[barrier], &[]);
     }
 
     /// One `vkCmdPipelineBarrier2` with global memory barriers and image barriers (a frame
@@ -300,7 +298,7 @@ impl<'a> Recorder<'a> {
         src: (vk::PipelineStageFlags2, vk::AccessFlags2),
         dst: (vk::PipelineStageFlags2, vk::AccessFlags2),
     ) {
-        let barriers = [vk::ImageMemoryBarrier2::default()
+        let barrier = vk::ImageMemoryBarrier2::default()
             .src_stage_mask(src.0)
             .src_access_mask(src.1)
             .dst_stage_mask(dst.0)
@@ -310,10 +308,8 @@ impl<'a> Recorder<'a> {
             .src_queue_family_index(vk::QUEUE_FAMILY_IGNORED)
             .dst_queue_family_index(vk::QUEUE_FAMILY_IGNORED)
             .image(image.raw)
-            .subresource_range(image.full_range())];
-        let dep = vk::DependencyInfo::default().image_memory_barriers(&barriers);
-        // SAFETY: recording; the image is live.
-        unsafe { self.device().cmd_pipeline_barrier2(self.cmd, &dep) };
+            .subresource_range(image.full_range());
+        self.pipeline_barrier(&[], &[barrier]);
     }
 
     /// Begins dynamic rendering into `color` (cleared) and an optional depth image (cleared to
@@ -681,18 +677,37 @@ impl Context {
             name,
             desc.with_usage(vk::ImageUsageFlags::TRANSFER_DST | vk::ImageUsageFlags::SAMPLED),
         )?;
-        let staging = self.upload_staging(name, data)?;
-        self.submit(&format!("upload {name}"), |rec| {
-            rec.image_barrier(
-                &image,
-                (vk::ImageLayout::UNDEFINED, vk::ImageLayout::TRANSFER_DST_OPTIMAL),
-                (vk::PipelineStageFlags2::TOP_OF_PIPE, vk::AccessFlags2::NONE),
-                (vk::PipelineStageFlags2::COPY, vk::AccessFlags2::TRANSFER_WRITE),
-            );
-            let region = vk::BufferImageCopy::default()
-                .image_subresource(image.layers())
-                .image_extent(image.desc.extent);
-            // SAFETY: recording; the staging buffer holds the whole image, which is in
+        let whole =
+            vk::BufferImageCopy::default().image_subresource(image.layers()).image_extent(image.desc.extent);
+        self.copy_to_sampled_image(
+            &format!("upload {name}"),
+            &image,
+            (vk::ImageLayout::UNDEFINED, (vk::PipelineStageFlags2::TOP_OF_PIPE, vk::AccessFlags2::NONE)),
+            data,
+            &[whole],
+        )?;
+        Ok(image)
+    }
+
+    /// Stages `data`, then in one submission moves `image` from `from` (its layout and the
+    /// scope of its last use) to TRANSFER_DST_OPTIMAL, records `copies` from the staging
+    /// buffer, and leaves it SHADER_READ_ONLY_OPTIMAL for any later sampling. Every copy must lie
+    /// inside the image and inside `data` (the callers' contract).
+    fn copy_to_sampled_image(
+        &self,
+        label: &str,
+        image: &Image,
+        from: (vk::ImageLayout, (vk::PipelineStageFlags2, vk::AccessFlags2)),
+        data: &[u8],
+        copies: &[vk::BufferImageCopy],
+    ) -> Result<()> {
+        let staging = self.upload_staging(image.name(), data)?;
+        let copy = (vk::PipelineStageFlags2::COPY, vk::AccessFlags2::TRANSFER_WRITE);
+        self.submit(label, |rec| {
+            rec.image_barrier(image, (from.0, vk::ImageLayout::TRANSFER_DST_OPTIMAL), from.1, copy);
+            // SAFETY: recording; the copies lie inside the image and the staging buffer (the
+            // callers' contract: write_image_regions checks it, create_image_with_data copies
+            // the whole image from its tightly packed data), and the image is in
             // TRANSFER_DST_OPTIMAL.
             unsafe {
                 self.device().cmd_copy_buffer_to_image(
@@ -700,18 +715,18 @@ impl Context {
                     staging.raw,
                     image.raw,
                     vk::ImageLayout::TRANSFER_DST_OPTIMAL,
-                    &[region],
+                    copies,
                 );
             }
             rec.image_barrier(
-                &image,
+                image,
                 (vk::ImageLayout::TRANSFER_DST_OPTIMAL, vk::ImageLayout::SHADER_READ_ONLY_OPTIMAL),
-                (vk::PipelineStageFlags2::COPY, vk::AccessFlags2::TRANSFER_WRITE),
+                copy,
                 (vk::PipelineStageFlags2::ALL_COMMANDS, vk::AccessFlags2::SHADER_SAMPLED_READ),
             );
             Ok(())
         })?;
-        Ok(image)
+        Ok(())
     }
 
     /// Overwrites boxes of texels of a sampled image (in SHADER_READ_ONLY_OPTIMAL layout before
@@ -770,37 +785,14 @@ impl Context {
         if regions.is_empty() {
             return Ok(());
         }
-        let staging = self.upload_staging(image.name(), data)?;
         let sampled = (vk::PipelineStageFlags2::ALL_COMMANDS, vk::AccessFlags2::SHADER_SAMPLED_READ);
-        let copy = (vk::PipelineStageFlags2::COPY, vk::AccessFlags2::TRANSFER_WRITE);
-        self.submit(&format!("update {}", image.name()), |rec| {
-            rec.image_barrier(
-                image,
-                (vk::ImageLayout::SHADER_READ_ONLY_OPTIMAL, vk::ImageLayout::TRANSFER_DST_OPTIMAL),
-                sampled,
-                copy,
-            );
-            // SAFETY: recording; every region lies inside the image (checked above) and its
-            // texels inside the staging buffer (the offsets sum to its length); the image is
-            // in TRANSFER_DST_OPTIMAL.
-            unsafe {
-                self.device().cmd_copy_buffer_to_image(
-                    rec.cmd,
-                    staging.raw,
-                    image.raw,
-                    vk::ImageLayout::TRANSFER_DST_OPTIMAL,
-                    &copies,
-                );
-            }
-            rec.image_barrier(
-                image,
-                (vk::ImageLayout::TRANSFER_DST_OPTIMAL, vk::ImageLayout::SHADER_READ_ONLY_OPTIMAL),
-                copy,
-                sampled,
-            );
-            Ok(())
-        })?;
-        Ok(())
+        self.copy_to_sampled_image(
+            &format!("update {}", image.name()),
+            image,
+            (vk::ImageLayout::SHADER_READ_ONLY_OPTIMAL, sampled),
+            data,
+            &copies,
+        )
     }
 
     /// Overwrites `data.len()` bytes of a buffer at `offset` (directly where it is mapped, else
@@ -837,15 +829,7 @@ impl Context {
     /// host-visible, as on lavapipe; through a staging copy elsewhere).
     pub fn create_buffer_with_data(&self, name: &str, desc: BufferDesc, data: &[u8]) -> Result<Buffer> {
         let mut buffer = Buffer::new(self, name, desc)?;
-        if let Some(mapped) = buffer.mapped_mut() {
-            mapped[..data.len()].copy_from_slice(data);
-            return Ok(buffer);
-        }
-        let staging = self.upload_staging(name, data)?;
-        self.submit(&format!("upload {name}"), |rec| {
-            rec.copy_buffer(&staging, &buffer, data.len() as u64);
-            Ok(())
-        })?;
+        self.write_buffer(&mut buffer, 0, data)?;
         Ok(buffer)
     }
 

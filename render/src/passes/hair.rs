@@ -8,7 +8,7 @@ use glam::Vec3;
 
 use super::{ScenePass, strand_reads};
 use crate::frame::{FrameIds, FrameState, SceneRenderer};
-use crate::graph::{Access, FrameGraph};
+use crate::graph::FrameGraph;
 
 pub(crate) fn plan(
     r: &SceneRenderer,
@@ -20,26 +20,18 @@ pub(crate) fn plan(
 ) {
     let reads = strand_reads(r, ids, batch, last);
     if r.depth_prepass.is_some() {
-        let mut pass = g.pass(format!("hair depth prepass ({}, solid fragments)", r.path));
-        for &(res, access) in &reads {
-            pass = pass.read(res, access);
-        }
-        for (res, access) in ids.target_writes() {
-            pass = pass.write(res, access);
-        }
-        pass.submission(submission).add(ScenePass::DepthPrepass);
+        g.pass(format!("hair depth prepass ({}, solid fragments)", r.path))
+            .reads(reads.iter().copied())
+            .writes(ids.target_writes())
+            .submission(submission)
+            .add(ScenePass::DepthPrepass);
     }
-    let mut pass = g.pass(r.raster_pass_name()).read(ids.lights, Access::FragmentRead);
-    if let Some(s) = &ids.shadow {
-        pass = pass.read(s.maps, Access::FragmentRead);
-    }
-    for &(res, access) in &reads {
-        pass = pass.read(res, access);
-    }
-    for (res, access) in ids.target_writes() {
-        pass = pass.write(res, access);
-    }
-    pass.submission(submission).add(ScenePass::Raster);
+    g.pass(r.raster_pass_name())
+        .reads(ids.shading_reads())
+        .reads(reads)
+        .writes(ids.target_writes())
+        .submission(submission)
+        .add(ScenePass::Raster);
 }
 
 pub(crate) fn record_prepass(

@@ -9,17 +9,12 @@ use crate::graph::{Access, FrameGraph};
 use crate::occluder::occluder_push;
 
 pub(crate) fn plan(g: &mut FrameGraph<ScenePass>, ids: &FrameIds, submission: usize) {
-    let mut pass = g
-        .pass("occluders")
+    g.pass("occluders")
         .read(ids.occluder_meshes, Access::PreRasterRead)
-        .read(ids.lights, Access::FragmentRead);
-    if let Some(s) = &ids.shadow {
-        pass = pass.read(s.maps, Access::FragmentRead);
-    }
-    for (res, access) in ids.target_writes() {
-        pass = pass.write(res, access);
-    }
-    pass.submission(submission).add(ScenePass::Occluders);
+        .reads(ids.shading_reads())
+        .writes(ids.target_writes())
+        .submission(submission)
+        .add(ScenePass::Occluders);
 }
 
 pub(crate) fn record(

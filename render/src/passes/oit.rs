@@ -25,27 +25,22 @@ pub(crate) fn plan_fill(
     last: bool,
     submission: usize,
 ) {
-    let mut pass =
-        g.pass(format!("raster hair ({}, OIT fill)", r.path)).read(ids.lights, Access::FragmentRead);
-    if let Some(s) = &ids.shadow {
-        pass = pass.read(s.maps, Access::FragmentRead);
-    }
-    for (res, access) in strand_reads(r, ids, batch, last) {
-        pass = pass.read(res, access);
-    }
-    // The target is attached for its depth (occluders hide hair); no colour is written.
-    for (res, access) in ids.target_writes() {
-        pass = pass.write(res, access);
-    }
-    pass.write(ids.oit_lists, Access::FragmentWrite).submission(submission).add(ScenePass::OitFill);
+    g.pass(format!("raster hair ({}, OIT fill)", r.path))
+        .reads(ids.shading_reads())
+        .reads(strand_reads(r, ids, batch, last))
+        // The target is attached for its depth (occluders hide hair); no colour is written.
+        .writes(ids.target_writes())
+        .write(ids.oit_lists, Access::FragmentWrite)
+        .submission(submission)
+        .add(ScenePass::OitFill);
 }
 
 pub(crate) fn plan_resolve(g: &mut FrameGraph<ScenePass>, ids: &FrameIds, submission: usize) {
-    let mut pass = g.pass("OIT resolve").read(ids.oit_lists, Access::FragmentRead);
-    for (res, access) in ids.target_writes() {
-        pass = pass.write(res, access);
-    }
-    pass.submission(submission).add(ScenePass::OitResolve);
+    g.pass("OIT resolve")
+        .read(ids.oit_lists, Access::FragmentRead)
+        .writes(ids.target_writes())
+        .submission(submission)
+        .add(ScenePass::OitResolve);
 }
 
 pub(crate) fn record_clear(rec: &mut Recorder<'_>, state: &FrameState<'_>) -> gen_gpu::Result<()> {

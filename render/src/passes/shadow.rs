@@ -91,14 +91,11 @@ pub(crate) fn plan(
                reads: &[(Res, Access)],
                writes: &[(Res, Access)],
                pass: ShadowPass| {
-        let mut b = g.pass(name).cached(cached);
-        for &(res, access) in reads {
-            b = b.read(res, access);
-        }
-        for &(res, access) in writes {
-            b = b.write(res, access);
-        }
-        b.add(ScenePass::Shadow(pass));
+        g.pass(name)
+            .cached(cached)
+            .reads(reads.iter().copied())
+            .writes(writes.iter().copied())
+            .add(ScenePass::Shadow(pass));
     };
     if !occluders {
         add(
