@@ -1,7 +1,8 @@
 //! Compiles `shaders/` under the generator contract (`src/contract.rs`), whose constants become
 //! the GLSL header `hk_gen_contract.glsl`. Its folder is passed to dependants' build scripts as
 //! `DEP_HAIRKIT_GEN_GPU_INCLUDE` (this package's `links` key), the declared bindings as
-//! `DEP_HAIRKIT_GEN_GPU_BINDINGS`.
+//! `DEP_HAIRKIT_GEN_GPU_BINDINGS`, the shader folder (for consumers that `#include
+//! "hair_gen.glsl"` to generate inside their own shaders) as `DEP_HAIRKIT_GEN_GPU_SHADERS`.
 
 #[allow(dead_code, reason = "build.rs uses only the tables of the contract")]
 #[path = "src/contract.rs"]
@@ -23,6 +24,11 @@ fn main() {
     match shader_build::include_dir() {
         Ok(dir) => println!("cargo:include={}", dir.display()),
         Err(e) => panic!("{e}"),
+    }
+    // Consumers that generate inside their own shaders include hair_gen.glsl from here.
+    match std::env::var("CARGO_MANIFEST_DIR") {
+        Ok(dir) => println!("cargo:shaders={}", std::path::Path::new(&dir).join("shaders").display()),
+        Err(e) => panic!("CARGO_MANIFEST_DIR: {e}"),
     }
     let bindings: Vec<String> = contract::BINDINGS.iter().map(u32::to_string).collect();
     println!("cargo:bindings={}", bindings.join(","));

@@ -12,9 +12,19 @@ use hairkit_tests::scenes::small_scene;
 type SceneEdit = Box<dyn Fn(&mut serde_json::Value)>;
 
 fn hair_render(args: &[&str]) -> (bool, String) {
+    let (ok, _, stderr) = hair_render_output(args);
+    (ok, stderr)
+}
+
+/// Success, standard output and standard error.
+fn hair_render_output(args: &[&str]) -> (bool, String, String) {
     match Command::new(env!("CARGO_BIN_EXE_hair-render")).args(args).output() {
-        Ok(out) => (out.status.success(), String::from_utf8_lossy(&out.stderr).into_owned()),
-        Err(e) => (false, e.to_string()),
+        Ok(out) => (
+            out.status.success(),
+            String::from_utf8_lossy(&out.stdout).into_owned(),
+            String::from_utf8_lossy(&out.stderr).into_owned(),
+        ),
+        Err(e) => (false, String::new(), e.to_string()),
     }
 }
 
@@ -192,6 +202,39 @@ fn main() -> ExitCode {
             let json: serde_json::Value = serde_json::from_slice(&std::fs::read(&stats)?)?;
             ensure!(json["passes"].as_array().is_some_and(|p| p.len() >= 4), "{json}");
             ensure!(json["strands"].as_u64().is_some_and(|s| s > 0), "{json}");
+            Ok(())
+        }),
+        GpuTest::new("hair_render_raster_option_picks_the_rasterizer", Requirements::INT64_ATOMICS, |_| {
+            let dir = tempfile::tempdir()?;
+            let scene = small_scene(dir.path(), "one_character", 64, 48)?;
+            let scene = scene.to_str().context("utf-8")?;
+            for raster in ["triangles", "compute"] {
+                let out = dir.path().join(format!("{raster}.png"));
+                let (ok, stdout, stderr) =
+                    hair_render_output(&[scene, "-o", out.to_str().context("utf-8")?, "--raster", raster]);
+                ensure!(ok, "{stderr}");
+                ensure!(stdout.contains(&format!("{raster} raster")), "{raster}: {stdout}");
+                ensure!(out.is_file(), "{raster}: no image");
+            }
+            let (ok, stdout, _) = hair_render_output(&[scene, "--print-graph", "--raster", "compute"]);
+            ensure!(ok && stdout.contains("compute raster"), "{stdout}");
+            // The compute rasterizer has no OIT yet: refused, naming the file and the field.
+            let oit = dir.path().join("oit.json");
+            let mut json: serde_json::Value = serde_json::from_slice(&std::fs::read(scene)?)?;
+            json["effects"]["transparency"] = "oit".into();
+            std::fs::write(&oit, serde_json::to_vec_pretty(&json)?)?;
+            let out = dir.path().join("oit.png");
+            let (ok, stderr) = hair_render(&[
+                oit.to_str().context("utf-8")?,
+                "-o",
+                out.to_str().context("utf-8")?,
+                "--raster",
+                "compute",
+            ]);
+            ensure!(!ok && stderr.contains("oit.json") && stderr.contains("effects.raster"), "{stderr}");
+            ensure!(!out.exists(), "an image was written");
+            let (ok, stderr) = hair_render(&[scene, "--print-graph", "--raster", "quads"]);
+            ensure!(!ok && stderr.contains("quads"), "{stderr}");
             Ok(())
         }),
     ])

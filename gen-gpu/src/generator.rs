@@ -249,7 +249,13 @@ const MESH_THREADS: u32 = 32;
 
 pub use crate::backend::target::{COLOR_FORMAT, DEPTH_FORMAT};
 
-/// Set 0 of every strand pipeline ([`crate::contract`]) plus the fragment stage's own buffers.
+/// Set 0 of every strand pipeline ([`crate::contract`]) plus a consumer's own buffers (at
+/// [`crate::contract::binding::FIRST_CONSUMER`] and up): what a consumer pipeline that generates
+/// inside its own shader declares.
+pub fn strand_bindings(extra: &[u32]) -> Vec<Binding> {
+    bindings(extra)
+}
+
 fn bindings(extra: &[u32]) -> Vec<Binding> {
     use crate::contract::binding as b;
     let all = vk::ShaderStageFlags::ALL;
@@ -410,6 +416,64 @@ impl Generator {
             chunk_slots,
             chunks,
         })
+    }
+
+    /// Frame buffers for a consumer that generates inside its own shader (fused generation,
+    /// e.g. the compute rasterizer): the parameters, LOD and offsets only — no strand buffer, so
+    /// the memory does not grow with the strand count. Every live strand slot is in chunk 0:
+    /// [`Self::record_lod`] writes its dispatch (one invocation per strand, 32 per workgroup),
+    /// which [`Self::record_fused_dispatch`] runs.
+    pub fn prepare_fused(&self, ctx: &Context, hair: &GpuHair, inputs: &FrameInputs) -> Result<FrameBuffers> {
+        let capacity = hair.total_strands.max(1);
+        let params = params(hair, inputs, capacity, capacity);
+        let params = ctx.create_buffer_with_data(
+            "generation parameters",
+            BufferDesc::storage(size_of::<GenParams>() as u64).location(MemoryLocation::CpuToGpu),
+            bytemuck::bytes_of(&params),
+        )?;
+        let bundles = u64::from(hair.bundle_count);
+        let indirect = vk::BufferUsageFlags::INDIRECT_BUFFER;
+        Ok(FrameBuffers {
+            params,
+            lods: Buffer::new(ctx, "bundle LOD", BufferDesc::storage(bundles * 16))?,
+            offsets: Buffer::new(
+                ctx,
+                "strand offsets",
+                BufferDesc::storage(OFFSETS_HEADER + bundles * 4).usage(indirect),
+            )?,
+            // Bound but never written: fused consumers keep vertices in registers.
+            strand_vertices: Buffer::new(ctx, "strand vertices (unused)", BufferDesc::storage(SLOT_BYTES))?,
+            strand_info: Buffer::new(ctx, "strand info (unused)", BufferDesc::storage(16))?,
+            capacity: 1,
+            chunk_slots: 1,
+            chunks: 1,
+        })
+    }
+
+    /// Binds `frame` and `hair` (set 0, chunk 0) plus `extra` consumer buffers for `pipeline`,
+    /// a consumer pipeline created with [`strand_bindings`].
+    pub fn bind_frame(
+        &self,
+        rec: &Recorder<'_>,
+        pipeline: &Pipeline,
+        hair: &GpuHair,
+        frame: &FrameBuffers,
+        extra: &[(u32, &Buffer)],
+    ) {
+        self.push_all(rec, pipeline, hair, frame, 0, extra);
+    }
+
+    /// Dispatches the bound compute pipeline over every live strand slot of a
+    /// [`Self::prepare_fused`] frame (32 strands per workgroup, rows of `DISPATCH_ROW`
+    /// workgroups), with the arguments [`Self::record_lod`] wrote.
+    pub fn record_fused_dispatch(rec: &Recorder<'_>, frame: &FrameBuffers) {
+        rec.dispatch_indirect(&frame.offsets, DISPATCH_ARGS_OFFSET);
+    }
+
+    /// The buffer holding [`Self::record_lod`]'s indirect arguments (for a frame graph's
+    /// declarations).
+    pub fn indirect_arguments(frame: &FrameBuffers) -> &Buffer {
+        &frame.offsets
     }
 
     /// Binds everything, with chunk `chunk`'s windows of the strand buffers and the fragment

@@ -135,6 +135,38 @@ impl StoredStrands {
         )
     }
 
+    /// Runs `pipeline` (a compute consumer created with [`crate::strand_bindings`]) over these
+    /// strands, one chunk window at a time: binds `params`, the chunk's vertices and info and
+    /// `extra`, calls `per_chunk` with the chunk's slot count (to push constants), then
+    /// dispatches one invocation per slot in workgroups of `group_size`.
+    pub fn record_compute(
+        &self,
+        rec: &Recorder<'_>,
+        pipeline: &crate::Pipeline,
+        params: &Buffer,
+        extra: &[(u32, &Buffer)],
+        group_size: u32,
+        mut per_chunk: impl FnMut(&Recorder<'_>, u32),
+    ) {
+        use crate::contract::binding as b;
+        let whole = ash::vk::WHOLE_SIZE;
+        rec.bind_pipeline(pipeline);
+        for chunk in 0..self.chunks {
+            let first = chunk * self.chunk_slots;
+            let slots = self.chunk_slots.min(self.strands - first);
+            let mut buffers = vec![
+                (b::GEN_PARAMS, params, 0, whole),
+                (b::STRAND_OFFSETS, &self.offsets, 0, whole),
+                (b::STRAND_VERTICES, &self.vertices, first * SLOT_BYTES, slots * SLOT_BYTES),
+                (b::STRAND_INFO, &self.info, first * 16, slots * 16),
+            ];
+            buffers.extend(extra.iter().map(|(b, buf)| (*b, *buf, 0, whole)));
+            rec.push_descriptors_ranged(pipeline, &buffers, &[]);
+            per_chunk(rec, slots as u32);
+            rec.dispatch((slots as u32).div_ceil(group_size.max(1)), 1, 1);
+        }
+    }
+
     /// Draws these strands with `generator`'s pulling pipeline and fragment stage (the same
     /// draw as generated hair), inside a rendering scope begun by the caller.
     pub fn record_draw(

@@ -22,6 +22,18 @@ pub mod binding {
     pub const LIGHTS: u32 = 17;
     /// Nearest occluder depth per shadow-map texel.
     pub const OCCLUDER_DEPTH: u32 = 18;
+    /// Compute rasterizer: per pixel a visibility word (view depth and the nearest fragment's
+    /// shading attributes) and a coverage word (accumulated optical depth), 64 bits each
+    /// (`raster_common.glsl`).
+    pub const VISIBILITY: u32 = 19;
+    /// Compute rasterizer: the frame's camera and the hair materials (`RasterFrame`).
+    pub const RASTER_FRAME: u32 = 21;
+    /// Compute rasterizer: the occluders' depth per pixel (a copy of the scene depth buffer).
+    pub const SCENE_DEPTH: u32 = 22;
+    /// Compute rasterizer: each pixel's nearest fragment shaded (colour, view depth).
+    pub const SHADED: u32 = 23;
+    /// Compute rasterizer: per 8×8 tile, the farthest nearest depth when the tile is opaque.
+    pub const RASTER_TILES: u32 = 24;
     /// Occluder pipelines (their own layout, not a strand pipeline): positions.
     pub const OCCLUDER_POSITIONS: u32 = 0;
     /// Occluder pipelines: normals.
@@ -33,6 +45,26 @@ pub mod binding {
 /// The bindings of `lighting.glsl`, in the order the shading binds them.
 pub const LIGHTING_BINDINGS: [u32; 4] =
     [binding::SHADOW_DEPTH, binding::SHADOW_OPACITY, binding::LIGHTS, binding::OCCLUDER_DEPTH];
+
+/// What the compute rasterizer's raster kernels add to the strand bindings.
+pub const RASTER_BINDINGS: [u32; 3] = [binding::VISIBILITY, binding::SCENE_DEPTH, binding::RASTER_TILES];
+
+/// The compute rasterizer's tile pass.
+pub const RASTER_TILE_BINDINGS: [u32; 2] = [binding::VISIBILITY, binding::RASTER_TILES];
+
+/// The compute rasterizer's shade pass: its own buffers, then the lighting.
+pub const RASTER_SHADE_BINDINGS: [u32; 7] = [
+    binding::VISIBILITY,
+    binding::RASTER_FRAME,
+    binding::SHADED,
+    LIGHTING_BINDINGS[0],
+    LIGHTING_BINDINGS[1],
+    LIGHTING_BINDINGS[2],
+    LIGHTING_BINDINGS[3],
+];
+
+/// The compute rasterizer's resolve.
+pub const RESOLVE_BINDINGS: [u32; 3] = [binding::VISIBILITY, binding::RASTER_FRAME, binding::SHADED];
 
 /// The OIT buffers (`oit.glsl`).
 pub const OIT_BINDINGS: [u32; 3] = [binding::OIT_HEADS, binding::OIT_NODES, binding::OIT_COUNTERS];
@@ -58,6 +90,11 @@ pub const GLSL_DEFINES: &[(&str, u64)] = &[
     ("HK_BINDING_SHADOW_OPACITY", binding::SHADOW_OPACITY as u64),
     ("HK_BINDING_LIGHTS", binding::LIGHTS as u64),
     ("HK_BINDING_OCCLUDER_DEPTH", binding::OCCLUDER_DEPTH as u64),
+    ("HK_BINDING_VISIBILITY", binding::VISIBILITY as u64),
+    ("HK_BINDING_RASTER_FRAME", binding::RASTER_FRAME as u64),
+    ("HK_BINDING_SCENE_DEPTH", binding::SCENE_DEPTH as u64),
+    ("HK_BINDING_SHADED", binding::SHADED as u64),
+    ("HK_BINDING_RASTER_TILES", binding::RASTER_TILES as u64),
     ("HK_BINDING_OCCLUDER_POSITIONS", binding::OCCLUDER_POSITIONS as u64),
     ("HK_BINDING_OCCLUDER_NORMALS", binding::OCCLUDER_NORMALS as u64),
     ("HK_BINDING_OCCLUDER_INDICES", binding::OCCLUDER_INDICES as u64),

@@ -17,6 +17,10 @@ pub enum RenderError {
     Gpu(#[from] gen_gpu::GpuError),
     #[error("no character with generated hair has the key `{key}`")]
     UnknownHair { key: String },
+    #[error(
+        "the compute rasterizer (\"raster\": \"compute\") cannot draw this scene: {why}; use \"auto\" or \"triangles\""
+    )]
+    RasterUnavailable { why: String },
     #[error("{path}: lights[{light}]: {message}")]
     Light { path: std::path::PathBuf, light: usize, message: String },
 }

@@ -23,6 +23,9 @@ use crate::graph::{Access, FrameGraph, GraphRun, Res, TransientPool};
 use crate::instance::{CharacterHair, SceneInstance};
 use crate::occluder::{LIGHTING_BINDINGS, OccluderMesh, OccluderPipelines};
 use crate::passes::ScenePass;
+use crate::raster::{
+    ComputeRaster, MAX_MATERIALS, RasterBuffers, RasterMaterial, RasterPath, resolve_raster,
+};
 use crate::scene::{Light, LoadedScene, Transparency};
 use crate::shadow::{ShadowAtlas, ShadowPipelines};
 use crate::target::{LinearFrame, SCENE_COLOR_FORMAT, SceneTarget};
@@ -112,6 +115,17 @@ pub struct SceneRenderer {
     pub(crate) stored_characters: Vec<SceneCharacter>,
     pub(crate) scene: LoadedScene,
     pub(crate) path: GenerationPath,
+    /// The rasterizer the scene's `effects.raster` resolved to on this device.
+    pub(crate) raster: RasterPath,
+    /// The compute rasterizer's pipelines (when `raster` is compute).
+    pub(crate) compute_raster: Option<ComputeRaster>,
+    /// Compute rasterizer: the distinct hair materials, and each character's index into them
+    /// (generated characters, then stored ones).
+    raster_materials: Vec<RasterMaterial>,
+    character_materials: Vec<u32>,
+    /// Compute rasterizer: draw in two phases around the occlusion tiles (the default) or every
+    /// strand in one ([`Self::with_occlusion_tiles`]).
+    pub(crate) occlusion_tiles: bool,
     /// See [`BATCH_BYTES`].
     batch_bytes: u64,
 }
@@ -163,6 +177,13 @@ pub(crate) struct FrameIds {
     pub(crate) lights: Res,
     pub(crate) oit_lists: Res,
     pub(crate) occluder_meshes: Res,
+    /// Compute rasterizer: visibility + coverage, the occluders' depth copy, the resolve's
+    /// camera and materials.
+    pub(crate) visibility: Res,
+    pub(crate) scene_depth: Res,
+    pub(crate) raster_frame: Res,
+    pub(crate) shaded: Res,
+    pub(crate) raster_tiles: Res,
     /// Per generated character: its hair asset, LOD result and strands.
     pub(crate) hair: Vec<Res>,
     pub(crate) lod: Vec<Res>,
@@ -175,8 +196,17 @@ impl FrameIds {
     /// What a pass that shades with the scene's lights reads: the light table, and the shadow
     /// maps when the scene has them.
     pub(crate) fn shading_reads(&self) -> Vec<(Res, Access)> {
-        let mut r = vec![(self.lights, Access::FragmentRead)];
-        r.extend(self.shadow.as_ref().map(|s| (s.maps, Access::FragmentRead)));
+        self.shading_reads_as(Access::FragmentRead)
+    }
+
+    /// [`Self::shading_reads`] by a compute pass.
+    pub(crate) fn compute_shading_reads(&self) -> Vec<(Res, Access)> {
+        self.shading_reads_as(Access::ComputeRead)
+    }
+
+    fn shading_reads_as(&self, access: Access) -> Vec<(Res, Access)> {
+        let mut r = vec![(self.lights, access)];
+        r.extend(self.shadow.as_ref().map(|s| (s.maps, access)));
         r
     }
 
@@ -212,6 +242,10 @@ pub(crate) struct FrameState<'a> {
     pub(crate) target: &'a SceneTarget,
     pub(crate) lighting: [(u32, &'a Buffer); 4],
     pub(crate) oit: Option<&'a OitBuffers>,
+    /// The compute rasterizer's buffers.
+    pub(crate) raster: Option<&'a RasterBuffers>,
+    /// Material index per character (generated, then stored).
+    pub(crate) materials: &'a [u32],
     /// This batch's characters and their frame buffers.
     pub(crate) frames: &'a [(usize, FrameBuffers)],
     /// Parameters of the stored-strand characters (drawn with the last batch).
@@ -398,7 +432,7 @@ impl SceneRenderer {
         } else {
             Some(OccluderPipelines::new(ctx, SCENE_COLOR_FORMAT, effects.msaa)?)
         };
-        Ok(Self {
+        let mut renderer = Self {
             generator,
             depth_prepass,
             oit,
@@ -416,8 +450,63 @@ impl SceneRenderer {
             stored_characters,
             scene: scene.clone(),
             path,
+            raster: RasterPath::Triangles,
+            compute_raster: None,
+            raster_materials: Vec::new(),
+            character_materials: Vec::new(),
+            occlusion_tiles: true,
             batch_bytes: BATCH_BYTES,
-        })
+        };
+        renderer.set_up_raster(ctx)?;
+        Ok(renderer)
+    }
+
+    /// Resolves the scene's rasterizer choice and, for the compute rasterizer, builds its
+    /// pipelines and the material table (`auto` keeps triangles when the scene has more
+    /// distinct hair materials than the visibility word can name).
+    fn set_up_raster(&mut self, ctx: &Context) -> Result<(), RenderError> {
+        let effects = self.scene.scene.effects;
+        let mut raster = resolve_raster(effects.raster, &effects, ctx.capabilities())?;
+        let eye = Vec3::from_array(self.scene.scene.camera.eye);
+        let mut table: Vec<RasterMaterial> = Vec::new();
+        let mut indices = Vec::new();
+        for c in self.characters.iter().chain(&self.stored_characters) {
+            let s = self.shading(c, eye);
+            let m = RasterMaterial {
+                hair_color: s.hair_color,
+                specular_shift: s.specular_shift,
+                specular_strength: s.specular_strength,
+                opacity: s.hair_opacity,
+            };
+            let index = match table.iter().position(|t| *t == m) {
+                Some(i) => i,
+                None => {
+                    table.push(m);
+                    table.len() - 1
+                }
+            };
+            indices.push(index as u32);
+        }
+        if raster == RasterPath::Compute && table.len() > MAX_MATERIALS {
+            if effects.raster == crate::scene::Raster::Compute {
+                return Err(RenderError::RasterUnavailable {
+                    why: format!("{} distinct hair materials (at most {MAX_MATERIALS})", table.len()),
+                });
+            }
+            raster = RasterPath::Triangles;
+        }
+        if raster == RasterPath::Compute {
+            self.compute_raster = Some(ComputeRaster::new(ctx)?);
+            self.raster_materials = table;
+            self.character_materials = indices;
+        }
+        self.raster = raster;
+        Ok(())
+    }
+
+    /// The rasterizer this renderer draws hair with.
+    pub fn raster(&self) -> RasterPath {
+        self.raster
     }
 
     fn view(&self) -> FrameView {
@@ -439,6 +528,13 @@ impl SceneRenderer {
                 ..LodParams::default()
             },
         }
+    }
+
+    /// Compute rasterizer: `false` draws every strand in one dispatch instead of the front
+    /// strands, the occlusion tiles and the rest (the image is the same; tests compare them).
+    pub fn with_occlusion_tiles(mut self, on: bool) -> Self {
+        self.occlusion_tiles = on;
+        self
     }
 
     /// Caps the strand-buffer bytes of one submission (default [`BATCH_BYTES`]); at least one
@@ -498,6 +594,11 @@ impl SceneRenderer {
         let lights = g.buffer("lights");
         let oit_lists = g.buffer("OIT lists");
         let occluder_meshes = g.buffer("occluder meshes");
+        let visibility = g.buffer("visibility + coverage");
+        let scene_depth = g.buffer("occluder depth (copy)");
+        let raster_frame = g.buffer("raster camera + materials");
+        let shaded = g.buffer("shaded hair");
+        let raster_tiles = g.buffer("occlusion tiles");
         let hair: Vec<Res> = (0..self.hairs.len()).map(|h| g.buffer(format!("hair {h}"))).collect();
         let character_hair: Vec<Res> = self.characters.iter().map(|c| hair[c.hair]).collect();
         let lod = (0..self.characters.len()).map(|i| g.buffer(format!("lod {i}"))).collect();
@@ -517,6 +618,11 @@ impl SceneRenderer {
             lights,
             oit_lists,
             occluder_meshes,
+            visibility,
+            scene_depth,
+            raster_frame,
+            shaded,
+            raster_tiles,
             hair: character_hair,
             lod,
             strands,
@@ -550,7 +656,12 @@ impl SceneRenderer {
         let mut batches: Vec<Vec<usize>> = vec![Vec::new()];
         let mut batch_bytes = 0;
         for (i, (c, inputs)) in self.characters.iter().zip(inputs).enumerate() {
-            let bytes = Generator::frame_bytes(&self.hairs[c.hair], inputs);
+            // Fused generation holds no strand buffer.
+            let bytes = if self.compute_raster.is_some() {
+                0
+            } else {
+                Generator::frame_bytes(&self.hairs[c.hair], inputs)
+            };
             if batch_bytes + bytes > self.batch_bytes && batches.last().is_some_and(|b| !b.is_empty()) {
                 batches.push(Vec::new());
                 batch_bytes = 0;
@@ -614,8 +725,12 @@ impl SceneRenderer {
             .collect()
     }
 
-    /// `raster hair (compute, opaque)` / `(…, blended)`.
+    /// `raster hair (compute, opaque)` / `(…, blended)` on the triangle raster, `raster hair
+    /// (compute raster, fused generation)` on the compute rasterizer.
     pub(crate) fn raster_pass_name(&self) -> String {
+        if self.compute_raster.is_some() {
+            return "raster hair (compute raster, fused generation)".into();
+        }
         let mode = if self.depth_prepass.is_some() { "blended" } else { "opaque" };
         format!("raster hair ({}, {mode})", self.path)
     }
@@ -721,7 +836,11 @@ impl SceneRenderer {
                 self.stored[c.hair].frame_params(ctx, &inputs)
             })
             .collect::<gen_gpu::Result<Vec<_>>>()?;
-        let samples = if self.oit.is_some() { 1 } else { self.scene.scene.effects.msaa };
+        let samples = if self.oit.is_some() || self.compute_raster.is_some() {
+            1
+        } else {
+            self.scene.scene.effects.msaa
+        };
         let scene_target = SceneTarget::new(ctx, &mut pool, view.width, view.height, samples)?;
         // The OIT node pool is bounded by the output size and the storage-buffer range.
         let oit_buffers = match &self.oit {
@@ -739,6 +858,17 @@ impl SceneRenderer {
             }
             None => None,
         };
+        let raster_buffers = match &self.compute_raster {
+            Some(_) => Some(RasterBuffers::new(
+                ctx,
+                &mut pool,
+                &view,
+                &self.raster_materials,
+                self.scene.lights().len(),
+                !self.occluders.is_empty(),
+            )?),
+            None => None,
+        };
         let mut images: HashMap<Res, &Image> = HashMap::new();
         images.insert(plan.ids.color, &scene_target.color);
         images.insert(plan.ids.depth, &scene_target.depth);
@@ -753,10 +883,13 @@ impl SceneRenderer {
             let frames = batch
                 .iter()
                 .map(|&i| {
-                    Ok((
-                        i,
-                        self.generator.prepare(ctx, &self.hairs[self.characters[i].hair], &plan.inputs[i])?,
-                    ))
+                    let hair = &self.hairs[self.characters[i].hair];
+                    let frame = if self.compute_raster.is_some() {
+                        self.generator.prepare_fused(ctx, hair, &plan.inputs[i])?
+                    } else {
+                        self.generator.prepare(ctx, hair, &plan.inputs[i])?
+                    };
+                    Ok((i, frame))
                 })
                 .collect::<gen_gpu::Result<Vec<_>>>()?;
             let last = k + 1 == batch_count;
@@ -765,6 +898,8 @@ impl SceneRenderer {
                 target: &scene_target,
                 lighting,
                 oit: oit_buffers.as_ref(),
+                raster: raster_buffers.as_ref(),
+                materials: &self.character_materials,
                 frames: &frames,
                 stored_params: if last { &stored_params } else { &[] },
             };
@@ -798,6 +933,9 @@ impl SceneRenderer {
         }
         if lights.mapped().is_some() {
             pool.give_back_buffer(lights);
+        }
+        if let Some(b) = raster_buffers {
+            b.give_back(&mut pool);
         }
         Ok(RenderedFrame {
             image: linear.to_srgb8(),

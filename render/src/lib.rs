@@ -14,6 +14,7 @@ pub mod instance;
 pub mod occluder;
 pub mod output;
 pub mod passes;
+pub mod raster;
 pub mod scene;
 pub mod shadow;
 pub mod target;

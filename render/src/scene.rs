@@ -20,6 +20,10 @@
 //! hair) or `"oit"` (per-pixel linked lists with a k-buffer resolve, `oit_k` sorted, pool of
 //! `oit_nodes_per_pixel` nodes per pixel on average); opaque and blended modes may add MSAA
 //! (`msaa`: 2, 4, 8).
+//! `effects.raster` picks the rasterizer: `"auto"` (default: the compute rasterizer on CPU
+//! devices when it can draw the scene's effects, else triangles), `"triangles"` (camera-facing
+//! strips through the triangle pipeline; every effect) or `"compute"` (`render::raster`:
+//! opaque and blended transparency without MSAA so far; other combinations are refused).
 //! `shadows` adds deep opacity maps and occluder depth maps for every light with `cast_shadows`
 //! (default true; orthographic for directional lights, perspective for point lights, which must
 //! lie outside the casters; `shadow_map_size`, `shadow_layers`). A character may carry an
@@ -215,9 +219,39 @@ pub enum Transparency {
     Oit,
 }
 
+/// Which rasterizer draws the hair (`effects.raster`).
+#[derive(Clone, Copy, Debug, Default, Deserialize, Serialize, PartialEq, Eq)]
+#[serde(rename_all = "snake_case")]
+pub enum Raster {
+    /// The compute rasterizer on CPU devices (where the triangle pipeline is the bottleneck)
+    /// when it can draw the scene's effects, the triangle raster otherwise.
+    #[default]
+    Auto,
+    /// Camera-facing strips through the triangle pipeline: every effect, the reference.
+    Triangles,
+    /// The compute rasterizer ([`crate::raster`]): opaque and blended transparency (drawn
+    /// alike) without MSAA so far, on devices with 64-bit buffer atomics.
+    Compute,
+}
+
+impl std::str::FromStr for Raster {
+    type Err = String;
+
+    fn from_str(s: &str) -> Result<Self, String> {
+        match s {
+            "auto" => Ok(Self::Auto),
+            "triangles" => Ok(Self::Triangles),
+            "compute" => Ok(Self::Compute),
+            other => Err(format!("unknown raster {other:?} (expected auto, triangles or compute)")),
+        }
+    }
+}
+
 #[derive(Clone, Copy, Debug, Deserialize, Serialize, PartialEq)]
 #[serde(deny_unknown_fields, default)]
 pub struct Effects {
+    /// Which rasterizer draws the hair.
+    pub raster: Raster,
     pub transparency: Transparency,
     /// OIT: fragments kept sorted per pixel (the rest blend order-independently), 1..=16.
     pub oit_k: u32,
@@ -239,6 +273,7 @@ pub struct Effects {
 impl Default for Effects {
     fn default() -> Self {
         Self {
+            raster: Raster::Auto,
             transparency: Transparency::Opaque,
             oit_k: 8,
             oit_nodes_per_pixel: 32.0,
@@ -359,6 +394,14 @@ impl LoadedScene {
             })
             .map(|(i, _)| i)
             .collect()
+    }
+}
+
+impl LoadedScene {
+    /// Checks every field (what [`load_scene`] does): for scenes changed in memory, e.g. by a
+    /// command's `--raster` override.
+    pub fn validate(&self) -> Result<(), SceneError> {
+        validate(self)
     }
 }
 
@@ -508,6 +551,21 @@ fn validate(loaded: &LoadedScene) -> Result<(), SceneError> {
             "effects.msaa",
             format!("{} with transparency \"oit\" (MSAA anti-aliases the opaque and blended modes)", e.msaa),
         ));
+    }
+    if e.raster == Raster::Compute {
+        if e.transparency == Transparency::Oit {
+            return Err(SceneError::NotSupportedYet {
+                path: path.clone(),
+                field: "effects.raster".into(),
+                effect: format!("the compute rasterizer with transparency {:?}", e.transparency),
+            });
+        }
+        if e.msaa > 1 {
+            return Err(invalid(
+                "effects.msaa",
+                format!("{} with raster \"compute\" (MSAA applies to the triangle raster)", e.msaa),
+            ));
+        }
     }
     if e.shadows {
         if !(16..=4096).contains(&e.shadow_map_size) {

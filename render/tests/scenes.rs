@@ -151,7 +151,7 @@ fn main() -> ExitCode {
             let bust = repo("tests/data/heads/sintel/sintel_bust.obj");
             ensure!(groom.is_file(), "{} is missing (the repository's test data)", groom.display());
             for (name, effects) in [
-                ("sintel_opaque", serde_json::json!({ "transparency": "opaque" })),
+                ("sintel_opaque", serde_json::json!({ "transparency": "opaque", "raster": "triangles" })),
                 ("sintel_oit", serde_json::json!({ "transparency": "oit" })),
                 (
                     "sintel_oit_shadows",

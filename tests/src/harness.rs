@@ -9,11 +9,14 @@ use libtest_mimic::{Arguments, Completion, Failed, Trial};
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 pub struct Requirements {
     pub mesh_shader: bool,
+    /// 64-bit buffer atomics (the compute rasterizer).
+    pub int64_atomics: bool,
 }
 
 impl Requirements {
-    pub const NONE: Self = Self { mesh_shader: false };
-    pub const MESH_SHADER: Self = Self { mesh_shader: true };
+    pub const NONE: Self = Self { mesh_shader: false, int64_atomics: false };
+    pub const MESH_SHADER: Self = Self { mesh_shader: true, int64_atomics: false };
+    pub const INT64_ATOMICS: Self = Self { mesh_shader: false, int64_atomics: true };
 }
 
 type Body = Box<dyn FnOnce(&Context) -> anyhow::Result<()> + Send>;
@@ -120,6 +123,10 @@ pub fn run_gpu_tests(tests: Vec<GpuTest>) -> ExitCode {
                     } else {
                         Ok(Completion::ignored_with(reason))
                     };
+                }
+                if requires.int64_atomics && !ctx.capabilities().buffer_int64_atomics {
+                    let reason = format!("{} lacks 64-bit buffer atomics", ctx.capabilities().device_name);
+                    return Ok(Completion::ignored_with(reason));
                 }
                 run_checked(ctx, body).map(|()| Completion::Completed)
             })

@@ -15,7 +15,9 @@ pub fn small_scene(dir: &Path, name: &str, width: u32, height: u32) -> anyhow::R
     scene_with(dir, name, width, height, serde_json::json!({ "transparency": "opaque" }))
 }
 
-/// `assets/scenes/NAME.json` at `width`×`height` with `effects`.
+/// `assets/scenes/NAME.json` at `width`×`height` with `effects`, drawn by the triangle raster
+/// unless `effects` names a `raster` (the golden images are the triangle raster's, the
+/// reference the compute rasterizer is compared with).
 pub fn scene_with(
     dir: &Path,
     name: &str,
@@ -26,6 +28,10 @@ pub fn scene_with(
     let text = std::fs::read_to_string(repo(&format!("assets/scenes/{name}.json")))?;
     let mut json: serde_json::Value = serde_json::from_str(&text)?;
     json["output"] = serde_json::json!({ "width": width, "height": height });
+    let mut effects = effects;
+    if let Some(e) = effects.as_object_mut() {
+        e.entry("raster").or_insert_with(|| serde_json::json!("triangles"));
+    }
     json["effects"] = effects;
     for c in json["characters"].as_array_mut().context("characters")? {
         let hair = c["hair"].as_str().context("hair")?.to_owned();

@@ -41,8 +41,12 @@ struct Cli {
     /// Device index or name part.
     #[arg(long)]
     device: Option<String>,
+    /// Rasterizer of the crowd and passes sections' scenes: auto, triangles or compute (the
+    /// raster section always measures both).
+    #[arg(long, default_value = "auto")]
+    raster: render::scene::Raster,
     /// Run only these sections (comma-separated: generation, memory, stored, accuracy, crowd,
-    /// passes) and replace only them in the report.
+    /// passes, raster) and replace only them in the report.
     #[arg(long, value_name = "SECTION[,SECTION]")]
     only: Option<String>,
 }
@@ -103,7 +107,7 @@ fn median(mut v: Vec<f64>) -> f64 {
 }
 
 /// The report's sections in order, as `--only` names them.
-const SECTIONS: [&str; 6] = ["generation", "memory", "stored", "accuracy", "crowd", "passes"];
+const SECTIONS: [&str; 7] = ["generation", "memory", "stored", "accuracy", "crowd", "passes", "raster"];
 
 /// One section of the report: its markdown (between its own markers), CSV files and plots.
 struct Section {
@@ -125,6 +129,8 @@ struct Setup<'a> {
     camera: Camera,
     character: [Character; 1],
     out: &'a Path,
+    /// The rasterizer of the scene-renderer sections (crowd, passes).
+    raster: render::scene::Raster,
     /// "measured by … on …" for every section's header.
     provenance: String,
 }
@@ -200,6 +206,9 @@ fn run(cli: &Cli) -> Result<()> {
     if let Some(list) = &cli.only {
         command.push_str(&format!(" --only {list}"));
     }
+    if cli.raster != render::scene::Raster::Auto {
+        command.push_str(&format!(" --raster {:?}", cli.raster).to_lowercase());
+    }
     let (width, height) = if cli.quick { (640, 360) } else { (1280, 720) };
     let mut paths = vec![GenerationPath::Compute];
     if caps.mesh_shader.is_some() {
@@ -220,6 +229,7 @@ fn run(cli: &Cli) -> Result<()> {
         },
         character: [Character { hair: 0, transform: Mat4::IDENTITY }],
         out: &cli.out,
+        raster: cli.raster,
         provenance: format!(
             "`cargo run --release -p hairkit-cli --bin {command}` on **{}** ({}, Vulkan {}.{})",
             caps.device_name, caps.driver_info, caps.api_version.0, caps.api_version.1
@@ -235,6 +245,7 @@ fn run(cli: &Cli) -> Result<()> {
             "stored" => stored_section(&setup, &progress)?,
             "accuracy" => accuracy_section(&setup)?,
             "crowd" => crowd_section(&setup, &progress)?,
+            "raster" => raster_section(&setup, &progress)?,
             _ => passes_section(&setup)?,
         });
         progress.inc(1);
@@ -537,14 +548,188 @@ fn accuracy_section(setup: &Setup<'_>) -> Result<Section> {
 }
 
 fn crowd_section(setup: &Setup<'_>, progress: &indicatif::ProgressBar) -> Result<Section> {
-    let (table, rows) = crowd_table(setup.ctx, setup.quick, progress)?;
+    let (table, rows) = crowd_table(setup.ctx, setup.quick, setup.raster, progress)?;
     let plot = draw_crowd_plot(setup.out, &rows)?;
     Ok(table_section("crowd", "bench-crowd.csv", table, setup, Some(plot)))
 }
 
 fn passes_section(setup: &Setup<'_>) -> Result<Section> {
-    let table = effects_table(setup.ctx, setup.quick, setup.width, setup.height, setup.frames)?;
+    let table = effects_table(setup, setup.width, setup.height, setup.frames)?;
     Ok(table_section("passes", "bench-effects.csv", table, setup, None))
+}
+
+fn raster_section(setup: &Setup<'_>, progress: &indicatif::ProgressBar) -> Result<Section> {
+    let table = raster_table(setup, progress)?;
+    Ok(table_section("raster", "bench-raster.csv", table, setup, None))
+}
+
+/// GPU time of a frame's passes whose names start with one of `prefixes` (top-level passes of
+/// every submission).
+fn passes_ms(frame: &render::frame::RenderedFrame, prefixes: &[&str]) -> f64 {
+    frame
+        .timings
+        .passes
+        .iter()
+        .filter(|p| p.depth == 1 && prefixes.iter().any(|x| p.name.starts_with(x)))
+        .filter_map(|p| p.gpu_ms)
+        .sum()
+}
+
+/// The triangle raster against the compute rasterizer on the same scenes, in one run: one
+/// character near (a close-up) and far (about 1 % of the screen), the artist's Sintel groom with
+/// shadows, the heads crowd with LOD; per scene the hair passes, the whole frame, the speed-up
+/// and the FLIP between the two images.
+fn raster_table(setup: &Setup<'_>, progress: &indicatif::ProgressBar) -> Result<Table> {
+    let Setup { ctx, quick, width, height, frames, .. } = *setup;
+    if !ctx.capabilities().buffer_int64_atomics {
+        anyhow::bail!(
+            "{} has no 64-bit buffer atomics: no compute rasterizer",
+            ctx.capabilities().device_name
+        );
+    }
+    let dir = std::env::temp_dir().join(format!("hair-bench-raster-{}", std::process::id()));
+    std::fs::create_dir_all(&dir)?;
+    let mut scenes: Vec<(String, PathBuf)> = Vec::new();
+    let near =
+        serde_json::json!({ "eye": [0.0, 1.82, 0.62], "target": [0.0, 1.55, 0.0], "fov_y_degrees": 45 });
+    let far = serde_json::json!({ "eye": [0.0, 1.7, 4.2], "target": [0.0, 1.55, 0.0], "fov_y_degrees": 45 });
+    let lights = serde_json::json!([ { "directional": { "direction": [0.5, 0.8, 0.6] } } ]);
+    for &strands in setup.sizes {
+        let asset_dir = dir.join(format!("hair_{strands}"));
+        hairmesh::asset_io::write_asset(
+            &asset_dir,
+            &asset(strands)?,
+            hairmesh::asset_io::Precision::F32,
+            "metres",
+            None,
+        )?;
+        for (label, camera) in [("close-up", &near), ("far, ~1 % of the screen", &far)] {
+            let scene = serde_json::json!({
+                "output": { "width": width, "height": height },
+                "camera": camera,
+                "lights": lights,
+                "characters": [ { "hair": asset_dir, "color": [0.0835, 0.0272, 0.00719] } ],
+                "effects": { "transparency": "opaque" }
+            });
+            let path = dir.join(format!("scene_{strands}_{}.json", scenes.len()));
+            std::fs::write(&path, serde_json::to_vec_pretty(&scene)?)?;
+            scenes.push((format!("{strands}-strand character, {label}, opaque"), path));
+        }
+    }
+    let groom = Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("../tests/data/strands/tressfx/v4/sintel_hair_full_16points.tfx");
+    let bust = Path::new(env!("CARGO_MANIFEST_DIR")).join("../tests/data/heads/sintel/sintel_bust.obj");
+    if groom.is_file() && bust.is_file() {
+        let scene = serde_json::json!({
+            "output": { "width": width, "height": height },
+            "camera": { "eye": [0.15, 1.62, 0.5], "target": [0.0, 1.52, 0.0], "fov_y_degrees": 40 },
+            "lights": lights,
+            "characters": [ {
+                "hair": groom, "color": [0.171, 0.0397, 0.00719], "strand_width": 0.0004,
+                "occluder": { "mesh": bust, "transform": { "scale": 0.01, "translation": [0, 1.195, 0] } }
+            } ],
+            "effects": { "transparency": "opaque", "shadows": true }
+        });
+        let path = dir.join("scene_sintel.json");
+        std::fs::write(&path, serde_json::to_vec_pretty(&scene)?)?;
+        scenes.push(("Sintel full groom (11,400 × 16, TressFX) on the bust, opaque + shadows".into(), path));
+    }
+    // The heads crowd with strand α 64 / vertex α 1024 (the crowd section's LOD rows).
+    progress.set_message("raster: writing the heads crowd");
+    let crowd_options = if quick {
+        hairkit_cli::crowd_scenes::CrowdOptions {
+            out: dir.join("crowd"),
+            characters: 9,
+            strands: 3_000,
+            teapots: 1,
+            teapot_strands: 100,
+            teapot_variants: 1,
+            size: (width, height),
+            ..hairkit_cli::crowd_scenes::CrowdOptions::default()
+        }
+    } else {
+        hairkit_cli::crowd_scenes::CrowdOptions {
+            out: dir.join("crowd"),
+            teapots: 1,
+            teapot_strands: 100,
+            teapot_variants: 1,
+            size: (width, height),
+            ..hairkit_cli::crowd_scenes::CrowdOptions::default()
+        }
+    };
+    let crowd = hairkit_cli::crowd_scenes::write_crowds(&crowd_options, |_, _, _| {})?;
+    let crowd_name = format!(
+        "{} heads × {} strands, LOD α 64 / 1024, blended",
+        crowd_options.characters, crowd_options.strands
+    );
+    let mut md = String::new();
+    let _ = writeln!(md, "\n### Triangle raster vs compute rasterizer\n");
+    let _ = writeln!(
+        md,
+        "{width}×{height}, LOD on, GPU timestamps, median of {frames} frames after a warm-up, both rasterizers in one run. *hair passes*: generation (LOD + cull, and the compute path's generation pass for triangles) plus the raster passes (triangles: the strip draw; compute: clear, fused raster, resolve); *frame*: every submission of the frame (shadow maps are cached after the first frame). FLIP: mean, compute image against the triangle image.\n"
+    );
+    let _ = writeln!(
+        md,
+        "| scene | strands | triangles: hair (ms) | triangles: frame (ms) | compute: hair (ms) | compute: frame (ms) | frame speed-up | FLIP |\n|---|---|---|---|---|---|---|---|"
+    );
+    let mut csv = String::from(
+        "scene,strands,triangles_hair_ms,triangles_frame_ms,compute_hair_ms,compute_frame_ms,speedup,flip\n",
+    );
+    let mut all: Vec<(String, render::scene::LoadedScene)> = Vec::new();
+    for (name, path) in &scenes {
+        all.push((name.clone(), render::scene::load_scene(path)?));
+    }
+    let mut crowd_scene = render::scene::load_scene(&crowd.heads)?;
+    crowd_scene.scene.lod.enabled = true;
+    crowd_scene.scene.lod.strand_alpha = 64.0;
+    crowd_scene.scene.lod.vertex_alpha = 1024.0;
+    all.push((crowd_name, crowd_scene));
+    let hair_prefixes =
+        ["lod+cull", "generate", "raster hair", "hair depth prepass", "clear visibility", "resolve hair"];
+    for (name, loaded) in all {
+        let mut results = Vec::new();
+        for raster in [render::scene::Raster::Triangles, render::scene::Raster::Compute] {
+            progress.set_message(format!("raster: {name} ({raster:?})"));
+            let mut scene = loaded.clone();
+            scene.scene.effects.raster = raster;
+            let renderer = render::frame::SceneRenderer::new(ctx, &scene, GenerationPath::Compute)?;
+            renderer.render(ctx)?;
+            let mut hair = Vec::new();
+            let mut total = Vec::new();
+            let mut last = None;
+            for _ in 0..frames {
+                let f = renderer.render(ctx)?;
+                hair.push(passes_ms(&f, &hair_prefixes));
+                // Every submission of the frame (crowds are drawn in batches).
+                total.push(
+                    f.timings
+                        .passes
+                        .iter()
+                        .filter(|p| p.name == "scene frame")
+                        .filter_map(|p| p.gpu_ms)
+                        .sum(),
+                );
+                last = Some(f);
+            }
+            let f = last.context("no frame rendered")?;
+            results.push((median(hair), median(total), f.image, f.stats.strands));
+        }
+        let [(th, tf, ti, strands), (ch, cf, ci, _)] =
+            <[_; 2]>::try_from(results).map_err(|_| anyhow::anyhow!("two rasterizers, two results"))?;
+        let flip = flip_mean(&ti, &ci);
+        let speedup = tf / cf;
+        let _ = writeln!(
+            md,
+            "| {name} | {strands} | {th:.1} | {tf:.1} | {ch:.1} | {cf:.1} | {speedup:.1}× | {flip:.4} |"
+        );
+        let _ = writeln!(
+            csv,
+            "{},{strands},{th:.3},{tf:.3},{ch:.3},{cf:.3},{speedup:.3},{flip:.5}",
+            name.replace(',', ";")
+        );
+    }
+    let _ = std::fs::remove_dir_all(&dir);
+    Ok(Table { markdown: md, csv })
 }
 
 fn write(path: &Path, bytes: &[u8]) -> Result<()> {
@@ -571,6 +756,7 @@ fn flip_mean(reference: &RgbaImage, test: &RgbaImage) -> f64 {
 fn crowd_table(
     ctx: &Context,
     quick: bool,
+    raster: render::scene::Raster,
     progress: &indicatif::ProgressBar,
 ) -> Result<(Table, Vec<CrowdRow>)> {
     let dir = std::env::temp_dir().join(format!("hair-bench-crowd-{}", std::process::id()));
@@ -614,6 +800,7 @@ fn crowd_table(
                 alpha.map_or("off".to_owned(), lod_label)
             ));
             let mut scene = loaded.clone();
+            scene.scene.effects.raster = raster;
             scene.scene.lod.enabled = alpha.is_some();
             if let Some((strand, vertex)) = alpha {
                 scene.scene.lod.strand_alpha = strand;
@@ -919,7 +1106,8 @@ fn accuracy_table(ctx: &Context, quick: bool, width: u32, height: u32, frames: u
 
 /// One generated character (opaque, OIT, OIT + shadows) and the artist's full Sintel groom
 /// (OIT + shadows) through `hair-render`'s scene renderer: per-pass times.
-fn effects_table(ctx: &Context, quick: bool, width: u32, height: u32, frames: usize) -> Result<Table> {
+fn effects_table(setup: &Setup<'_>, width: u32, height: u32, frames: usize) -> Result<Table> {
+    let (ctx, quick) = (setup.ctx, setup.quick);
     let dir = std::env::temp_dir().join(format!("hair-bench-{}", std::process::id()));
     std::fs::create_dir_all(&dir)?;
     let strands = if quick { 5_000 } else { 100_000 };
@@ -990,8 +1178,15 @@ fn effects_table(ctx: &Context, quick: bool, width: u32, height: u32, frames: us
         });
         let path = dir.join("scene.json");
         std::fs::write(&path, serde_json::to_vec_pretty(&scene)?)?;
-        let loaded = render::scene::load_scene(&path)?;
+        let mut loaded = render::scene::load_scene(&path)?;
+        loaded.scene.effects.raster = setup.raster;
+        // `compute` where the compute rasterizer cannot draw the effects (OIT) falls back to
+        // the triangle raster, and the table says which drew each row.
+        if loaded.validate().is_err() {
+            loaded.scene.effects.raster = render::scene::Raster::Triangles;
+        }
         let renderer = render::frame::SceneRenderer::new(ctx, &loaded, GenerationPath::Compute)?;
+        let name = format!("{name} [{}]", renderer.raster());
         let first = renderer.render(ctx)?;
         let shadow_ms = first.shadow_ms;
         let mut generate = Vec::new();

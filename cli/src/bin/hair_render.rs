@@ -2,7 +2,8 @@
 //!
 //! ```text
 //! hair-render SCENE -o OUT.png|OUT.exr [--depth] [--coverage] [--frames N]
-//!             [--path auto|mesh|compute] [--device SEL] [--print-graph]
+//!             [--path auto|mesh|compute] [--raster auto|triangles|compute]
+//!             [--device SEL] [--print-graph]
 //!             [--stats] [--stats-json FILE] [--validation]
 //! ```
 //!
@@ -33,6 +34,10 @@ struct Cli {
     /// Generation path: auto, mesh or compute.
     #[arg(long, default_value = "auto")]
     path: PathChoice,
+    /// Rasterizer: auto, triangles or compute (overrides the scene's `effects.raster`; auto
+    /// takes the compute rasterizer on CPU devices when it can draw the scene's effects).
+    #[arg(long)]
+    raster: Option<render::scene::Raster>,
     /// Device index or part of its name.
     #[arg(long)]
     device: Option<String>,
@@ -74,7 +79,11 @@ fn main() -> std::process::ExitCode {
 
 fn run(cli: &Cli) -> Result<()> {
     // Everything about the scene is checked before the GPU is touched.
-    let scene = render::scene::load_scene(&cli.scene)?;
+    let mut scene = render::scene::load_scene(&cli.scene)?;
+    if let Some(raster) = cli.raster {
+        scene.scene.effects.raster = raster;
+        scene.validate()?;
+    }
     if cli.out.is_none() && !cli.print_graph {
         anyhow::bail!("nothing to do: give -o OUT.png and/or --print-graph");
     }
@@ -116,11 +125,12 @@ fn run(cli: &Cli) -> Result<()> {
             render::output::write_png(&file, &frame.image)?;
         }
         println!(
-            "{} ({}x{}, {} path, {:.0} ms)",
+            "{} ({}x{}, {} path, {} raster, {:.0} ms)",
             file.display(),
             frame.image.width,
             frame.image.height,
             path,
+            renderer.raster(),
             frame.timings.cpu_wait_ms
         );
         last = Some(frame);

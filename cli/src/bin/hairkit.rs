@@ -49,6 +49,11 @@ enum Command {
         /// Image size, WIDTHxHEIGHT.
         #[arg(long, default_value = "960x400", value_parser = parse_size)]
         size: (u32, u32),
+        /// Rasterizer: auto or triangles draw the people with OIT + shadows through the
+        /// triangle raster; compute draws them opaque (+ shadows) through the compute
+        /// rasterizer, which has no OIT yet.
+        #[arg(long, default_value = "auto")]
+        raster: render::scene::Raster,
         #[command(flatten)]
         device: DeviceArgs,
     },
@@ -193,8 +198,8 @@ fn run(cli: Cli) -> Result<()> {
             );
             Ok(())
         }
-        Command::Demo { out, data, strands, characters, size, device } => {
-            demo(&DemoOptions { out, data, strands, characters, size }, &device)
+        Command::Demo { out, data, strands, characters, size, raster, device } => {
+            demo(&DemoOptions { out, data, strands, characters, size, raster }, &device)
         }
     }
 }
@@ -205,6 +210,7 @@ struct DemoOptions {
     strands: u64,
     characters: u32,
     size: (u32, u32),
+    raster: render::scene::Raster,
 }
 
 fn timed<T>(what: &str, f: impl FnOnce() -> Result<T>) -> Result<T> {
@@ -396,7 +402,11 @@ fn demo(o: &DemoOptions, device: &DeviceArgs) -> Result<()> {
             { "directional": { "direction": [0.0, 0.4, -1.0], "color": [0.35, 0.35, 0.4], "cast_shadows": false } }
         ],
         "characters": characters,
-        "effects": { "transparency": "oit", "shadows": true }
+        "effects": {
+            "transparency": if o.raster == render::scene::Raster::Compute { "opaque" } else { "oit" },
+            "shadows": true,
+            "raster": o.raster
+        }
     });
     let scene_path = o.out.join("people.json");
     std::fs::create_dir_all(&o.out).with_context(|| format!("creating {}", o.out.display()))?;
@@ -411,8 +421,9 @@ fn demo(o: &DemoOptions, device: &DeviceArgs) -> Result<()> {
         let chosen = device.path(&ctx)?;
         paths.retain(|p| *p == chosen);
     }
+    let transparency = if o.raster == render::scene::Raster::Compute { "opaque" } else { "OIT" };
     println!(
-        "\n== people: {} characters, {width}x{height}, heads as occluders, OIT + deep-opacity shadows ({})",
+        "\n== people: {} characters, {width}x{height}, heads as occluders, {transparency} + deep-opacity shadows ({})",
         o.characters,
         scene_path.display()
     );
@@ -427,7 +438,7 @@ fn demo(o: &DemoOptions, device: &DeviceArgs) -> Result<()> {
         let frame = renderer.render(&ctx)?;
         let file = o.out.join(format!("people-{path}.png"));
         render::output::write_png(&file, &frame.image)?;
-        println!("{path} path -> {}", file.display());
+        println!("{path} path, {} raster -> {}", renderer.raster(), file.display());
         println!(
             "  first frame: {:.1} ms wall (shader compilation) + {:.1} ms GPU for the shadow maps, computed once",
             first.timings.cpu_wait_ms,

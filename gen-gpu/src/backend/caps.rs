@@ -32,6 +32,9 @@ pub struct Capabilities {
     /// Bits of sub-texel precision in filtering weights: hardware trilinear filtering is exact
     /// to about 2^-bits of the difference between neighbouring texels.
     pub sub_texel_precision_bits: u32,
+    /// 64-bit integer atomics on storage buffers (`shaderInt64` + `shaderBufferInt64Atomics`):
+    /// what the compute strand rasterizer's visibility buffer needs.
+    pub buffer_int64_atomics: bool,
 }
 
 /// Limits of VK_EXT_mesh_shader that generation must respect (queried, never assumed).
@@ -76,13 +79,16 @@ impl Capabilities {
         let props = props2.properties;
 
         let mut mesh_features = vk::PhysicalDeviceMeshShaderFeaturesEXT::default();
-        let mut features2 = vk::PhysicalDeviceFeatures2::default();
+        let mut v12_features = vk::PhysicalDeviceVulkan12Features::default();
+        let mut features2 = vk::PhysicalDeviceFeatures2::default().push_next(&mut v12_features);
         if has_mesh_ext {
             features2 = features2.push_next(&mut mesh_features);
         }
         // SAFETY: as above.
         unsafe { instance.get_physical_device_features2(physical, &mut features2) };
         let features = features2.features;
+        let buffer_int64_atomics =
+            features.shader_int64 == vk::TRUE && v12_features.shader_buffer_int64_atomics == vk::TRUE;
 
         let filterable = |format| {
             // SAFETY: valid physical device and format enum.
@@ -136,6 +142,7 @@ impl Capabilities {
             pipeline_statistics_query: features.pipeline_statistics_query == vk::TRUE,
             sampler_anisotropy: features.sampler_anisotropy == vk::TRUE,
             sub_texel_precision_bits: props.limits.sub_texel_precision_bits,
+            buffer_int64_atomics,
         }
     }
 }
@@ -214,6 +221,7 @@ impl fmt::Display for Capabilities {
         writeln!(f, "max push constants:     {} bytes", self.max_push_constants_size)?;
         writeln!(f, "max 3D image:           {}", self.max_image_dimension_3d)?;
         writeln!(f, "sub-texel precision:    {} bits", self.sub_texel_precision_bits)?;
+        writeln!(f, "64-bit buffer atomics:  {}", yes_no(self.buffer_int64_atomics))?;
         write!(f, "pipeline statistics:    {}", yes_no(self.pipeline_statistics_query))
     }
 }

@@ -329,12 +329,14 @@ impl Context {
             .pipeline_statistics_query(caps.pipeline_statistics_query)
             .fragment_stores_and_atomics(true)
             .vertex_pipeline_stores_and_atomics(true)
-            .shader_int16(true);
+            .shader_int16(true)
+            .shader_int64(caps.buffer_int64_atomics);
         let mut v11 = vk::PhysicalDeviceVulkan11Features::default().storage_buffer16_bit_access(true);
         let mut v12 = vk::PhysicalDeviceVulkan12Features::default()
             .scalar_block_layout(true)
             .shader_float16(true)
-            .host_query_reset(true);
+            .host_query_reset(true)
+            .shader_buffer_int64_atomics(caps.buffer_int64_atomics);
         let mut v13 = vk::PhysicalDeviceVulkan13Features::default()
             .dynamic_rendering(true)
             .synchronization2(true)

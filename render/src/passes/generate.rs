@@ -20,7 +20,8 @@ pub(crate) fn plan(
         .write(ids.lod[i], Access::ComputeWrite)
         .submission(submission)
         .add(ScenePass::LodCull(i));
-    if r.path == GenerationPath::Compute {
+    // The compute rasterizer generates inside its raster kernel.
+    if r.path == GenerationPath::Compute && r.compute_raster.is_none() {
         g.pass(format!("generate character {i}"))
             .read(ids.hair[i], Access::ComputeRead)
             .read(ids.lod[i], Access::ComputeRead)

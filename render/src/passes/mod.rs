@@ -9,9 +9,11 @@
 //! | [`generate`] | per character: LOD + cull (both paths), generate (compute path) |
 //! | [`occluders`] | the occluder meshes, shaded and lit, into the scene target |
 //! | [`hair`] | the hair raster: blended mode's depth prepass, opaque/blended shading |
+//! | [`compute_raster`] | the compute rasterizer: clear, occluder depth copy, fused raster per batch, shade, resolve |
 //! | [`oit`] | clear the OIT lists, fill them, resolve them |
 //! | [`copy_out`] | the target into the readback buffers |
 
+pub mod compute_raster;
 pub mod copy_out;
 pub mod generate;
 pub mod hair;
@@ -41,6 +43,17 @@ pub enum ScenePass {
     Raster,
     OitFill,
     OitResolve,
+    /// Compute rasterizer: clear the visibility and coverage buffers.
+    ClearVisibility,
+    /// Compute rasterizer: the occluders' depth into the buffer the kernels test against.
+    OccluderDepthCopy,
+    /// Compute rasterizer: one batch's characters (and the stored strands on the last), one
+    /// phase.
+    ComputeRaster(crate::raster::RasterPhase),
+    /// Compute rasterizer: the occlusion tiles between the phases.
+    RasterTiles,
+    RasterShade,
+    RasterResolve,
     CopyOut,
 }
 
@@ -58,6 +71,22 @@ pub(crate) fn frame_batch(
 ) {
     for &i in batch {
         generate::plan(r, g, ids, i, submission);
+    }
+    if r.compute_raster.is_some() {
+        if first {
+            compute_raster::plan_clear(g, ids, submission);
+            if !r.occluders.is_empty() {
+                occluders::plan(g, ids, submission);
+                compute_raster::plan_occluder_depth(g, ids, submission);
+            }
+        }
+        compute_raster::plan_raster(r, g, ids, batch, last, submission);
+        if last {
+            compute_raster::plan_shade(g, ids, submission);
+            compute_raster::plan_resolve(g, ids, submission);
+            copy_out::plan(g, ids, submission);
+        }
+        return;
     }
     if first && r.oit.is_some() {
         oit::plan_clear(g, ids, submission);
@@ -98,6 +127,12 @@ pub(crate) fn record(
         ScenePass::Raster => hair::record_raster(r, rec, state, clear),
         ScenePass::OitFill => oit::record_fill(r, rec, state, clear),
         ScenePass::OitResolve => oit::record_resolve(r, rec, state),
+        ScenePass::ClearVisibility => compute_raster::record_clear(rec, state),
+        ScenePass::OccluderDepthCopy => compute_raster::record_occluder_depth(rec, state),
+        ScenePass::ComputeRaster(phase) => compute_raster::record_raster(r, rec, state, phase),
+        ScenePass::RasterTiles => compute_raster::record_tiles(r, rec, state),
+        ScenePass::RasterShade => compute_raster::record_shade(r, rec, state),
+        ScenePass::RasterResolve => compute_raster::record_resolve(r, rec, state, clear),
         ScenePass::CopyOut => copy_out::record(rec, state),
     }
 }

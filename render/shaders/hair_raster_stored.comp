@@ -1,0 +1,40 @@
+#version 460
+// Compute rasterizer, stored strands: one invocation rasterizes one slot of a strand buffer in
+// gen-gpu's layout (an artist's groom uploaded once; or strands the compute path generated),
+// with the same segment rasterization as the fused kernel.
+#extension GL_GOOGLE_include_directive : require
+#define HAIR_GEN_NO_WORKGROUP
+#include "hair_gen.glsl"
+#include "hair_outputs.glsl"
+#include "strand_raster.glsl"
+
+layout(local_size_x = 32) in;
+
+StrandVertex stored_vertex(uint slot, uint k) {
+    uint base = (slot * MAX_VERTICES + k) * 2u;
+    StrandVertex v;
+    v.position = strand_vertices[base].xyz;
+    v.width = strand_vertices[base].w;
+    v.tangent = strand_vertices[base + 1u].xyz;
+    v.tau = strand_vertices[base + 1u].w;
+    return v;
+}
+
+void main() {
+    uint slot = gl_GlobalInvocationID.x;
+    if (slot >= raster.slots) {
+        return;
+    }
+    if (!in_phase(slot, raster.slots)) {
+        return;
+    }
+    uvec4 info = strand_info[slot];
+    uint n = min(info.z, MAX_VERTICES);
+    float random = strand_random(info.x, info.y, 7u);
+    RasterVertex previous = raster_vertex(stored_vertex(slot, 0u));
+    for (uint k = 1u; k < n; ++k) {
+        RasterVertex next = raster_vertex(stored_vertex(slot, k));
+        raster_segment(previous, next, raster.material, random);
+        previous = next;
+    }
+}

@@ -1,0 +1,212 @@
+// Segment rasterization of the compute rasterizer (after hair_gen.glsl, which declares the
+// frame's GenParams: view_proj, viewport). One invocation rasterizes a whole strand, segment by
+// segment: each segment is clipped to the view volume in clip space, then walked along its
+// screen-space major axis one pixel column (or row) at a time; across it, every pixel the
+// strand's footprint [m - h, m + h] overlaps gets that overlap as its coverage (a box filter
+// across the strand: a sub-pixel strand spreads its width over one or two pixels instead of
+// being widened to a pixel). Columns are half-open at the segment's end, so consecutive segments
+// of a strand never cover a column twice. The CPU port is render/src/raster_cpu.rs.
+
+#include "raster_common.glsl"
+
+// Visibility and coverage words of each pixel (raster_common.glsl).
+layout(std430, set = 0, binding = HK_BINDING_VISIBILITY) buffer PixelBuffer { uint64_t pixel_words[]; };
+// The occluders' Vulkan depth per pixel (1 = none), read when raster.flags bit 0 is set.
+layout(std430, set = 0, binding = HK_BINDING_SCENE_DEPTH) readonly buffer SceneDepthBuffer { float scene_depth[]; };
+// Per 8×8 tile: the farthest nearest-fragment depth bits of its pixels if all of them are
+// opaque, else all ones (raster_tiles.comp, after the front strands): a column behind it
+// cannot change any pixel of the tile.
+layout(std430, set = 0, binding = HK_BINDING_RASTER_TILES) readonly buffer TileBuffer { uint tile_depth[]; };
+
+layout(push_constant) uniform RasterParams {
+    mat4 model;           // object -> world: tangents are stored in world space
+    uint material;        // the character's material index
+    uint slots;           // stored strands: slots in the bound chunk window
+    uint flags;           // bit 0: hide fragments behind scene_depth
+    float max_half_width; // pixels: wider strands are drawn this wide (bounds the work per segment)
+    uint phase;           // RASTER_ALL, RASTER_FRONT or RASTER_REST
+    uint tiles_x;         // tiles per row of tile_depth
+} raster;
+
+// Which strands a dispatch draws: all of them, or in two phases around the tile pass: first a
+// front subset (every bundle's first eighth: a blue-noise prefix, spread over the whole hair),
+// then the rest, skipping the columns that lie behind opaque tiles.
+const uint RASTER_ALL = 0u;
+const uint RASTER_FRONT = 1u;
+const uint RASTER_REST = 2u;
+const uint FRONT_FRACTION = 8u;
+
+// Whether strand `index` of `count` belongs to this dispatch's phase.
+bool in_phase(uint index, uint count) {
+    bool front = index * FRONT_FRACTION < count;
+    return raster.phase == RASTER_ALL || (raster.phase == RASTER_FRONT) == front;
+}
+
+const uint TILE_SIZE = 8u;
+
+// A strand vertex ready for rasterization.
+struct RasterVertex {
+    vec4 clip;         // clip-space position
+    vec4 side;         // clip-space offset of the strand's half width (linear, so it interpolates)
+    vec3 tangent;      // world space
+    float tau;
+};
+
+RasterVertex raster_vertex(StrandVertex v) {
+    RasterVertex r;
+    // The strip's side direction (strip_corners): across the strand, facing the eye.
+    vec3 to_eye = params.projection.z > 0.5 ? params.eye.xyz : params.eye.xyz - v.position;
+    vec3 side = try_normalize(cross(v.tangent, to_eye), any_orthonormal(v.tangent)) * (0.5 * v.width);
+    r.clip = params.view_proj * vec4(v.position, 1.0);
+    r.side = params.view_proj * vec4(side, 0.0);
+    r.tangent = mat3(raster.model) * v.tangent;
+    r.tau = v.tau;
+    return r;
+}
+
+RasterVertex mix_vertex(RasterVertex a, RasterVertex b, float t) {
+    RasterVertex r;
+    r.clip = mix(a.clip, b.clip, t);
+    r.side = mix(a.side, b.side, t);
+    r.tangent = mix(a.tangent, b.tangent, t);
+    r.tau = mix(a.tau, b.tau, t);
+    return r;
+}
+
+// Keeps the part of [t0, t1] where da + t (db - da) >= 0.
+void clip_range(float da, float db, inout float t0, inout float t1) {
+    if (da < 0.0 && db < 0.0) {
+        t1 = -1.0;
+    } else if (da < 0.0) {
+        t0 = max(t0, da / (da - db));
+    } else if (db < 0.0) {
+        t1 = min(t1, da / (da - db));
+    }
+}
+
+// Half the strand's width in pixels at a clip-space point (first-order projection of `side`).
+float half_width_pixels(vec4 clip, vec4 side) {
+    vec2 d = (side.xy - clip.xy * (side.w / clip.w)) / clip.w;
+    return length(d * 0.5 * params.viewport.xy);
+}
+
+// One column's fragment attributes, encoded only when one of its pixels needs them (most
+// fragments of dense hair lie behind the pixel's nearest one and need none).
+struct ColumnAttributes {
+    uint depth_bits;
+    bool encoded;
+    uint64_t word;
+    vec3 tangent;
+    float tau;
+    uint material;
+    float random;
+};
+
+// Plain loads first: a fragment behind the pixel's current nearest one, or adding to a pixel
+// whose hair is already opaque, skips its atomic (on CPU devices an atomic minimum is a
+// compare-and-swap loop; most fragments of dense hair take neither).
+void raster_fragment(uint pixel, float coverage, float ndc_z, inout ColumnAttributes a) {
+    if (!(coverage > 0.0)) {
+        return;
+    }
+    if ((raster.flags & 1u) != 0u && !(ndc_z < scene_depth[pixel])) {
+        return;
+    }
+    uint64_t nearest = pixel_words[2u * pixel];
+    if (a.depth_bits <= uint(nearest >> 40)) {
+        if (!a.encoded) {
+            a.word = visibility_word(a.depth_bits, visibility_attributes(a.material, a.tangent, a.tau, a.random));
+            a.encoded = true;
+        }
+        if (a.word < nearest) {
+            atomicMin(pixel_words[2u * pixel], a.word);
+        }
+    }
+    if (~pixel_words[2u * pixel + 1u] < uint64_t(COVERAGE_LIMIT)) {
+        uint add = coverage_increment(coverage);
+        if (add > 0u) {
+            atomicAdd(pixel_words[2u * pixel + 1u], ~uint64_t(add) + 1UL);
+        }
+    }
+}
+
+void raster_segment(RasterVertex a, RasterVertex b, uint material, float random) {
+    // Vulkan's view volume in depth: 0 <= z <= w (x and y are clipped per pixel below).
+    float t0 = 0.0;
+    float t1 = 1.0;
+    clip_range(a.clip.z, b.clip.z, t0, t1);
+    clip_range(a.clip.w - a.clip.z, b.clip.w - b.clip.z, t0, t1);
+    if (!(t0 < t1)) {
+        return;
+    }
+    RasterVertex p = mix_vertex(a, b, t0);
+    RasterVertex q = mix_vertex(a, b, t1);
+    if (!(p.clip.w > 1e-20) || !(q.clip.w > 1e-20)) {
+        return;
+    }
+    vec2 size = params.viewport.xy;
+    vec2 sp = (p.clip.xy / p.clip.w * 0.5 + 0.5) * size;
+    vec2 sq = (q.clip.xy / q.clip.w * 0.5 + 0.5) * size;
+    float hp = min(half_width_pixels(p.clip, p.side), raster.max_half_width);
+    float hq = min(half_width_pixels(q.clip, q.side), raster.max_half_width);
+    vec2 d = sq - sp;
+    float len = length(d);
+    if (!(len > 1e-6) || !(hp + hq > 0.0)) {
+        return;
+    }
+    bool x_major = abs(d.x) >= abs(d.y);
+    float a_major = x_major ? sp.x : sp.y;
+    float a_minor = x_major ? sp.y : sp.x;
+    float d_major = x_major ? d.x : d.y;
+    float d_minor = x_major ? d.y : d.x;
+    int size_major = int(x_major ? size.x : size.y);
+    int size_minor = int(x_major ? size.y : size.x);
+    // Pixel centres i + 0.5 in [lo, hi): half-open, so a strand's segments share no column.
+    float lo = min(a_major, a_major + d_major);
+    float hi = max(a_major, a_major + d_major);
+    int first = max(int(ceil(lo - 0.5)), 0);
+    int last = min(int(ceil(hi - 0.5)) - 1, size_major - 1);
+    // A footprint of perpendicular width 2h spans 2h * len / |d_major| along the minor axis.
+    float stretch = len / abs(d_major);
+    float inv_wp = 1.0 / p.clip.w;
+    float inv_wq = 1.0 / q.clip.w;
+    float zp = p.clip.z * inv_wp;
+    float zq = q.clip.z * inv_wq;
+    for (int i = first; i <= last; ++i) {
+        float t = (float(i) + 0.5 - a_major) / d_major;
+        float m = a_minor + t * d_minor;
+        float h = mix(hp, hq, t) * stretch;
+        float inv_w = mix(inv_wp, inv_wq, t);
+        float z = mix(zp, zq, t);
+        // Perspective-correct weight of q for the attributes.
+        float tq = t * inv_wq / inv_w;
+        ColumnAttributes column;
+        column.depth_bits = visibility_depth_bits(1.0 / inv_w);
+        column.encoded = false;
+        column.tangent = mix(p.tangent, q.tangent, tq);
+        column.tau = mix(p.tau, q.tau, tq);
+        column.material = material;
+        column.random = random;
+        int j0 = max(int(floor(m - h)), 0);
+        int j1 = min(int(floor(m + h)), size_minor - 1);
+        if (raster.phase == RASTER_REST && j0 <= j1) {
+            // The column's end pixels' tiles (and the two others of their square when it spans
+            // two tiles): strictly behind all of them, it changes nothing.
+            uvec2 e0 = uvec2(x_major ? ivec2(i, j0) : ivec2(j0, i)) / TILE_SIZE;
+            uvec2 e1 = uvec2(x_major ? ivec2(i, j1) : ivec2(j1, i)) / TILE_SIZE;
+            if (all(lessThanEqual(e1 - e0, uvec2(1u)))) {
+                uint w = raster.tiles_x;
+                uint behind = max(max(tile_depth[e0.y * w + e0.x], tile_depth[e1.y * w + e1.x]),
+                                  max(tile_depth[e0.y * w + e1.x], tile_depth[e1.y * w + e0.x]));
+                if (column.depth_bits > behind) {
+                    continue;
+                }
+            }
+        }
+        for (int j = j0; j <= j1; ++j) {
+            float coverage = min(m + h, float(j + 1)) - max(m - h, float(j));
+            uint pixel = x_major ? uint(j) * uint(size.x) + uint(i) : uint(i) * uint(size.x) + uint(j);
+            raster_fragment(pixel, coverage, z, column);
+        }
+    }
+}

@@ -1,0 +1,214 @@
+//! The compute rasterizer's passes ([`crate::raster`]): clear the visibility and coverage
+//! buffers, copy the occluders' depth where hair must test against it, rasterize each batch's
+//! characters (generation fused into the raster kernel) and the stored strands in two phases
+//! around the occlusion tiles, shade, resolve over the target.
+
+use gen_gpu::{Generator, Recorder};
+
+use super::ScenePass;
+use crate::contract::binding;
+use crate::frame::{FrameIds, FrameState, SceneRenderer};
+use crate::graph::{Access, FrameGraph};
+use crate::raster::{RasterPhase, group_size, raster_push, tile_grid};
+use crate::shaders;
+
+pub(crate) fn plan_clear(g: &mut FrameGraph<ScenePass>, ids: &FrameIds, submission: usize) {
+    g.pass("clear visibility + coverage")
+        .write(ids.visibility, Access::TransferWrite)
+        .submission(submission)
+        .add(ScenePass::ClearVisibility);
+}
+
+/// After the occluders: their depth into a buffer the raster kernels read.
+pub(crate) fn plan_occluder_depth(g: &mut FrameGraph<ScenePass>, ids: &FrameIds, submission: usize) {
+    g.pass("occluder depth → raster")
+        .read(ids.depth, Access::TransferRead)
+        .write(ids.scene_depth, Access::TransferWrite)
+        .submission(submission)
+        .add(ScenePass::OccluderDepthCopy);
+}
+
+/// Per batch: its characters' (and on the last batch the stored strands') front strands, the
+/// occlusion tiles, then the rest of their strands with the tile test. Every character's LOD
+/// result drives its fused raster dispatches.
+pub(crate) fn plan_raster(
+    r: &SceneRenderer,
+    g: &mut FrameGraph<ScenePass>,
+    ids: &FrameIds,
+    batch: &[usize],
+    last: bool,
+    submission: usize,
+) {
+    let phases: &[RasterPhase] =
+        if r.occlusion_tiles { &[RasterPhase::Front, RasterPhase::Rest] } else { &[RasterPhase::All] };
+    for &phase in phases {
+        if phase == RasterPhase::Rest {
+            g.pass("occlusion tiles (compute raster)")
+                .read(ids.visibility, Access::ComputeRead)
+                .write(ids.raster_tiles, Access::ComputeWrite)
+                .submission(submission)
+                .add(ScenePass::RasterTiles);
+        }
+        let name = match phase {
+            RasterPhase::All => r.raster_pass_name(),
+            RasterPhase::Front => format!("{}: front strands", r.raster_pass_name()),
+            RasterPhase::Rest => format!("{}: other strands, tile-culled", r.raster_pass_name()),
+        };
+        let mut pass = g.pass(name);
+        for &i in batch {
+            pass = pass
+                .read(ids.hair[i], Access::ComputeRead)
+                .read(ids.lod[i], Access::ComputeRead)
+                .read(ids.lod[i], Access::IndirectRead);
+        }
+        if last {
+            pass = pass.reads(ids.stored.iter().map(|&s| (s, Access::ComputeRead)));
+        }
+        if !r.occluders.is_empty() {
+            pass = pass.read(ids.scene_depth, Access::ComputeRead);
+        }
+        if phase == RasterPhase::Rest {
+            pass = pass.read(ids.raster_tiles, Access::ComputeRead);
+        }
+        pass.write(ids.visibility, Access::ComputeWrite)
+            .submission(submission)
+            .add(ScenePass::ComputeRaster(phase));
+    }
+}
+
+pub(crate) fn plan_shade(g: &mut FrameGraph<ScenePass>, ids: &FrameIds, submission: usize) {
+    g.pass("shade hair (compute raster)")
+        .read(ids.visibility, Access::ComputeRead)
+        .read(ids.raster_frame, Access::ComputeRead)
+        .reads(ids.compute_shading_reads())
+        .write(ids.shaded, Access::ComputeWrite)
+        .submission(submission)
+        .add(ScenePass::RasterShade);
+}
+
+pub(crate) fn plan_resolve(g: &mut FrameGraph<ScenePass>, ids: &FrameIds, submission: usize) {
+    g.pass("resolve hair (compute raster)")
+        .read(ids.visibility, Access::FragmentRead)
+        .read(ids.raster_frame, Access::FragmentRead)
+        .read(ids.shaded, Access::FragmentRead)
+        .writes(ids.target_writes())
+        .submission(submission)
+        .add(ScenePass::RasterResolve);
+}
+
+pub(crate) fn record_clear(rec: &mut Recorder<'_>, state: &FrameState<'_>) -> gen_gpu::Result<()> {
+    let Some(b) = state.raster else { return Ok(()) };
+    // All ones: no fragment, and a complemented coverage sum of zero.
+    rec.fill_buffer(&b.pixel_words, u32::MAX);
+    Ok(())
+}
+
+pub(crate) fn record_occluder_depth(rec: &mut Recorder<'_>, state: &FrameState<'_>) -> gen_gpu::Result<()> {
+    if let Some(depth) = state.raster.and_then(|b| b.scene_depth.as_ref()) {
+        rec.copy_image_to_buffer(&state.target.depth, depth);
+    }
+    Ok(())
+}
+
+pub(crate) fn record_tiles(
+    r: &SceneRenderer,
+    rec: &mut Recorder<'_>,
+    state: &FrameState<'_>,
+) -> gen_gpu::Result<()> {
+    let (Some(cr), Some(b)) = (&r.compute_raster, state.raster) else { return Ok(()) };
+    let view = &state.plan.view;
+    let (tx, ty) = tile_grid(view.width, view.height);
+    rec.bind_pipeline(&cr.tiles);
+    rec.push_storage_buffers(
+        &cr.tiles,
+        &[(binding::VISIBILITY, &b.pixel_words), (binding::RASTER_TILES, &b.tiles)],
+    );
+    rec.push_constants(&cr.tiles, &[view.width, view.height, tx, ty]);
+    rec.dispatch((tx * ty).div_ceil(shaders::RASTER_TILES_COMP.workgroup_size[0]), 1, 1);
+    Ok(())
+}
+
+pub(crate) fn record_raster(
+    r: &SceneRenderer,
+    rec: &mut Recorder<'_>,
+    state: &FrameState<'_>,
+    phase: RasterPhase,
+) -> gen_gpu::Result<()> {
+    let (Some(cr), Some(b)) = (&r.compute_raster, state.raster) else { return Ok(()) };
+    let occluders = b.scene_depth.is_some();
+    let depth = b.scene_depth.as_ref().unwrap_or(&cr.no_scene_depth);
+    let extra = [
+        (binding::VISIBILITY, &b.pixel_words),
+        (binding::SCENE_DEPTH, depth),
+        (binding::RASTER_TILES, &b.tiles),
+    ];
+    let tiles_x = tile_grid(state.plan.view.width, state.plan.view.height).0;
+    if !state.frames.is_empty() {
+        rec.bind_pipeline(&cr.raster);
+    }
+    for (i, frame) in state.frames {
+        let c = &r.characters[*i];
+        r.generator.bind_frame(rec, &cr.raster, &r.hairs[c.hair], frame, &extra);
+        let push = raster_push(c.transform, state.materials[*i], 0, occluders, phase, tiles_x);
+        rec.push_constants(&cr.raster, &push);
+        Generator::record_fused_dispatch(rec, frame);
+    }
+    let stored_materials = &state.materials[r.characters.len()..];
+    for ((c, params), &material) in r.stored_characters.iter().zip(state.stored_params).zip(stored_materials)
+    {
+        let pipeline = &cr.raster_stored;
+        r.stored[c.hair].record_compute(rec, pipeline, params, &extra, group_size(), |rec, slots| {
+            rec.push_constants(
+                pipeline,
+                &raster_push(c.transform, material, slots, occluders, phase, tiles_x),
+            );
+        });
+    }
+    Ok(())
+}
+
+pub(crate) fn record_shade(
+    r: &SceneRenderer,
+    rec: &mut Recorder<'_>,
+    state: &FrameState<'_>,
+) -> gen_gpu::Result<()> {
+    let (Some(cr), Some(b)) = (&r.compute_raster, state.raster) else { return Ok(()) };
+    let l = state.lighting;
+    let buffers = [
+        (binding::VISIBILITY, &b.pixel_words),
+        (binding::RASTER_FRAME, &b.frame),
+        (binding::SHADED, &b.shaded),
+        l[0],
+        l[1],
+        l[2],
+        l[3],
+    ];
+    rec.bind_pipeline(&cr.shade);
+    rec.push_storage_buffers(&cr.shade, &buffers);
+    rec.push_constants(&cr.shade, &0u32);
+    let view = &state.plan.view;
+    let [gx, gy, _] = shaders::RASTER_SHADE_COMP.workgroup_size;
+    rec.dispatch(view.width.div_ceil(gx), view.height.div_ceil(gy), 1);
+    Ok(())
+}
+
+pub(crate) fn record_resolve(
+    r: &SceneRenderer,
+    rec: &mut Recorder<'_>,
+    state: &FrameState<'_>,
+    clear: Option<[f32; 3]>,
+) -> gen_gpu::Result<()> {
+    let (Some(cr), Some(b)) = (&r.compute_raster, state.raster) else { return Ok(()) };
+    let buffers = [
+        (binding::VISIBILITY, &b.pixel_words),
+        (binding::RASTER_FRAME, &b.frame),
+        (binding::SHADED, &b.shaded),
+    ];
+    state.target.begin_rendering(rec, clear);
+    rec.bind_pipeline(&cr.resolve);
+    rec.push_storage_buffers(&cr.resolve, &buffers);
+    rec.push_constants(&cr.resolve, &0u32);
+    rec.draw(3, 1);
+    rec.end_rendering();
+    Ok(())
+}

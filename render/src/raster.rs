@@ -1,0 +1,666 @@
+//! The compute strand rasterizer: hair drawn without the triangle pipeline, the fast path on
+//! CPU devices (lavapipe rasterizes pixel-thin ribbons at 5–9 M triangles/s; a compute kernel
+//! stepping along each segment is several times faster).
+//!
+//! Per frame:
+//! 1. **clear** the visibility buffer (one 64-bit word per pixel) and the coverage buffer;
+//! 2. **raster**: per character, one invocation per live strand slot generates the strand
+//!    (gen-gpu's strand-coherent evaluation, `hair_gen.glsl`, fused: no strand buffer) and
+//!    walks each segment along its screen-space major axis; every pixel its footprint overlaps
+//!    takes a 64-bit `atomicMin` of (view depth, attributes) and adds its coverage's optical
+//!    depth to the coverage buffer (`strand_raster.glsl`; stored strands go through the same
+//!    segment code, `hair_raster_stored.comp`). Occluders hide hair through a copy of their
+//!    depth buffer;
+//! 3. **shade**: each pixel's nearest fragment shaded with the triangle path's `shade_hair`;
+//! 4. **resolve**: a full-screen pass averages each pixel's shaded colour with its 3×3
+//!    neighbours' at about its depth (a pixel of sub-pixel strands stands for several strands;
+//!    its neighbours' nearest fragments sample them) and composites it at alpha
+//!    `1 − exp(−Σ optical depth)` over the target, writing depth.
+//!
+//! Scenes in `"opaque"` and `"blended"` transparency draw alike here: every fragment's coverage
+//! counts (the density blended mode keeps, and what OIT's alpha is), the nearest fragment gives
+//! the colour. A pixel thus never loses the coverage of strands behind a sub-pixel strand, as
+//! the triangle raster's opaque mode does.
+//!
+//! Memory is two words per pixel plus the materials: independent of the strand count. The
+//! visibility word (layout in `raster_common.glsl`) holds the shading inputs themselves — view
+//! depth (relative resolution 2⁻¹⁶), an octahedral world tangent (9 + 9 bits), τ and the
+//! strand random (6 bits each), the material — so the resolve never re-generates a strand. The
+//! CPU port of the kernel ([`cpu`]) is what the GPU results are tested against.
+
+use gen_gpu::{
+    Binding, Buffer, BufferDesc, ComputePipelineDesc, Context, GraphicsPipelineDesc, GraphicsStages,
+    MemoryLocation, Pipeline, vk,
+};
+use glam::{Mat4, Vec3};
+
+use crate::contract::{RASTER_BINDINGS, RASTER_SHADE_BINDINGS, RASTER_TILE_BINDINGS, RESOLVE_BINDINGS};
+use crate::graph::TransientPool;
+use crate::scene::{Effects, Raster, Transparency};
+use crate::shaders;
+use crate::target::SCENE_COLOR_FORMAT;
+
+/// Most hair materials (distinct colour/variation/specular settings) one frame may hold: the
+/// visibility word has 10 bits for it (`MAX_MATERIALS` in `raster_common.glsl`).
+pub const MAX_MATERIALS: usize = 1024;
+/// Strands wider than this many pixels are drawn this wide: bounds the work of one segment
+/// (a column spans at most `2 × 64 + 1` pixels).
+pub const MAX_HALF_WIDTH_PIXELS: f32 = 64.0;
+/// Fixed-point units per unit of optical depth in the coverage buffer (`COVERAGE_SCALE`).
+pub const COVERAGE_SCALE: f32 = 256.0;
+/// Workgroup size of both raster kernels.
+const GROUP: u32 = 32;
+
+/// The rasterizer a renderer uses, once a scene's `"raster"` choice is resolved for a device.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum RasterPath {
+    /// Camera-facing strips through the hardware (or lavapipe's) triangle pipeline.
+    Triangles,
+    /// The compute rasterizer of this module.
+    Compute,
+}
+
+impl std::fmt::Display for RasterPath {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(match self {
+            Self::Triangles => "triangles",
+            Self::Compute => "compute",
+        })
+    }
+}
+
+/// Why the compute rasterizer cannot draw a scene's effects on a device (`None`: it can).
+pub fn compute_unavailable(effects: &Effects, caps: &gen_gpu::Capabilities) -> Option<String> {
+    if !caps.buffer_int64_atomics {
+        Some(format!("{} has no 64-bit buffer atomics (shaderBufferInt64Atomics)", caps.device_name))
+    } else if effects.transparency == Transparency::Oit {
+        Some("transparency \"oit\" is drawn by the triangle raster only, so far".into())
+    } else if effects.msaa > 1 {
+        Some("MSAA applies to the triangle raster (the compute rasterizer has its own coverage AA)".into())
+    } else {
+        None
+    }
+}
+
+/// Resolves a scene's choice: `auto` takes the compute rasterizer on CPU devices whenever it
+/// can draw the scene's effects, the triangle raster otherwise; `compute` is an error where it
+/// cannot.
+pub fn resolve_raster(
+    choice: Raster,
+    effects: &Effects,
+    caps: &gen_gpu::Capabilities,
+) -> Result<RasterPath, crate::RenderError> {
+    let unavailable = compute_unavailable(effects, caps);
+    match choice {
+        Raster::Triangles => Ok(RasterPath::Triangles),
+        Raster::Compute => match unavailable {
+            None => Ok(RasterPath::Compute),
+            Some(why) => Err(crate::RenderError::RasterUnavailable { why }),
+        },
+        Raster::Auto => Ok(if caps.is_cpu() && unavailable.is_none() {
+            RasterPath::Compute
+        } else {
+            RasterPath::Triangles
+        }),
+    }
+}
+
+/// `RasterParams` push constants of `strand_raster.glsl`.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, bytemuck::Pod, bytemuck::Zeroable)]
+pub(crate) struct RasterPush {
+    pub(crate) model: [f32; 16],
+    pub(crate) material: u32,
+    pub(crate) slots: u32,
+    pub(crate) flags: u32,
+    pub(crate) max_half_width: f32,
+    pub(crate) phase: u32,
+    pub(crate) tiles_x: u32,
+    pad: [u32; 2],
+}
+
+/// Which strands a raster dispatch draws (`RASTER_ALL`, … in `strand_raster.glsl`).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum RasterPhase {
+    /// Every strand.
+    All = 0,
+    /// Each bundle's first eighth of strands (a blue-noise prefix), before the tile pass.
+    Front = 1,
+    /// The rest, skipping columns behind the tiles the front strands made opaque.
+    Rest = 2,
+}
+
+/// Side of the tiles of the occlusion test (`TILE_SIZE`).
+pub const TILE_SIZE: u32 = 8;
+
+/// Tiles per row and column of a `width × height` frame.
+pub fn tile_grid(width: u32, height: u32) -> (u32, u32) {
+    (width.div_ceil(TILE_SIZE), height.div_ceil(TILE_SIZE))
+}
+
+/// Bit 0 of [`RasterPush::flags`]: test fragments against the occluders' depth.
+pub(crate) const FLAG_SCENE_DEPTH: u32 = 1;
+
+/// `RasterMaterial` of `raster_resolve.frag`.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, PartialEq, bytemuck::Pod, bytemuck::Zeroable)]
+pub(crate) struct RasterMaterial {
+    pub(crate) hair_color: [f32; 4],
+    pub(crate) specular_shift: [f32; 4],
+    pub(crate) specular_strength: [f32; 4],
+    pub(crate) opacity: [f32; 4],
+}
+
+/// The header of `RasterFrame` in `raster_resolve.frag`.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, bytemuck::Pod, bytemuck::Zeroable)]
+struct RasterFrameHeader {
+    view_proj: [f32; 16],
+    inv_view_proj: [f32; 16],
+    eye: [f32; 4],
+    forward: [f32; 4],
+    size: [u32; 4],
+}
+
+/// The compute rasterizer's pipelines.
+#[derive(Debug)]
+pub struct ComputeRaster {
+    pub(crate) raster: Pipeline,
+    pub(crate) raster_stored: Pipeline,
+    pub(crate) shade: Pipeline,
+    pub(crate) tiles: Pipeline,
+    pub(crate) resolve: Pipeline,
+    /// Bound at the scene-depth binding when there are no occluders, and at the tiles' in
+    /// single-phase dispatches (never read then).
+    pub(crate) no_scene_depth: Buffer,
+}
+
+impl ComputeRaster {
+    pub fn new(ctx: &Context) -> gen_gpu::Result<Self> {
+        let bindings = gen_gpu::strand_bindings(&RASTER_BINDINGS);
+        let push = size_of::<RasterPush>() as u32;
+        let raster = Pipeline::compute(
+            ctx,
+            &ComputePipelineDesc {
+                name: "compute raster (fused generation)",
+                shader: &shaders::HAIR_RASTER_COMP,
+                bindings: &bindings,
+                push_constant_size: push,
+                specialization: &[],
+            },
+        )?;
+        let raster_stored = Pipeline::compute(
+            ctx,
+            &ComputePipelineDesc {
+                name: "compute raster (stored strands)",
+                shader: &shaders::HAIR_RASTER_STORED_COMP,
+                bindings: &bindings,
+                push_constant_size: push,
+                specialization: &[],
+            },
+        )?;
+        let shade_bindings: Vec<Binding> = RASTER_SHADE_BINDINGS
+            .iter()
+            .map(|&b| Binding::storage_buffer(b, vk::ShaderStageFlags::COMPUTE))
+            .collect();
+        let shade = Pipeline::compute(
+            ctx,
+            &ComputePipelineDesc {
+                name: "compute raster shade",
+                shader: &shaders::RASTER_SHADE_COMP,
+                bindings: &shade_bindings,
+                push_constant_size: 4,
+                specialization: &[],
+            },
+        )?;
+        let tile_bindings: Vec<Binding> = RASTER_TILE_BINDINGS
+            .iter()
+            .map(|&b| Binding::storage_buffer(b, vk::ShaderStageFlags::COMPUTE))
+            .collect();
+        let tiles = Pipeline::compute(
+            ctx,
+            &ComputePipelineDesc {
+                name: "compute raster tiles",
+                shader: &shaders::RASTER_TILES_COMP,
+                bindings: &tile_bindings,
+                push_constant_size: 16,
+                specialization: &[],
+            },
+        )?;
+        let resolve_bindings: Vec<Binding> = RESOLVE_BINDINGS
+            .iter()
+            .map(|&b| Binding::storage_buffer(b, vk::ShaderStageFlags::FRAGMENT))
+            .collect();
+        let resolve = Pipeline::graphics(
+            ctx,
+            &GraphicsPipelineDesc {
+                name: "compute raster resolve",
+                stages: GraphicsStages::Vertex(&shaders::FULLSCREEN_VERT),
+                fragment: &shaders::RASTER_RESOLVE_FRAG,
+                bindings: &resolve_bindings,
+                push_constant_size: 4,
+                specialization: &[],
+                color_format: SCENE_COLOR_FORMAT,
+                depth_format: Some(gen_gpu::DEPTH_FORMAT),
+                blend: gen_gpu::Blend::Over,
+                depth_write: true,
+                color_write: true,
+                samples: 1,
+                depth_compare: vk::CompareOp::LESS,
+            },
+        )?;
+        let no_scene_depth = Buffer::new(ctx, "no scene depth", BufferDesc::storage(16))?;
+        Ok(Self { raster, raster_stored, shade, tiles, resolve, no_scene_depth })
+    }
+}
+
+impl ComputeRaster {
+    /// Rasterizes `stored` strands alone (no shading, no occluders) into fresh visibility and
+    /// coverage buffers of `inputs.viewport`'s size and reads them back: the kernel as the
+    /// tests compare it with its CPU port ([`cpu::raster_strand`]). `model` places the strands
+    /// in the world (tangents are stored in world space).
+    pub fn rasterize_stored(
+        &self,
+        ctx: &Context,
+        stored: &gen_gpu::StoredStrands,
+        inputs: &gen_gpu::FrameInputs,
+        model: Mat4,
+        material: u32,
+    ) -> gen_gpu::Result<cpu::RasterBuffers> {
+        let [width, height] = inputs.viewport;
+        let pixels = u64::from(width) * u64::from(height);
+        let transfer = vk::BufferUsageFlags::TRANSFER_DST | vk::BufferUsageFlags::TRANSFER_SRC;
+        let words =
+            Buffer::new(ctx, "visibility + coverage", BufferDesc::storage(pixels * 16).usage(transfer))?;
+        let params = stored.frame_params(ctx, inputs)?;
+        let extra = [
+            (crate::contract::binding::VISIBILITY, &words),
+            (crate::contract::binding::SCENE_DEPTH, &self.no_scene_depth),
+            (crate::contract::binding::RASTER_TILES, &self.no_scene_depth),
+        ];
+        let pipeline = &self.raster_stored;
+        ctx.submit("compute raster (stored strands)", |rec| {
+            rec.fill_buffer(&words, u32::MAX);
+            rec.memory_barrier(
+                (vk::PipelineStageFlags2::CLEAR, vk::AccessFlags2::TRANSFER_WRITE),
+                (
+                    vk::PipelineStageFlags2::COMPUTE_SHADER,
+                    vk::AccessFlags2::SHADER_STORAGE_READ | vk::AccessFlags2::SHADER_STORAGE_WRITE,
+                ),
+            );
+            stored.record_compute(rec, pipeline, &params, &extra, GROUP, |rec, slots| {
+                rec.push_constants(
+                    pipeline,
+                    &raster_push(model, material, slots, false, RasterPhase::All, 1),
+                );
+            });
+            rec.memory_barrier(
+                (vk::PipelineStageFlags2::COMPUTE_SHADER, vk::AccessFlags2::SHADER_STORAGE_WRITE),
+                (
+                    vk::PipelineStageFlags2::COPY | vk::PipelineStageFlags2::HOST,
+                    vk::AccessFlags2::TRANSFER_READ | vk::AccessFlags2::HOST_READ,
+                ),
+            );
+            Ok(())
+        })?;
+        let bytes = ctx.read_buffer(&words, pixels * 16)?;
+        let all: Vec<u64> = bytemuck::pod_collect_to_vec(&bytes);
+        Ok(cpu::RasterBuffers {
+            width,
+            height,
+            visibility: all.iter().step_by(2).copied().collect(),
+            coverage: all.iter().skip(1).step_by(2).map(|w| !w).collect(),
+        })
+    }
+}
+
+/// One frame's buffers of the compute rasterizer (from the renderer's transient pool).
+#[derive(Debug)]
+pub(crate) struct RasterBuffers {
+    /// Per pixel the visibility word and the (complemented) coverage word.
+    pub(crate) pixel_words: Buffer,
+    /// The camera and materials of the shade and resolve passes (host-written).
+    pub(crate) frame: Buffer,
+    /// Each pixel's nearest fragment shaded (the shade pass → the resolve).
+    pub(crate) shaded: Buffer,
+    /// The occlusion tiles (the tile pass → the rest of the strands).
+    pub(crate) tiles: Buffer,
+    /// The occluders' depth, copied from the depth attachment (when there are occluders).
+    pub(crate) scene_depth: Option<Buffer>,
+}
+
+impl RasterBuffers {
+    /// Takes the buffers for a `width × height` frame from `pool` and writes the camera and
+    /// `materials` (at most [`MAX_MATERIALS`]).
+    pub(crate) fn new(
+        ctx: &Context,
+        pool: &mut TransientPool,
+        view: &crate::camera::FrameView,
+        materials: &[RasterMaterial],
+        light_count: usize,
+        occluders: bool,
+    ) -> gen_gpu::Result<Self> {
+        let pixels = u64::from(view.width) * u64::from(view.height);
+        let transfer = vk::BufferUsageFlags::TRANSFER_DST;
+        let pixel_words =
+            pool.buffer(ctx, "visibility + coverage", BufferDesc::storage(pixels * 16).usage(transfer))?;
+        let scene_depth = if occluders {
+            Some(pool.buffer(
+                ctx,
+                "occluder depth (copy)",
+                BufferDesc::storage(pixels * 4).usage(transfer),
+            )?)
+        } else {
+            None
+        };
+        let view_proj = crate::camera::view_proj(&view.camera, view.width, view.height);
+        let forward = (view.camera.target - view.camera.eye).normalize_or(Vec3::NEG_Z);
+        let header = RasterFrameHeader {
+            view_proj: view_proj.to_cols_array(),
+            inv_view_proj: view_proj.inverse().to_cols_array(),
+            eye: view.camera.eye.extend(light_count as f32).to_array(),
+            forward: forward.extend(0.0).to_array(),
+            size: [view.width, view.height, 0, 0],
+        };
+        let mut bytes = bytemuck::bytes_of(&header).to_vec();
+        bytes.extend_from_slice(bytemuck::cast_slice(&materials[..materials.len().min(MAX_MATERIALS)]));
+        let mut frame = pool.buffer(
+            ctx,
+            "raster frame",
+            BufferDesc::storage(bytes.len() as u64).location(MemoryLocation::CpuToGpu),
+        )?;
+        match frame.mapped_mut() {
+            Some(m) if m.len() >= bytes.len() => m[..bytes.len()].copy_from_slice(&bytes),
+            _ => ctx.write_buffer(&mut frame, 0, &bytes)?,
+        }
+        let shaded = pool.buffer(ctx, "shaded hair", BufferDesc::storage(pixels * 16))?;
+        let (tx, ty) = tile_grid(view.width, view.height);
+        let tiles = pool.buffer(ctx, "occlusion tiles", BufferDesc::storage(u64::from(tx * ty) * 4))?;
+        Ok(Self { pixel_words, frame, shaded, tiles, scene_depth })
+    }
+
+    pub(crate) fn give_back(self, pool: &mut TransientPool) {
+        pool.give_back_buffer(self.pixel_words);
+        pool.give_back_buffer(self.frame);
+        pool.give_back_buffer(self.shaded);
+        pool.give_back_buffer(self.tiles);
+        if let Some(d) = self.scene_depth {
+            pool.give_back_buffer(d);
+        }
+    }
+}
+
+/// The push constants of one character's raster dispatch.
+pub(crate) fn raster_push(
+    transform: Mat4,
+    material: u32,
+    slots: u32,
+    occluders: bool,
+    phase: RasterPhase,
+    tiles_x: u32,
+) -> RasterPush {
+    RasterPush {
+        model: transform.to_cols_array(),
+        material,
+        slots,
+        flags: if occluders { FLAG_SCENE_DEPTH } else { 0 },
+        max_half_width: MAX_HALF_WIDTH_PIXELS,
+        phase: phase as u32,
+        tiles_x,
+        pad: [0; 2],
+    }
+}
+
+/// Workgroup size of the stored-strand kernel.
+pub(crate) const fn group_size() -> u32 {
+    GROUP
+}
+
+#[allow(
+    clippy::neg_cmp_op_on_partial_ord,
+    reason = "`!(x > 0.0)` is true for NaN, as the GLSL's tests are: degenerate input draws nothing"
+)]
+pub mod cpu {
+    //! The CPU port of `strand_raster.glsl` and `raster_common.glsl` (f32, the same formulas
+    //! in the same order): what the GPU kernels' coverage and visibility are tested against.
+
+    use glam::{Mat4, Vec2, Vec3, Vec4};
+
+    use super::{COVERAGE_SCALE, MAX_MATERIALS};
+
+    /// No coverage is added past this sum, and it is read clamped to it (`COVERAGE_LIMIT`).
+    pub const COVERAGE_LIMIT: u32 = 3072;
+
+    /// What the kernel needs of the frame (`GenParams` of the strands' object space).
+    #[derive(Clone, Copy, Debug)]
+    pub struct RasterView {
+        /// Object space → clip space.
+        pub view_proj: Mat4,
+        /// The eye in object space.
+        pub eye: Vec3,
+        pub width: u32,
+        pub height: u32,
+        /// Object → world (tangents are stored in world space).
+        pub model: Mat4,
+        pub max_half_width: f32,
+    }
+
+    /// One strand vertex as generation or a strand buffer hands it over (object space).
+    #[derive(Clone, Copy, Debug)]
+    pub struct StrandPoint {
+        pub position: Vec3,
+        pub width: f32,
+        pub tangent: Vec3,
+        pub tau: f32,
+    }
+
+    /// The visibility and coverage buffers.
+    #[derive(Clone, Debug, PartialEq)]
+    pub struct RasterBuffers {
+        pub width: u32,
+        pub height: u32,
+        pub visibility: Vec<u64>,
+        /// The optical-depth sum (fixed point) per pixel, as the GPU's coverage word holds it
+        /// (complemented there).
+        pub coverage: Vec<u64>,
+    }
+
+    impl RasterBuffers {
+        pub fn new(width: u32, height: u32) -> Self {
+            let n = width as usize * height as usize;
+            Self { width, height, visibility: vec![u64::MAX; n], coverage: vec![0; n] }
+        }
+
+        /// The alpha the resolve gives pixel `i`.
+        pub fn alpha(&self, i: usize) -> f32 {
+            1.0 - (-(self.coverage[i].min(u64::from(COVERAGE_LIMIT)) as f32) / COVERAGE_SCALE).exp()
+        }
+    }
+
+    #[derive(Clone, Copy, Debug)]
+    struct RasterVertex {
+        clip: Vec4,
+        side: Vec4,
+        tangent: Vec3,
+        tau: f32,
+    }
+
+    fn try_normalize(v: Vec3, fallback: Vec3) -> Vec3 {
+        let l = v.length();
+        if l > 0.0 && (1.0 / l).is_finite() { v / l } else { fallback }
+    }
+
+    fn any_orthonormal(v: Vec3) -> Vec3 {
+        v.any_orthonormal_vector()
+    }
+
+    fn raster_vertex(view: &RasterView, v: &StrandPoint) -> RasterVertex {
+        let to_eye = view.eye - v.position;
+        let side = try_normalize(v.tangent.cross(to_eye), any_orthonormal(v.tangent)) * (0.5 * v.width);
+        RasterVertex {
+            clip: view.view_proj * v.position.extend(1.0),
+            side: view.view_proj * side.extend(0.0),
+            tangent: glam::Mat3::from_mat4(view.model) * v.tangent,
+            tau: v.tau,
+        }
+    }
+
+    fn mix_vertex(a: &RasterVertex, b: &RasterVertex, t: f32) -> RasterVertex {
+        RasterVertex {
+            clip: a.clip.lerp(b.clip, t),
+            side: a.side.lerp(b.side, t),
+            tangent: a.tangent.lerp(b.tangent, t),
+            tau: a.tau + (b.tau - a.tau) * t,
+        }
+    }
+
+    fn clip_range(da: f32, db: f32, t0: &mut f32, t1: &mut f32) {
+        if da < 0.0 && db < 0.0 {
+            *t1 = -1.0;
+        } else if da < 0.0 {
+            *t0 = t0.max(da / (da - db));
+        } else if db < 0.0 {
+            *t1 = t1.min(da / (da - db));
+        }
+    }
+
+    fn half_width_pixels(view: &RasterView, clip: Vec4, side: Vec4) -> f32 {
+        let d = (Vec2::new(side.x, side.y) - Vec2::new(clip.x, clip.y) * (side.w / clip.w)) / clip.w;
+        (d * 0.5 * Vec2::new(view.width as f32, view.height as f32)).length()
+    }
+
+    fn oct_wrap(v: Vec2) -> Vec2 {
+        let s = Vec2::new(if v.x >= 0.0 { 1.0 } else { -1.0 }, if v.y >= 0.0 { 1.0 } else { -1.0 });
+        (Vec2::ONE - Vec2::new(v.y.abs(), v.x.abs())) * s
+    }
+
+    /// 9 + 9 bits of octahedral tangent (`encode_tangent`).
+    pub fn encode_tangent(t: Vec3) -> u32 {
+        let n = t / (t.x.abs() + t.y.abs() + t.z.abs()).max(1e-20);
+        let e = if n.z >= 0.0 { Vec2::new(n.x, n.y) } else { oct_wrap(Vec2::new(n.x, n.y)) };
+        let q = ((e * 0.5 + 0.5) * 511.0).round().clamp(Vec2::ZERO, Vec2::splat(511.0));
+        ((q.x as u32) << 9) | q.y as u32
+    }
+
+    /// The unit vector of [`encode_tangent`]'s bits.
+    pub fn decode_tangent(bits: u32) -> Vec3 {
+        let e = Vec2::new(((bits >> 9) & 511) as f32, (bits & 511) as f32) / 511.0 * 2.0 - 1.0;
+        let mut n = Vec3::new(e.x, e.y, 1.0 - e.x.abs() - e.y.abs());
+        if n.z < 0.0 {
+            let w = oct_wrap(Vec2::new(n.x, n.y));
+            n.x = w.x;
+            n.y = w.y;
+        }
+        n.normalize()
+    }
+
+    fn attributes(material: u32, tangent: Vec3, tau: f32, random: f32) -> u64 {
+        let q_tau = (tau * 63.0).round().clamp(0.0, 63.0) as u64;
+        let q_random = (random * 64.0).floor().clamp(0.0, 63.0) as u64;
+        (u64::from(material & (MAX_MATERIALS as u32 - 1)) << 30)
+            | (u64::from(encode_tangent(tangent)) << 12)
+            | (q_tau << 6)
+            | q_random
+    }
+
+    /// The visibility word of a fragment at view depth `w`.
+    pub fn visibility_word(w: f32, material: u32, tangent: Vec3, tau: f32, random: f32) -> u64 {
+        (u64::from(w.to_bits() >> 7) << 40) | attributes(material, tangent, tau, random)
+    }
+
+    /// The view depth a visibility word holds (the middle of its quantization step).
+    pub fn visibility_depth(word: u64) -> f32 {
+        f32::from_bits((((word >> 40) as u32) << 7) | 64)
+    }
+
+    /// The coverage increment of a fragment (`coverage_increment`).
+    pub fn coverage_increment(coverage: f32) -> u32 {
+        (-(1.0 - coverage.min(0.999)).ln() * COVERAGE_SCALE + 0.5) as u32
+    }
+
+    fn fragment(out: &mut RasterBuffers, pixel: usize, coverage: f32, word: u64) {
+        if !(coverage > 0.0) {
+            return;
+        }
+        out.visibility[pixel] = out.visibility[pixel].min(word);
+        if out.coverage[pixel] < u64::from(COVERAGE_LIMIT) {
+            out.coverage[pixel] += u64::from(coverage_increment(coverage));
+        }
+    }
+
+    fn segment(
+        view: &RasterView,
+        out: &mut RasterBuffers,
+        a: &RasterVertex,
+        b: &RasterVertex,
+        material: u32,
+        random: f32,
+    ) {
+        let (mut t0, mut t1) = (0.0f32, 1.0f32);
+        clip_range(a.clip.z, b.clip.z, &mut t0, &mut t1);
+        clip_range(a.clip.w - a.clip.z, b.clip.w - b.clip.z, &mut t0, &mut t1);
+        if !(t0 < t1) {
+            return;
+        }
+        let p = mix_vertex(a, b, t0);
+        let q = mix_vertex(a, b, t1);
+        if !(p.clip.w > 1e-20) || !(q.clip.w > 1e-20) {
+            return;
+        }
+        let size = Vec2::new(view.width as f32, view.height as f32);
+        let sp = (Vec2::new(p.clip.x, p.clip.y) / p.clip.w * 0.5 + 0.5) * size;
+        let sq = (Vec2::new(q.clip.x, q.clip.y) / q.clip.w * 0.5 + 0.5) * size;
+        let hp = half_width_pixels(view, p.clip, p.side).min(view.max_half_width);
+        let hq = half_width_pixels(view, q.clip, q.side).min(view.max_half_width);
+        let d = sq - sp;
+        let len = d.length();
+        if !(len > 1e-6) || !(hp + hq > 0.0) {
+            return;
+        }
+        let x_major = d.x.abs() >= d.y.abs();
+        let (a_major, a_minor, d_major, d_minor) =
+            if x_major { (sp.x, sp.y, d.x, d.y) } else { (sp.y, sp.x, d.y, d.x) };
+        let (size_major, size_minor) = if x_major {
+            (view.width as i32, view.height as i32)
+        } else {
+            (view.height as i32, view.width as i32)
+        };
+        let lo = a_major.min(a_major + d_major);
+        let hi = a_major.max(a_major + d_major);
+        let first = ((lo - 0.5).ceil() as i32).max(0);
+        let last = (((hi - 0.5).ceil() as i32) - 1).min(size_major - 1);
+        let stretch = len / d_major.abs();
+        let (inv_wp, inv_wq) = (1.0 / p.clip.w, 1.0 / q.clip.w);
+        for i in first..=last {
+            let t = (i as f32 + 0.5 - a_major) / d_major;
+            let m = a_minor + t * d_minor;
+            let h = (hp + (hq - hp) * t) * stretch;
+            let inv_w = inv_wp + (inv_wq - inv_wp) * t;
+            let tq = t * inv_wq / inv_w;
+            let tangent = p.tangent.lerp(q.tangent, tq);
+            let tau = p.tau + (q.tau - p.tau) * tq;
+            let word = visibility_word(1.0 / inv_w, material, tangent, tau, random);
+            let j0 = ((m - h).floor() as i32).max(0);
+            let j1 = ((m + h).floor() as i32).min(size_minor - 1);
+            for j in j0..=j1 {
+                let coverage = (m + h).min((j + 1) as f32) - (m - h).max(j as f32);
+                let (x, y) = if x_major { (i, j) } else { (j, i) };
+                fragment(out, y as usize * view.width as usize + x as usize, coverage, word);
+            }
+        }
+    }
+
+    /// Rasterizes one strand (its vertices in order) into `out`, as the GPU kernels do.
+    pub fn raster_strand(
+        view: &RasterView,
+        out: &mut RasterBuffers,
+        strand: &[StrandPoint],
+        material: u32,
+        random: f32,
+    ) {
+        let vertices: Vec<RasterVertex> = strand.iter().map(|v| raster_vertex(view, v)).collect();
+        for pair in vertices.windows(2) {
+            segment(view, out, &pair[0], &pair[1], material, random);
+        }
+    }
+}

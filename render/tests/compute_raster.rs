@@ -1,0 +1,425 @@
+//! The compute rasterizer against its CPU port (coverage and visibility, strand by strand, on
+//! the hard cases: the screen edge, the near plane, behind the camera, zero-width, sub-pixel and
+//! very wide strands, an odd output size), against the triangle raster on whole scenes (FLIP
+//! and hair density), and determinism, empty and tiny frames, the `raster` choice. GPU harness,
+//! validation layer on.
+
+use std::process::ExitCode;
+
+use anyhow::{Context as _, ensure};
+use gen_gpu::{FrameInputs, GenerationPath, StoredStrands};
+use glam::{Mat4, Vec3};
+use hairkit_tests::harness::{GpuTest, Requirements, run_gpu_tests};
+use hairkit_tests::image_compare::{Tolerance, compare, output_dir};
+use hairkit_tests::scenes::{repo, scene_with};
+use render::frame::{RenderedFrame, SceneRenderer};
+use render::raster::cpu::{self, RasterView, StrandPoint};
+use render::raster::{ComputeRaster, RasterPath};
+use render::scene::load_scene;
+
+/// Mean alpha (hair + occluder coverage) of a frame.
+fn mean_alpha(frame: &RenderedFrame) -> f64 {
+    let n = (frame.linear.rgba.len() / 4).max(1) as f64;
+    frame.linear.rgba.chunks_exact(4).map(|p| f64::from(p[3])).sum::<f64>() / n
+}
+
+/// `name` at `size` with `effects` through `raster`; the image is written for inspection.
+fn render(
+    ctx: &gen_gpu::Context,
+    name: &str,
+    size: (u32, u32),
+    mut effects: serde_json::Value,
+    raster: &str,
+) -> anyhow::Result<RenderedFrame> {
+    let dir = tempfile::tempdir()?;
+    if let Some(e) = effects.as_object_mut() {
+        e.insert("raster".into(), serde_json::json!(raster));
+    }
+    let scene = load_scene(&scene_with(dir.path(), name, size.0, size.1, effects)?)?;
+    let renderer = SceneRenderer::new(ctx, &scene, GenerationPath::Compute)?;
+    let expected = if raster == "compute" { RasterPath::Compute } else { RasterPath::Triangles };
+    ensure!(renderer.raster() == expected, "{raster}: the renderer uses {:?}", renderer.raster());
+    let frame = renderer.render(ctx)?;
+    let file = output_dir().join(format!("raster-{name}-{raster}.png"));
+    render::output::write_png(&file, &frame.image)?;
+    Ok(frame)
+}
+
+/// The compute rasterizer against the triangle raster on one scene: mean FLIP against the
+/// triangle raster's images in the same transparency mode and in OIT (the closer counts: the
+/// compute rasterizer keeps the coverage that the opaque mode loses behind sub-pixel strands,
+/// as OIT does), and the hair's density (mean alpha) against blended mode's (the triangle mode
+/// that keeps the coverage of sub-pixel strands).
+fn against_triangles(
+    ctx: &gen_gpu::Context,
+    name: &str,
+    size: (u32, u32),
+    effects: serde_json::Value,
+    flip_mean: f32,
+) -> anyhow::Result<()> {
+    let with = |transparency: &str| {
+        let mut e = effects.clone();
+        if let Some(o) = e.as_object_mut() {
+            o.insert("transparency".into(), serde_json::json!(transparency));
+        }
+        e
+    };
+    let compute = render(ctx, name, size, effects.clone(), "compute")?;
+    ensure!(
+        compute.passes.iter().any(|p| p.starts_with("raster hair (compute raster, fused generation)"))
+            && compute.passes.iter().any(|p| p == "resolve hair (compute raster)"),
+        "{:?}",
+        compute.passes
+    );
+    let triangles = render(ctx, name, size, effects.clone(), "triangles")?;
+    let blended = render(ctx, name, size, with("blended"), "triangles")?;
+    let oit = render(ctx, name, size, with("oit"), "triangles")?;
+    let any = Tolerance { mean: 1.0, percentile: (0.99, 1.0) };
+    let flip = |reference: &RenderedFrame, what: &str| {
+        compare(&format!("raster_{name}_{what}"), &compute.image, &reference.image, any)
+            .map_err(anyhow::Error::msg)
+    };
+    let (vs_same, vs_oit) = (flip(&triangles, "same_mode")?, flip(&oit, "oit")?);
+    let (c, t, b) = (mean_alpha(&compute), mean_alpha(&triangles), mean_alpha(&blended));
+    eprintln!(
+        "  {name}: FLIP mean vs the triangle raster {:.4} (same mode), {:.4} (OIT); mean alpha compute {c:.4}, triangles {t:.4}, blended {b:.4}",
+        vs_same.mean, vs_oit.mean
+    );
+    ensure!(
+        vs_same.mean.min(vs_oit.mean) <= flip_mean,
+        "FLIP {:.4} / {:.4} over {flip_mean}",
+        vs_same.mean,
+        vs_oit.mean
+    );
+    ensure!((c - b).abs() <= 0.03 * b, "the density should be blended mode's: alpha {c:.4} vs {b:.4}");
+    Ok(())
+}
+
+/// Vertices of a stored strand as `StoredStrands::upload` makes them (≤ 33 points): the same
+/// tangents (the reference's Eq. 5–6) and taper, for the CPU port.
+fn stored_points(points: &[Vec3], width: f32, tip_width: f32) -> Vec<StrandPoint> {
+    let as_f64: Vec<glam::DVec3> = points.iter().map(|p| p.as_dvec3()).collect();
+    let tangents = hairmesh::reference::tangents(&as_f64);
+    let n = points.len();
+    points
+        .iter()
+        .zip(&tangents)
+        .enumerate()
+        .map(|(k, (&position, t))| {
+            let tau = k as f32 / (n - 1) as f32;
+            StrandPoint {
+                position,
+                width: width * (1.0 + (tip_width - 1.0) * tau),
+                tangent: t.as_vec3(),
+                tau,
+            }
+        })
+        .collect()
+}
+
+/// A straight strand from `a` to `b` with `n` points.
+fn line(a: Vec3, b: Vec3, n: usize) -> Vec<Vec3> {
+    (0..n).map(|k| a.lerp(b, k as f32 / (n - 1) as f32)).collect()
+}
+
+/// Rasterizes `strands` (each with its root width) on the GPU and with the CPU port; returns
+/// both, after checking they agree: the covered pixels, every pixel's coverage (fixed point,
+/// within 1 % + 2 units) and the visibility words' depth, tangent and τ bits.
+fn kernel_vs_port(
+    ctx: &gen_gpu::Context,
+    raster: &ComputeRaster,
+    inputs: &FrameInputs,
+    strands: &[(Vec<Vec3>, f32)],
+) -> anyhow::Result<(cpu::RasterBuffers, cpu::RasterBuffers)> {
+    let [width, height] = inputs.viewport;
+    let eye = inputs.view.eye.as_vec3();
+    let view = RasterView {
+        view_proj: inputs.view_proj,
+        eye,
+        width,
+        height,
+        model: Mat4::IDENTITY,
+        max_half_width: 64.0,
+    };
+    let mut port = cpu::RasterBuffers::new(width, height);
+    let mut gpu = cpu::RasterBuffers::new(width, height);
+    for (points, w) in strands {
+        let stored = StoredStrands::upload(ctx, points, &[points.len() as u32], *w, 0.5)?;
+        let one = raster.rasterize_stored(ctx, &stored, inputs, Mat4::IDENTITY, 3)?;
+        cpu::raster_strand(&view, &mut port, &stored_points(points, *w, 0.5), 3, 0.0);
+        for i in 0..one.visibility.len() {
+            gpu.visibility[i] = gpu.visibility[i].min(one.visibility[i]);
+            gpu.coverage[i] += one.coverage[i];
+        }
+    }
+    let covered = |b: &cpu::RasterBuffers| b.coverage.iter().filter(|&&c| c > 0).count();
+    let (n_gpu, n_port) = (covered(&gpu), covered(&port));
+    let mut coverage_off = 0;
+    let mut word_off = 0;
+    // The octahedral tangent's two 9-bit coordinates may round one step apart.
+    let tangent_close = |a: u64, b: u64| {
+        let (ta, tb) = ((a >> 12) & 0x3ffff, (b >> 12) & 0x3ffff);
+        ((ta >> 9) as i64 - (tb >> 9) as i64).abs() <= 1 && ((ta & 511) as i64 - (tb & 511) as i64).abs() <= 1
+    };
+    for i in 0..gpu.coverage.len() {
+        let (g, p) = (gpu.coverage[i] as f64, port.coverage[i] as f64);
+        if (g - p).abs() > 0.01 * p.max(g) + 2.0 {
+            coverage_off += 1;
+        }
+        let (gw, pw) = (gpu.visibility[i], port.visibility[i]);
+        let agree = match (gw == u64::MAX, pw == u64::MAX) {
+            (true, true) => true,
+            (false, false) => {
+                let depth_step = ((gw >> 40) as i64 - (pw >> 40) as i64).abs();
+                // One depth step apart, another fragment may win.
+                depth_step <= 1 && (depth_step == 1 || tangent_close(gw, pw))
+            }
+            _ => false,
+        };
+        if !agree {
+            word_off += 1;
+        }
+    }
+    eprintln!(
+        "  {n_gpu} pixels covered on the GPU, {n_port} by the CPU port; {coverage_off} coverages and {word_off} visibility words differ"
+    );
+    let allowed = (n_port as f64 * 0.005).ceil() as usize;
+    ensure!(coverage_off <= allowed && word_off <= allowed, "more than {allowed} pixels differ");
+    Ok((gpu, port))
+}
+
+fn main() -> ExitCode {
+    run_gpu_tests(vec![
+        GpuTest::new("the_raster_kernel_matches_its_cpu_port", Requirements::INT64_ATOMICS, |ctx| {
+            let raster = ComputeRaster::new(ctx)?;
+            // An odd size (no multiple of any tile), the camera at z = 1 looking down -z.
+            let (width, height) = (97, 61);
+            let proj = Mat4::perspective_rh(60f32.to_radians(), width as f32 / height as f32, 0.01, 100.0);
+            let flip = Mat4::from_scale(Vec3::new(1.0, -1.0, 1.0));
+            let eye = Vec3::new(0.0, 0.0, 1.0);
+            let mut inputs = FrameInputs {
+                view_proj: flip * proj * Mat4::look_at_rh(eye, Vec3::ZERO, Vec3::Y),
+                view: hairmesh::reference::ViewParams {
+                    eye: eye.as_dvec3(),
+                    vertical_resolution: f64::from(height),
+                    projection: hairmesh::reference::Projection::Perspective { fov_y: 60f64.to_radians() },
+                },
+                lod: hairmesh::reference::LodParams::default(),
+                viewport: [width, height],
+                cull: false,
+            };
+            let curve: Vec<Vec3> = (0..33)
+                .map(|k| {
+                    let a = k as f32 / 32.0 * std::f32::consts::FRAC_PI_2;
+                    Vec3::new(-0.3 + 0.4 * a.cos(), -0.2 + 0.4 * a.sin(), -0.1 * a)
+                })
+                .collect();
+            let strands = vec![
+                // Across the whole view and out over its edges.
+                (line(Vec3::new(-2.0, -0.8, -0.5), Vec3::new(2.0, 0.9, 0.0), 17), 0.002),
+                (curve, 0.004),
+                // Very wide (beyond the 64-pixel cap at its root) and short.
+                (line(Vec3::new(0.1, -0.3, 0.3), Vec3::new(0.25, -0.25, 0.3), 3), 3.0),
+                // Sub-pixel.
+                (line(Vec3::new(-0.4, 0.3, 0.0), Vec3::new(0.4, 0.35, -0.2), 9), 0.0005),
+                // Vertical, major axis y.
+                (line(Vec3::new(0.35, -0.5, 0.0), Vec3::new(0.36, 0.5, 0.0), 5), 0.01),
+                // From in front of the camera through the near plane to behind it.
+                (line(Vec3::new(0.05, 0.02, 0.5), Vec3::new(0.08, 0.05, 1.5), 9), 0.003),
+            ];
+            let (gpu, _) = kernel_vs_port(ctx, &raster, &inputs, &strands)?;
+            ensure!(gpu.coverage.iter().filter(|&&c| c > 0).count() > 800, "the strands cover too little");
+            let widest = (0..gpu.coverage.len()).filter(|&i| gpu.alpha(i) > 0.99).count();
+            ensure!(widest > 50, "the wide strand should cover solid pixels ({widest})");
+
+            // Nothing of a zero-width strand or of a strand behind the camera reaches the buffers.
+            for (what, strand) in [
+                ("zero width", (line(Vec3::new(-0.3, 0.0, 0.0), Vec3::new(0.3, 0.1, 0.0), 9), 0.0)),
+                ("behind the camera", (line(Vec3::new(-0.3, 0.0, 1.5), Vec3::new(0.3, 0.1, 2.0), 9), 0.01)),
+            ] {
+                let (gpu, port) = kernel_vs_port(ctx, &raster, &inputs, &[strand])?;
+                ensure!(
+                    gpu.coverage.iter().all(|&c| c == 0) && port.coverage.iter().all(|&c| c == 0),
+                    "{what}: nothing should be covered"
+                );
+                ensure!(gpu.visibility.iter().all(|&w| w == u64::MAX), "{what}: no visible fragment");
+            }
+            // A 1×1 frame.
+            inputs.viewport = [1, 1];
+            let (gpu, _) = kernel_vs_port(ctx, &raster, &inputs, &strands[..2])?;
+            ensure!(gpu.coverage[0] > 0, "the diagonal crosses the only pixel");
+            Ok(())
+        }),
+        GpuTest::new(
+            "compute_raster_matches_the_triangle_raster_opaque",
+            Requirements::INT64_ATOMICS,
+            |ctx| {
+                // The head cap occluder hides the hair behind it; the triangle raster's opaque mode
+                // loses the coverage of strands behind sub-pixel ones (its alpha is lower): that is
+                // most of the FLIP difference.
+                against_triangles(
+                    ctx,
+                    "one_character",
+                    (256, 192),
+                    serde_json::json!({ "transparency": "opaque" }),
+                    0.1,
+                )
+            },
+        ),
+        GpuTest::new(
+            "compute_raster_matches_the_triangle_raster_with_shadows",
+            Requirements::INT64_ATOMICS,
+            |ctx| {
+                let effects =
+                    serde_json::json!({ "transparency": "opaque", "shadows": true, "shadow_map_size": 256 });
+                against_triangles(ctx, "one_character", (256, 192), effects, 0.15)
+            },
+        ),
+        GpuTest::new(
+            "compute_raster_draws_a_crowd_with_lod_in_blended_mode",
+            Requirements::INT64_ATOMICS,
+            |ctx| {
+                let effects = serde_json::json!({ "transparency": "blended" });
+                against_triangles(ctx, "small_crowd", (256, 160), effects, 0.06)
+            },
+        ),
+        GpuTest::new("compute_raster_draws_stored_strands", Requirements::INT64_ATOMICS, |ctx| {
+            // The artist's Sintel groom (11,400 × 16, TressFX) on its bust, with shadows.
+            let dir = tempfile::tempdir()?;
+            let groom = repo("tests/data/strands/tressfx/v4/sintel_hair_full_16points.tfx");
+            let bust = repo("tests/data/heads/sintel/sintel_bust.obj");
+            let mut frames = Vec::new();
+            for raster in ["triangles", "compute"] {
+                let scene = serde_json::json!({
+                    "output": { "width": 256, "height": 256 },
+                    "camera": { "eye": [0.15, 1.62, 0.5], "target": [0.0, 1.52, 0.0], "fov_y_degrees": 40 },
+                    "lights": [ { "directional": { "direction": [0.3, 0.9, 0.6] } } ],
+                    "characters": [ {
+                        "hair": groom, "color": [0.171, 0.0397, 0.00719], "strand_width": 0.0004,
+                        "occluder": { "mesh": bust, "transform": { "scale": 0.01, "translation": [0, 1.195, 0] } }
+                    } ],
+                    "effects": { "transparency": "opaque", "shadows": true, "shadow_map_size": 256, "raster": raster }
+                });
+                let path = dir.path().join("sintel.json");
+                std::fs::write(&path, serde_json::to_vec_pretty(&scene)?)?;
+                let frame =
+                    SceneRenderer::new(ctx, &load_scene(&path)?, GenerationPath::Compute)?.render(ctx)?;
+                render::output::write_png(
+                    &output_dir().join(format!("raster-sintel-{raster}.png")),
+                    &frame.image,
+                )?;
+                frames.push(frame);
+            }
+            let stats = compare(
+                "raster_sintel",
+                &frames[1].image,
+                &frames[0].image,
+                Tolerance { mean: 0.1, percentile: (0.99, 0.75) },
+            )
+            .map_err(anyhow::Error::msg)?;
+            eprintln!("  Sintel: FLIP vs triangles mean {:.4} (99th {:.4})", stats.mean, stats.percentile);
+            ensure!(frames[1].stats.strands == 11_400, "{:?}", frames[1].stats);
+            Ok(())
+        }),
+        GpuTest::new(
+            "compute_raster_is_deterministic_and_exact_under_tile_culling",
+            Requirements::INT64_ATOMICS,
+            |ctx| {
+                // Atomics arrive in any order; the minimum and the clamped sum do not depend on it.
+                let dir = tempfile::tempdir()?;
+                let scene = load_scene(&scene_with(
+                    dir.path(),
+                    "small_crowd",
+                    160,
+                    100,
+                    serde_json::json!({ "transparency": "opaque", "raster": "compute" }),
+                )?)?;
+                let renderer = SceneRenderer::new(ctx, &scene, GenerationPath::Compute)?;
+                let a = renderer.render(ctx)?;
+                let b = renderer.render(ctx)?;
+                let c = SceneRenderer::new(ctx, &scene, GenerationPath::Compute)?.render(ctx)?;
+                ensure!(
+                    a.linear == b.linear && a.linear == c.linear,
+                    "the same scene renders different pixels"
+                );
+                // The occlusion tiles only skip what cannot change a pixel.
+                let single =
+                    SceneRenderer::new(ctx, &scene, GenerationPath::Compute)?.with_occlusion_tiles(false);
+                let d = single.render(ctx)?;
+                ensure!(
+                    d.passes.iter().all(|p| !p.contains("occlusion tiles"))
+                        && a.passes.iter().any(|p| p.contains("occlusion tiles")),
+                    "{:?}",
+                    d.passes
+                );
+                ensure!(a.linear == d.linear, "drawing without the occlusion tiles changes the image");
+                Ok(())
+            },
+        ),
+        GpuTest::new("compute_raster_handles_empty_and_tiny_frames", Requirements::INT64_ATOMICS, |ctx| {
+            let dir = tempfile::tempdir()?;
+            // The camera looking away: every bundle culled, nothing drawn.
+            let path =
+                scene_with(dir.path(), "one_character", 64, 48, serde_json::json!({ "raster": "compute" }))?;
+            let mut json: serde_json::Value = serde_json::from_slice(&std::fs::read(&path)?)?;
+            json["camera"]["target"] = serde_json::json!([0.0, 1.82, 5.0]);
+            json["characters"][0].as_object_mut().context("character")?.remove("occluder");
+            std::fs::write(&path, serde_json::to_vec_pretty(&json)?)?;
+            let frame = SceneRenderer::new(ctx, &load_scene(&path)?, GenerationPath::Compute)?.render(ctx)?;
+            ensure!(frame.linear.rgba.chunks_exact(4).all(|p| p[3] == 0.0), "an empty view draws nothing");
+            ensure!(frame.linear.depth.iter().all(|&d| d == 1.0), "and writes no depth");
+            for (w, h) in [(1, 1), (3, 7), (97, 61)] {
+                let scene = load_scene(&scene_with(
+                    dir.path(),
+                    "one_character",
+                    w,
+                    h,
+                    serde_json::json!({ "raster": "compute" }),
+                )?)?;
+                let frame = SceneRenderer::new(ctx, &scene, GenerationPath::Compute)?.render(ctx)?;
+                ensure!(frame.image.width == w && frame.image.height == h, "{w}×{h}");
+                ensure!(frame.linear.rgba.iter().all(|c| c.is_finite()), "{w}×{h}: finite colour");
+            }
+            Ok(())
+        }),
+        GpuTest::new("the_raster_choice_follows_the_scene_and_the_device", Requirements::NONE, |ctx| {
+            let dir = tempfile::tempdir()?;
+            let caps = ctx.capabilities();
+            for (effects, expected) in [
+                (
+                    serde_json::json!({ "transparency": "opaque", "raster": "auto" }),
+                    caps.is_cpu() && caps.buffer_int64_atomics,
+                ),
+                (
+                    serde_json::json!({ "transparency": "blended", "raster": "auto" }),
+                    caps.is_cpu() && caps.buffer_int64_atomics,
+                ),
+                (serde_json::json!({ "transparency": "oit", "raster": "auto" }), false),
+                (serde_json::json!({ "transparency": "opaque", "msaa": 4, "raster": "auto" }), false),
+                (serde_json::json!({ "transparency": "opaque", "raster": "triangles" }), false),
+            ] {
+                let scene = load_scene(&scene_with(dir.path(), "one_character", 32, 24, effects.clone())?)?;
+                let renderer = SceneRenderer::new(ctx, &scene, GenerationPath::Compute)?;
+                let compute = renderer.raster() == RasterPath::Compute;
+                ensure!(compute == expected, "{effects}: {:?}", renderer.raster());
+                let graph = renderer.graph();
+                let names: Vec<&str> = graph.passes.iter().map(|p| p.name.as_str()).collect();
+                ensure!(names.iter().any(|n| n.contains("compute raster")) == compute, "{names:?}");
+            }
+            // Compute with OIT or MSAA is refused when the scene is read, naming the field.
+            for (effects, field) in [
+                (serde_json::json!({ "transparency": "oit", "raster": "compute" }), "effects.raster"),
+                (
+                    serde_json::json!({ "transparency": "opaque", "msaa": 4, "raster": "compute" }),
+                    "effects.msaa",
+                ),
+            ] {
+                let err = load_scene(&scene_with(dir.path(), "one_character", 32, 24, effects.clone())?)
+                    .err()
+                    .context("should be refused")?;
+                ensure!(err.to_string().contains(field), "{effects}: {err}");
+            }
+            Ok(())
+        }),
+    ])
+}
