@@ -15,6 +15,12 @@ layout(std430, set = 0, binding = HK_BINDING_SHADED) readonly buffer ShadedBuffe
 
 layout(location = 0) out vec4 out_color;
 
+// The rectangle the shade pass wrote (raster_rect.vert draws just it).
+layout(push_constant) uniform Rect {
+    uvec4 rect;
+    uvec4 size;
+} area;
+
 // Neighbours farther than this fraction of the pixel's view depth from it are another surface.
 const float DEPTH_TOLERANCE = 0.02;
 
@@ -31,7 +37,7 @@ void main() {
     for (int dy = -1; dy <= 1; ++dy) {
         for (int dx = -1; dx <= 1; ++dx) {
             ivec2 q = xy + ivec2(dx, dy);
-            if (any(lessThan(q, ivec2(0))) || any(greaterThanEqual(q, size))) {
+            if (any(lessThan(q, ivec2(area.rect.xy))) || any(greaterThanEqual(q, ivec2(area.rect.zw)))) {
                 continue;
             }
             vec4 n = shaded[q.y * size.x + q.x];

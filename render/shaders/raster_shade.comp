@@ -11,12 +11,17 @@
 
 layout(local_size_x = 8, local_size_y = 8) in;
 
+// The pixel rectangle the frame's hair can cover (x0, y0, x1, y1; x1, y1 exclusive).
+layout(push_constant) uniform Rect {
+    uvec4 rect;
+} area;
+
 layout(std430, set = 0, binding = HK_BINDING_VISIBILITY) readonly buffer PixelBuffer { uint64_t pixel_words[]; };
 layout(std430, set = 0, binding = HK_BINDING_SHADED) writeonly buffer ShadedBuffer { vec4 shaded[]; };
 
 void main() {
-    uvec2 xy = gl_GlobalInvocationID.xy;
-    if (xy.x >= frame.size.x || xy.y >= frame.size.y) {
+    uvec2 xy = gl_GlobalInvocationID.xy + area.rect.xy;
+    if (xy.x >= area.rect.z || xy.y >= area.rect.w) {
         return;
     }
     uint pixel = xy.y * frame.size.x + xy.x;

@@ -859,14 +859,27 @@ impl SceneRenderer {
             None => None,
         };
         let raster_buffers = match &self.compute_raster {
-            Some(_) => Some(RasterBuffers::new(
-                ctx,
-                &mut pool,
-                &view,
-                &self.raster_materials,
-                self.scene.lights().len(),
-                !self.occluders.is_empty(),
-            )?),
+            Some(_) => {
+                let boxes = self
+                    .characters
+                    .iter()
+                    .map(|c| {
+                        let (lo, hi) = self.hairs[c.hair].asset.bounds();
+                        (c.transform, (lo.as_vec3(), hi.as_vec3()))
+                    })
+                    .chain(self.stored_characters.iter().map(|c| (c.transform, self.stored[c.hair].bounds)));
+                let view_proj = crate::camera::view_proj(&view.camera, view.width, view.height);
+                let rect = crate::raster::screen_rect(view_proj, view.width, view.height, boxes);
+                Some(RasterBuffers::new(
+                    ctx,
+                    &mut pool,
+                    &view,
+                    &self.raster_materials,
+                    self.scene.lights().len(),
+                    !self.occluders.is_empty(),
+                    rect,
+                )?)
+            }
             None => None,
         };
         let mut images: HashMap<Res, &Image> = HashMap::new();

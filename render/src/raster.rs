@@ -209,7 +209,7 @@ impl ComputeRaster {
                 name: "compute raster shade",
                 shader: &shaders::RASTER_SHADE_COMP,
                 bindings: &shade_bindings,
-                push_constant_size: 4,
+                push_constant_size: 16,
                 specialization: &[],
             },
         )?;
@@ -235,10 +235,10 @@ impl ComputeRaster {
             ctx,
             &GraphicsPipelineDesc {
                 name: "compute raster resolve",
-                stages: GraphicsStages::Vertex(&shaders::FULLSCREEN_VERT),
+                stages: GraphicsStages::Vertex(&shaders::RASTER_RECT_VERT),
                 fragment: &shaders::RASTER_RESOLVE_FRAG,
                 bindings: &resolve_bindings,
-                push_constant_size: 4,
+                push_constant_size: 32,
                 specialization: &[],
                 color_format: SCENE_COLOR_FORMAT,
                 depth_format: Some(gen_gpu::DEPTH_FORMAT),
@@ -325,6 +325,9 @@ pub(crate) struct RasterBuffers {
     pub(crate) shaded: Buffer,
     /// The occlusion tiles (the tile pass → the rest of the strands).
     pub(crate) tiles: Buffer,
+    /// The pixels the frame's hair can cover (x0, y0, x1, y1; exclusive ends): the shade pass
+    /// and the resolve run over just these.
+    pub(crate) rect: [u32; 4],
     /// The occluders' depth, copied from the depth attachment (when there are occluders).
     pub(crate) scene_depth: Option<Buffer>,
 }
@@ -339,6 +342,7 @@ impl RasterBuffers {
         materials: &[RasterMaterial],
         light_count: usize,
         occluders: bool,
+        rect: [u32; 4],
     ) -> gen_gpu::Result<Self> {
         let pixels = u64::from(view.width) * u64::from(view.height);
         let transfer = vk::BufferUsageFlags::TRANSFER_DST;
@@ -376,7 +380,7 @@ impl RasterBuffers {
         let shaded = pool.buffer(ctx, "shaded hair", BufferDesc::storage(pixels * 16))?;
         let (tx, ty) = tile_grid(view.width, view.height);
         let tiles = pool.buffer(ctx, "occlusion tiles", BufferDesc::storage(u64::from(tx * ty) * 4))?;
-        Ok(Self { pixel_words, frame, shaded, tiles, scene_depth })
+        Ok(Self { pixel_words, frame, shaded, tiles, rect, scene_depth })
     }
 
     pub(crate) fn give_back(self, pool: &mut TransientPool) {
@@ -388,6 +392,45 @@ impl RasterBuffers {
             pool.give_back_buffer(d);
         }
     }
+}
+
+/// The pixel rectangle (x0, y0, x1, y1; exclusive ends) that the hair inside `boxes` (object
+/// bounds and their object → world transforms) can cover seen through `view_proj` in a
+/// `width × height` frame: the projected corners' box, widened by the widest strand and the
+/// resolve's filter; the whole frame when a box reaches behind the camera.
+pub fn screen_rect(
+    view_proj: Mat4,
+    width: u32,
+    height: u32,
+    boxes: impl IntoIterator<Item = (Mat4, (Vec3, Vec3))>,
+) -> [u32; 4] {
+    let mut lo = glam::Vec2::splat(f32::INFINITY);
+    let mut hi = glam::Vec2::splat(f32::NEG_INFINITY);
+    let size = glam::Vec2::new(width as f32, height as f32);
+    for (transform, (a, b)) in boxes {
+        let m = view_proj * transform;
+        for k in 0..8 {
+            let corner = Vec3::new(
+                if k & 1 == 0 { a.x } else { b.x },
+                if k & 2 == 0 { a.y } else { b.y },
+                if k & 4 == 0 { a.z } else { b.z },
+            );
+            let clip = m * corner.extend(1.0);
+            if !clip.is_finite() || clip.w <= crate::camera::NEAR {
+                return [0, 0, width, height];
+            }
+            let p = (glam::Vec2::new(clip.x, clip.y) / clip.w * 0.5 + 0.5) * size;
+            lo = lo.min(p);
+            hi = hi.max(p);
+        }
+    }
+    if lo.x > hi.x {
+        return [0, 0, 0, 0];
+    }
+    let margin = MAX_HALF_WIDTH_PIXELS + 2.0;
+    let lo = (lo - margin).floor().clamp(glam::Vec2::ZERO, size);
+    let hi = (hi + margin).ceil().clamp(glam::Vec2::ZERO, size);
+    [lo.x as u32, lo.y as u32, hi.x as u32, hi.y as u32]
 }
 
 /// The push constants of one character's raster dispatch.
@@ -662,5 +705,41 @@ pub mod cpu {
         for pair in vertices.windows(2) {
             segment(view, out, &pair[0], &pair[1], material, random);
         }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use glam::{Mat4, Vec3};
+
+    use super::screen_rect;
+
+    fn view_proj() -> Mat4 {
+        let proj = Mat4::perspective_rh(60f32.to_radians(), 2.0, 0.01, 100.0);
+        Mat4::from_scale(Vec3::new(1.0, -1.0, 1.0))
+            * proj
+            * Mat4::look_at_rh(Vec3::new(0.0, 0.0, 5.0), Vec3::ZERO, Vec3::Y)
+    }
+
+    #[test]
+    fn the_rect_covers_the_projected_bounds_with_a_margin() {
+        let unit = (Vec3::splat(-0.1), Vec3::splat(0.1));
+        let [x0, y0, x1, y1] = screen_rect(view_proj(), 800, 400, [(Mat4::IDENTITY, unit)]);
+        // The box projects to about ±10 px around the centre; the margin adds 66.
+        assert!(x0 > 300 && x1 < 500 && y0 > 100 && y1 < 300, "{:?}", [x0, y0, x1, y1]);
+        assert!(x0 < 400 - 66 && x1 > 400 + 66, "{:?}", [x0, y0, x1, y1]);
+        // Moved off to the side: clamped to the frame.
+        let side = Mat4::from_translation(Vec3::new(6.0, 0.0, 0.0));
+        let [_, _, x1, _] = screen_rect(view_proj(), 800, 400, [(side, unit)]);
+        assert_eq!(x1, 800);
+    }
+
+    #[test]
+    fn a_box_behind_the_camera_takes_the_whole_frame_and_no_box_none() {
+        let around_eye = (Vec3::new(-1.0, -1.0, 4.0), Vec3::new(1.0, 1.0, 6.0));
+        assert_eq!(screen_rect(view_proj(), 64, 32, [(Mat4::IDENTITY, around_eye)]), [0, 0, 64, 32]);
+        assert_eq!(screen_rect(view_proj(), 64, 32, []), [0, 0, 0, 0]);
+        let nan = (Vec3::splat(f32::NAN), Vec3::splat(f32::NAN));
+        assert_eq!(screen_rect(view_proj(), 64, 32, [(Mat4::IDENTITY, nan)]), [0, 0, 64, 32]);
     }
 }

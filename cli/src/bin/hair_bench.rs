@@ -559,8 +559,34 @@ fn passes_section(setup: &Setup<'_>) -> Result<Section> {
 }
 
 fn raster_section(setup: &Setup<'_>, progress: &indicatif::ProgressBar) -> Result<Section> {
-    let table = raster_table(setup, progress)?;
-    Ok(table_section("raster", "bench-raster.csv", table, setup, None))
+    let (table, rows) = raster_table(setup, progress)?;
+    let plot = draw_raster_plot(setup.out, &rows)?;
+    Ok(table_section("raster", "bench-raster.csv", table, setup, Some(plot)))
+}
+
+/// Frame time of each scene (numbered as in the table) through both rasterizers.
+fn draw_raster_plot(out: &Path, rows: &[(f64, f64)]) -> Result<(String, String)> {
+    use hairkit_cli::plots::{Chart, Series, draw};
+    let series = [("triangle raster", 0), ("compute rasterizer", 1)]
+        .map(|(name, k)| Series {
+            name: name.to_owned(),
+            points: rows
+                .iter()
+                .enumerate()
+                .map(|(i, r)| ((i + 1) as f64, if k == 0 { r.0 } else { r.1 }))
+                .collect(),
+        })
+        .to_vec();
+    let chart = Chart {
+        title: "Frame time per scene: triangle raster vs compute rasterizer",
+        x_label: "scene (# in the table)",
+        y_label: "frame (ms)",
+        log_x: false,
+        log_y: true,
+        lines: false,
+    };
+    draw(&out.join("plot-raster.png"), &chart, &series)?;
+    Ok(("plot-raster.png".to_owned(), chart.title.to_owned()))
 }
 
 /// GPU time of a frame's passes whose names start with one of `prefixes` (top-level passes of
@@ -579,7 +605,7 @@ fn passes_ms(frame: &render::frame::RenderedFrame, prefixes: &[&str]) -> f64 {
 /// character near (a close-up) and far (about 1 % of the screen), the artist's Sintel groom with
 /// shadows, the heads crowd with LOD; per scene the hair passes, the whole frame, the speed-up
 /// and the FLIP between the two images.
-fn raster_table(setup: &Setup<'_>, progress: &indicatif::ProgressBar) -> Result<Table> {
+fn raster_table(setup: &Setup<'_>, progress: &indicatif::ProgressBar) -> Result<(Table, Vec<(f64, f64)>)> {
     let Setup { ctx, quick, width, height, frames, .. } = *setup;
     if !ctx.capabilities().buffer_int64_atomics {
         anyhow::bail!(
@@ -670,8 +696,9 @@ fn raster_table(setup: &Setup<'_>, progress: &indicatif::ProgressBar) -> Result<
     );
     let _ = writeln!(
         md,
-        "| scene | strands | triangles: hair (ms) | triangles: frame (ms) | compute: hair (ms) | compute: frame (ms) | frame speed-up | FLIP |\n|---|---|---|---|---|---|---|---|"
+        "| # | scene | strands | triangles: hair (ms) | triangles: frame (ms) | compute: hair (ms) | compute: frame (ms) | frame speed-up | FLIP |\n|---|---|---|---|---|---|---|---|---|"
     );
+    let mut rows = Vec::new();
     let mut csv = String::from(
         "scene,strands,triangles_hair_ms,triangles_frame_ms,compute_hair_ms,compute_frame_ms,speedup,flip\n",
     );
@@ -686,7 +713,8 @@ fn raster_table(setup: &Setup<'_>, progress: &indicatif::ProgressBar) -> Result<
     all.push((crowd_name, crowd_scene));
     let hair_prefixes =
         ["lod+cull", "generate", "raster hair", "hair depth prepass", "clear visibility", "resolve hair"];
-    for (name, loaded) in all {
+    for (number, (name, loaded)) in all.into_iter().enumerate() {
+        let number = number + 1;
         let mut results = Vec::new();
         for raster in [render::scene::Raster::Triangles, render::scene::Raster::Compute] {
             progress.set_message(format!("raster: {name} ({raster:?})"));
@@ -720,8 +748,9 @@ fn raster_table(setup: &Setup<'_>, progress: &indicatif::ProgressBar) -> Result<
         let speedup = tf / cf;
         let _ = writeln!(
             md,
-            "| {name} | {strands} | {th:.1} | {tf:.1} | {ch:.1} | {cf:.1} | {speedup:.1}× | {flip:.4} |"
+            "| {number} | {name} | {strands} | {th:.1} | {tf:.1} | {ch:.1} | {cf:.1} | {speedup:.1}× | {flip:.4} |"
         );
+        rows.push((tf, cf));
         let _ = writeln!(
             csv,
             "{},{strands},{th:.3},{tf:.3},{ch:.3},{cf:.3},{speedup:.3},{flip:.5}",
@@ -729,7 +758,7 @@ fn raster_table(setup: &Setup<'_>, progress: &indicatif::ProgressBar) -> Result<
         );
     }
     let _ = std::fs::remove_dir_all(&dir);
-    Ok(Table { markdown: md, csv })
+    Ok((Table { markdown: md, csv }, rows))
 }
 
 fn write(path: &Path, bytes: &[u8]) -> Result<()> {

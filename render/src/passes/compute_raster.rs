@@ -185,10 +185,10 @@ pub(crate) fn record_shade(
     ];
     rec.bind_pipeline(&cr.shade);
     rec.push_storage_buffers(&cr.shade, &buffers);
-    rec.push_constants(&cr.shade, &0u32);
-    let view = &state.plan.view;
+    rec.push_constants(&cr.shade, &b.rect);
     let [gx, gy, _] = shaders::RASTER_SHADE_COMP.workgroup_size;
-    rec.dispatch(view.width.div_ceil(gx), view.height.div_ceil(gy), 1);
+    let [x0, y0, x1, y1] = b.rect;
+    rec.dispatch((x1 - x0).div_ceil(gx), (y1 - y0).div_ceil(gy), 1);
     Ok(())
 }
 
@@ -207,8 +207,10 @@ pub(crate) fn record_resolve(
     state.target.begin_rendering(rec, clear);
     rec.bind_pipeline(&cr.resolve);
     rec.push_storage_buffers(&cr.resolve, &buffers);
-    rec.push_constants(&cr.resolve, &0u32);
-    rec.draw(3, 1);
+    let view = &state.plan.view;
+    let [x0, y0, x1, y1] = b.rect;
+    rec.push_constants(&cr.resolve, &[x0, y0, x1, y1, view.width, view.height, 0, 0]);
+    rec.draw(6, 1);
     rec.end_rendering();
     Ok(())
 }
