@@ -218,20 +218,21 @@ fn main() -> ExitCode {
             }
             let (ok, stdout, _) = hair_render_output(&[scene, "--print-graph", "--raster", "compute"]);
             ensure!(ok && stdout.contains("compute raster"), "{stdout}");
-            // The compute rasterizer has no OIT yet: refused, naming the file and the field.
-            let oit = dir.path().join("oit.json");
+            // MSAA is the triangle raster's: refused with the compute rasterizer, naming the file
+            // and the field.
+            let msaa = dir.path().join("msaa.json");
             let mut json: serde_json::Value = serde_json::from_slice(&std::fs::read(scene)?)?;
-            json["effects"]["transparency"] = "oit".into();
-            std::fs::write(&oit, serde_json::to_vec_pretty(&json)?)?;
-            let out = dir.path().join("oit.png");
+            json["effects"]["msaa"] = 4.into();
+            std::fs::write(&msaa, serde_json::to_vec_pretty(&json)?)?;
+            let out = dir.path().join("msaa.png");
             let (ok, stderr) = hair_render(&[
-                oit.to_str().context("utf-8")?,
+                msaa.to_str().context("utf-8")?,
                 "-o",
                 out.to_str().context("utf-8")?,
                 "--raster",
                 "compute",
             ]);
-            ensure!(!ok && stderr.contains("oit.json") && stderr.contains("effects.raster"), "{stderr}");
+            ensure!(!ok && stderr.contains("msaa.json") && stderr.contains("effects.msaa"), "{stderr}");
             ensure!(!out.exists(), "an image was written");
             let (ok, stderr) = hair_render(&[scene, "--print-graph", "--raster", "quads"]);
             ensure!(!ok && stderr.contains("quads"), "{stderr}");

@@ -1,24 +1,28 @@
 // The compute rasterizer's per-pixel buffers, shared by the raster kernels (hair_raster.comp,
-// hair_raster_stored.comp) and the resolve (raster_resolve.frag). The CPU port is
-// render/src/raster_cpu.rs; keep the two in step (tests compare them).
+// hair_raster_stored.comp), the tile, shade and resolve passes. The CPU port is
+// render/src/raster.rs (`cpu`); keep the two in step (tests compare them).
 //
-// Per pixel two 64-bit words side by side (one cache line serves both), cleared to all ones:
-// word 2p the visibility word, word 2p + 1 the coverage word.
+// Per pixel K + 1 64-bit words side by side, cleared to all ones: K visibility words (the K
+// nearest fragments in depth order; K = 1 in opaque and blended scenes, the scene's oit_k with
+// OIT), then the coverage word.
 //
-// Visibility word: the nearest fragment wins an atomicMin, so the order strands arrive in never
-// matters.
-//   bits 40-63  view depth w: the float's bits >> 7 (w > 0, so the sign bit is 0): 16 mantissa
-//               bits, a relative depth resolution of 2^-16 (15 µm at 1 m)
-//   bits 30-39  material index (the character's hair material; at most 1024 per frame)
-//   bits 21-29, 12-20  world-space tangent, octahedral, 9 bits each
-//   bits 6-11   strand parameter tau, 6 bits
-//   bits 0-5    per-strand random, 6 bits
+// Visibility words: a fragment is inserted with atomicMin from the nearest slot on, the value a
+// slot held moving on to the next, so the slots hold the K smallest words in order whatever the
+// order strands arrive in.
+//   bits 42-63  view depth w: the float's bits >> 9 (w > 0, so the sign bit is 0): 14 mantissa
+//               bits, a relative depth resolution of 2^-14 (60 µm at 1 m)
+//   bits 32-41  material index (the character's hair material; at most 1024 per frame)
+//   bits 23-31, 14-22  world-space tangent, octahedral, 9 bits each
+//   bits 9-13   strand parameter tau, 5 bits
+//   bits 4-8    per-strand random, 5 bits
+//   bits 0-3    the fragment's coverage in 15ths (at least 1): OIT composites with it
 // Coverage word, stored complemented (~sum, so the clear to all ones is a zero sum; a fragment
-// subtracts its increment, ~s - i = ~(s + i)): the optical depth d = -ln(1 - c) of every
-// fragment's coverage c in fixed point, so alpha = 1 - exp(-sum) keeps the density of sub-pixel
-// hair (1 - prod(1 - c_i), what blending every fragment would give). Nothing is added once the
-// sum reaches COVERAGE_LIMIT, and the resolve reads min(sum, COVERAGE_LIMIT): a fragment is only
-// skipped when the sum already is at the limit, so the result is the same in any order.
+// subtracts its increment, ~s - i = ~(s + i)): the optical depth d = -ln(1 - a) of every
+// fragment's alpha a (coverage times the strand opacity) in fixed point, so the pixel's alpha
+// 1 - exp(-sum) keeps the density of sub-pixel hair (1 - prod(1 - a_i), what blending every
+// fragment gives). Nothing is added once the sum reaches COVERAGE_LIMIT, and it is read as
+// min(sum, COVERAGE_LIMIT): a fragment is only skipped when the sum already is at the limit,
+// so the result is the same in any order.
 
 #extension GL_EXT_shader_atomic_int64 : require
 #extension GL_EXT_shader_explicit_arithmetic_types_int64 : require
@@ -32,6 +36,12 @@ const float COVERAGE_SCALE = 256.0;          // fixed-point units per unit of op
 const uint COVERAGE_LIMIT = 3072u;
 const float MAX_FRAGMENT_COVERAGE = 0.999;    // a solid fragment adds -ln(0.001) = 6.9
 const uint MAX_MATERIALS = 1024u;
+const uint DEPTH_SHIFT = 42u;
+
+// Word i of pixel p with K slots (slot K is the coverage word).
+uint pixel_word(uint pixel, uint k, uint i) {
+    return pixel * (k + 1u) + i;
+}
 
 vec2 oct_wrap(vec2 v) {
     return (1.0 - abs(v.yx)) * vec2(v.x >= 0.0 ? 1.0 : -1.0, v.y >= 0.0 ? 1.0 : -1.0);
@@ -54,21 +64,26 @@ vec3 decode_tangent(uint bits) {
     return normalize(n);
 }
 
-// The 40 attribute bits of a fragment.
+// The attribute bits of a fragment but its coverage (bits 4-41).
 uint64_t visibility_attributes(uint material, vec3 tangent, float tau, float random) {
-    uint q_tau = uint(clamp(round(tau * 63.0), 0.0, 63.0));
-    uint q_random = uint(clamp(floor(random * 64.0), 0.0, 63.0));
-    return (uint64_t(material & (MAX_MATERIALS - 1u)) << 30) | (uint64_t(encode_tangent(tangent)) << 12)
-         | uint64_t((q_tau << 6u) | q_random);
+    uint q_tau = uint(clamp(round(tau * 31.0), 0.0, 31.0));
+    uint q_random = uint(clamp(floor(random * 32.0), 0.0, 31.0));
+    return (uint64_t(material & (MAX_MATERIALS - 1u)) << 32) | (uint64_t(encode_tangent(tangent)) << 14)
+         | uint64_t((q_tau << 9u) | (q_random << 4u));
 }
 
-// The depth bits of a visibility word (bits 40-63), as a 32-bit value.
+// The coverage bits of a fragment of coverage c > 0: 1..15.
+uint coverage_bits(float c) {
+    return uint(clamp(round(c * 15.0), 1.0, 15.0));
+}
+
+// The depth bits of a visibility word (bits 42-63), as a 32-bit value.
 uint visibility_depth_bits(float w) {
-    return floatBitsToUint(w) >> 7u;
+    return floatBitsToUint(w) >> 9u;
 }
 
 uint64_t visibility_word(uint depth_bits, uint64_t attributes) {
-    return (uint64_t(depth_bits) << 40) | attributes;
+    return (uint64_t(depth_bits) << DEPTH_SHIFT) | attributes;
 }
 
 struct VisibleFragment {
@@ -77,22 +92,24 @@ struct VisibleFragment {
     vec3 tangent;     // world space, unit
     float tau;
     float random;
+    float coverage;   // in 15ths
 };
 
 VisibleFragment decode_visibility(uint64_t word) {
     VisibleFragment f;
     // The middle of the dropped bits' range.
-    f.w = uintBitsToFloat((uint(word >> 40) << 7u) | 64u);
-    f.material = uint(word >> 30) & (MAX_MATERIALS - 1u);
-    f.tangent = decode_tangent(uint(word >> 12) & 0x3ffffu);
-    f.tau = float(uint(word >> 6) & 63u) / 63.0;
-    f.random = (float(uint(word) & 63u) + 0.5) / 64.0;
+    f.w = uintBitsToFloat((uint(word >> DEPTH_SHIFT) << 9u) | 256u);
+    f.material = uint(word >> 32) & (MAX_MATERIALS - 1u);
+    f.tangent = decode_tangent(uint(word >> 14) & 0x3ffffu);
+    f.tau = float(uint(word >> 9) & 31u) / 31.0;
+    f.random = (float(uint(word >> 4) & 31u) + 0.5) / 32.0;
+    f.coverage = float(uint(word) & 15u) / 15.0;
     return f;
 }
 
-// The coverage increment of a fragment (0 when it adds nothing).
-uint coverage_increment(float coverage) {
-    return uint(-log(1.0 - min(coverage, MAX_FRAGMENT_COVERAGE)) * COVERAGE_SCALE + 0.5);
+// The coverage increment of a fragment of alpha `a` (0 when it adds nothing).
+uint coverage_increment(float a) {
+    return uint(-log(1.0 - min(a, MAX_FRAGMENT_COVERAGE)) * COVERAGE_SCALE + 0.5);
 }
 
 // The alpha of a coverage sum (the complemented coverage word, ~word).

@@ -3,7 +3,7 @@
 // 3×3 neighbours that lie at about its depth (a bilateral filter: a pixel of sub-pixel strands
 // sees one strand, its neighbours others, and the average stands for the several strands the
 // pixel really holds instead of one strand's highlight or shadow), times the alpha the pixel's
-// accumulated coverage gives and the material's opacity; premultiplied and blended over the
+// accumulated coverage gives; premultiplied and blended over the
 // target (occluders, background), with the hair's depth written (the depth test keeps a nearer
 // occluder's).
 #extension GL_GOOGLE_include_directive : require
@@ -15,7 +15,7 @@ layout(std430, set = 0, binding = HK_BINDING_SHADED) readonly buffer ShadedBuffe
 
 layout(location = 0) out vec4 out_color;
 
-// The rectangle the shade pass wrote (raster_rect.vert draws just it).
+// The rectangle the shade pass wrote (raster_rect.vert draws just it); size.z: slots K.
 layout(push_constant) uniform Rect {
     uvec4 rect;
     uvec4 size;
@@ -49,9 +49,8 @@ void main() {
             weights += weight;
         }
     }
-    VisibleFragment f = decode_visibility(pixel_words[2u * pixel]);
-    RasterMaterial m = frame.materials[min(f.material, MAX_MATERIALS - 1u)];
-    float alpha = coverage_alpha(~pixel_words[2u * pixel + 1u]) * m.opacity.x;
+    // The coverage word holds every fragment's alpha (coverage times opacity).
+    float alpha = coverage_alpha(~pixel_words[pixel_word(pixel, area.size.z, area.size.z)]);
     out_color = vec4(sum / weights * alpha, alpha);
     // The pixel centre's point at the fragment's view depth, projected.
     vec2 ndc = gl_FragCoord.xy / vec2(size) * 2.0 - 1.0;

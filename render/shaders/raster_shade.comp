@@ -1,9 +1,12 @@
 #version 460
-// Compute rasterizer, shade: per pixel, the nearest fragment of the visibility buffer shaded
-// with the triangle path's shade_hair — its world position rebuilt from the pixel centre and
-// the stored view depth; its tangent, tau and strand random from the stored attributes; its
-// material from the frame's table — into the shaded buffer (unpremultiplied colour, view depth;
-// w < 0 where no hair is). The resolve filters and composites it.
+// Compute rasterizer, shade: per pixel, its K nearest fragments shaded with the triangle path's
+// shade_hair — each one's world position rebuilt from the pixel centre and its view depth; its
+// tangent, tau and strand random from its visibility word; its material from the frame's
+// table — and composited front to back at its alpha (coverage times the strand opacity); what
+// lies behind the K-th (the coverage word's optical depth beyond theirs) takes the K-th's
+// colour. Written to the shaded buffer unpremultiplied (with the nearest's view depth; w < 0
+// where no hair is): the resolve filters it and applies the pixel's alpha. With K = 1 this is
+// the nearest fragment's colour. Pixels with fragments beyond their K slots are counted.
 #extension GL_GOOGLE_include_directive : require
 #include "raster_common.glsl"
 #include "hair_shading.glsl"
@@ -11,13 +14,28 @@
 
 layout(local_size_x = 8, local_size_y = 8) in;
 
-// The pixel rectangle the frame's hair can cover (x0, y0, x1, y1; x1, y1 exclusive).
+// The pixel rectangle the frame's hair can cover (x0, y0, x1, y1; x1, y1 exclusive); slots K.
 layout(push_constant) uniform Rect {
     uvec4 rect;
+    uint k;
 } area;
 
 layout(std430, set = 0, binding = HK_BINDING_VISIBILITY) readonly buffer PixelBuffer { uint64_t pixel_words[]; };
 layout(std430, set = 0, binding = HK_BINDING_SHADED) writeonly buffer ShadedBuffer { vec4 shaded[]; };
+// x: pixels whose fragments did not all fit their K slots.
+layout(std430, set = 0, binding = HK_BINDING_RASTER_COUNTERS) buffer Counters { uint counters[]; };
+
+vec3 shade_fragment(VisibleFragment f, vec2 ndc) {
+    vec4 far_point = frame.inv_view_proj * vec4(ndc, 1.0, 1.0);
+    vec3 ray = normalize(far_point.xyz / far_point.w - frame.eye.xyz);
+    vec3 position = frame.eye.xyz + ray * (f.w / max(dot(ray, frame.forward.xyz), 1e-6));
+    RasterMaterial m = frame.materials[min(f.material, MAX_MATERIALS - 1u)];
+    // Shaded at full coverage: compositing applies the alpha.
+    HairSample s = HairSample(position, f.tau, f.tangent, f.random, 1.0);
+    HairMaterial material = HairMaterial(mat4(1.0), frame.eye.xyz, uint(frame.eye.w), m.hair_color,
+                                         m.specular_shift, m.specular_strength, 1.0);
+    return shade_hair(s, material).rgb;
+}
 
 void main() {
     uvec2 xy = gl_GlobalInvocationID.xy + area.rect.xy;
@@ -25,20 +43,40 @@ void main() {
         return;
     }
     uint pixel = xy.y * frame.size.x + xy.x;
-    uint64_t word = pixel_words[2u * pixel];
-    if (word == VISIBILITY_EMPTY) {
+    uint k = area.k;
+    uint first = pixel_word(pixel, k, 0u);
+    uint64_t nearest = pixel_words[first];
+    if (nearest == VISIBILITY_EMPTY) {
         shaded[pixel] = vec4(0.0, 0.0, 0.0, -1.0);
         return;
     }
-    VisibleFragment f = decode_visibility(word);
     vec2 ndc = (vec2(xy) + 0.5) / vec2(frame.size.xy) * 2.0 - 1.0;
-    vec4 far_point = frame.inv_view_proj * vec4(ndc, 1.0, 1.0);
-    vec3 ray = normalize(far_point.xyz / far_point.w - frame.eye.xyz);
-    vec3 position = frame.eye.xyz + ray * (f.w / max(dot(ray, frame.forward.xyz), 1e-6));
-    RasterMaterial m = frame.materials[min(f.material, MAX_MATERIALS - 1u)];
-    // Shaded at full coverage: the resolve applies the pixel's alpha.
-    HairSample s = HairSample(position, f.tau, f.tangent, f.random, 1.0);
-    HairMaterial material = HairMaterial(mat4(1.0), frame.eye.xyz, uint(frame.eye.w), m.hair_color,
-                                         m.specular_shift, m.specular_strength, 1.0);
-    shaded[pixel] = vec4(shade_hair(s, material).rgb, f.w);
+    vec3 color = vec3(0.0);
+    float transmittance = 1.0;
+    vec3 last = vec3(0.0);
+    float w = 0.0;
+    for (uint i = 0u; i < k; ++i) {
+        uint64_t word = pixel_words[first + i];
+        if (word == VISIBILITY_EMPTY) {
+            break;
+        }
+        VisibleFragment f = decode_visibility(word);
+        if (i == 0u) {
+            w = f.w;
+        }
+        float opacity = frame.materials[min(f.material, MAX_MATERIALS - 1u)].opacity.x;
+        float alpha = min(f.coverage * opacity, MAX_FRAGMENT_COVERAGE);
+        last = shade_fragment(f, ndc);
+        color += transmittance * alpha * last;
+        transmittance *= 1.0 - alpha;
+    }
+    // Everything behind the slots: the pixel's whole transmittance over the slots'.
+    float total = 1.0 - coverage_alpha(~pixel_words[first + k]);
+    float tail = clamp(1.0 - total / max(transmittance, 1e-6), 0.0, 1.0);
+    if (pixel_words[first + k - 1u] != VISIBILITY_EMPTY && tail > 1.0 / 255.0) {
+        atomicAdd(counters[0], 1u);
+    }
+    color += transmittance * tail * last;
+    float alpha = 1.0 - transmittance * (1.0 - tail);
+    shaded[pixel] = vec4(color / max(alpha, 1e-6), w);
 }

@@ -1,9 +1,9 @@
 #version 460
 // Compute rasterizer, tiles: after the front strands, per 8×8 tile the farthest of its pixels'
-// nearest-fragment depths when every pixel of the tile is opaque (its coverage at the limit),
-// else all ones. A later fragment strictly behind it can neither win a pixel's atomicMin nor
-// add coverage (the pixels are at the limit), so the rest of the strands skip such columns and
-// the image stays exactly what drawing every fragment gives.
+// last-slot (K-th nearest) depths when every pixel of the tile is opaque (its coverage at the
+// limit), else all ones. A later fragment strictly behind it can neither enter a pixel's slots
+// nor add coverage (the pixels are at the limit), so the rest of the strands skip such columns
+// and the image stays exactly what drawing every fragment gives.
 #extension GL_GOOGLE_include_directive : require
 #include "raster_common.glsl"
 
@@ -17,6 +17,7 @@ layout(push_constant) uniform TileParams {
     uint height;
     uint tiles_x;
     uint tiles_y;
+    uint k;
 } tiles;
 
 void main() {
@@ -29,13 +30,13 @@ void main() {
     // Tiles over the image's edge count only their pixels inside it.
     for (uint y = origin.y; y < min(origin.y + 8u, tiles.height) && farthest != 0xffffffffu; ++y) {
         for (uint x = origin.x; x < min(origin.x + 8u, tiles.width); ++x) {
-            uint pixel = y * tiles.width + x;
-            bool opaque = ~pixel_words[2u * pixel + 1u] >= uint64_t(COVERAGE_LIMIT);
+            uint first = pixel_word(y * tiles.width + x, tiles.k, 0u);
+            bool opaque = ~pixel_words[first + tiles.k] >= uint64_t(COVERAGE_LIMIT);
             if (!opaque) {
                 farthest = 0xffffffffu;
                 break;
             }
-            farthest = max(farthest, uint(pixel_words[2u * pixel] >> 40));
+            farthest = max(farthest, uint(pixel_words[first + tiles.k - 1u] >> DEPTH_SHIFT));
         }
     }
     tile_depth[tile] = farthest;

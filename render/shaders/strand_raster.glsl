@@ -5,7 +5,7 @@
 // strand's footprint [m - h, m + h] overlaps gets that overlap as its coverage (a box filter
 // across the strand: a sub-pixel strand spreads its width over one or two pixels instead of
 // being widened to a pixel). Columns are half-open at the segment's end, so consecutive segments
-// of a strand never cover a column twice. The CPU port is render/src/raster_cpu.rs.
+// of a strand never cover a column twice. The CPU port is render/src/raster.rs (`cpu`).
 
 #include "raster_common.glsl"
 
@@ -13,9 +13,9 @@
 layout(std430, set = 0, binding = HK_BINDING_VISIBILITY) buffer PixelBuffer { uint64_t pixel_words[]; };
 // The occluders' Vulkan depth per pixel (1 = none), read when raster.flags bit 0 is set.
 layout(std430, set = 0, binding = HK_BINDING_SCENE_DEPTH) readonly buffer SceneDepthBuffer { float scene_depth[]; };
-// Per 8×8 tile: the farthest nearest-fragment depth bits of its pixels if all of them are
-// opaque, else all ones (raster_tiles.comp, after the front strands): a column behind it
-// cannot change any pixel of the tile.
+// Per 8×8 tile: the farthest depth bits of its pixels' last (K-th) slots if every pixel is
+// opaque and its slots full, else all ones (raster_tiles.comp, after the front strands): a
+// column behind it cannot change any pixel of the tile.
 layout(std430, set = 0, binding = HK_BINDING_RASTER_TILES) readonly buffer TileBuffer { uint tile_depth[]; };
 
 layout(push_constant) uniform RasterParams {
@@ -26,6 +26,8 @@ layout(push_constant) uniform RasterParams {
     float max_half_width; // pixels: wider strands are drawn this wide (bounds the work per segment)
     uint phase;           // RASTER_ALL, RASTER_FRONT or RASTER_REST
     uint tiles_x;         // tiles per row of tile_depth
+    uint k;               // visibility slots per pixel
+    float opacity;        // of one strand (its material's)
 } raster;
 
 // Which strands a dispatch draws: all of them, or in two phases around the tile pass: first a
@@ -102,9 +104,9 @@ struct ColumnAttributes {
     float random;
 };
 
-// Plain loads first: a fragment behind the pixel's current nearest one, or adding to a pixel
-// whose hair is already opaque, skips its atomic (on CPU devices an atomic minimum is a
-// compare-and-swap loop; most fragments of dense hair take neither).
+// Plain loads first: a fragment behind the pixel's K-th slot, or adding to a pixel whose hair is
+// already opaque, skips its atomics (on CPU devices an atomic minimum is a compare-and-swap
+// loop; most fragments of dense hair take neither).
 void raster_fragment(uint pixel, float coverage, float ndc_z, inout ColumnAttributes a) {
     if (!(coverage > 0.0)) {
         return;
@@ -112,20 +114,31 @@ void raster_fragment(uint pixel, float coverage, float ndc_z, inout ColumnAttrib
     if ((raster.flags & 1u) != 0u && !(ndc_z < scene_depth[pixel])) {
         return;
     }
-    uint64_t nearest = pixel_words[2u * pixel];
-    if (a.depth_bits <= uint(nearest >> 40)) {
+    uint k = raster.k;
+    uint first = pixel_word(pixel, k, 0u);
+    if (a.depth_bits <= uint(pixel_words[first + k - 1u] >> DEPTH_SHIFT)) {
         if (!a.encoded) {
             a.word = visibility_word(a.depth_bits, visibility_attributes(a.material, a.tangent, a.tau, a.random));
             a.encoded = true;
         }
-        if (a.word < nearest) {
-            atomicMin(pixel_words[2u * pixel], a.word);
+        // Insertion from the nearest slot on: a displaced word moves to the next slot.
+        uint64_t v = a.word | uint64_t(coverage_bits(coverage));
+        for (uint i = 0u; i < k; ++i) {
+            if (v >= pixel_words[first + i]) {
+                continue;
+            }
+            uint64_t held = atomicMin(pixel_words[first + i], v);
+            if (held == VISIBILITY_EMPTY) {
+                break;
+            }
+            v = max(v, held);
         }
     }
-    if (~pixel_words[2u * pixel + 1u] < uint64_t(COVERAGE_LIMIT)) {
-        uint add = coverage_increment(coverage);
+    uint cover = first + k;
+    if (~pixel_words[cover] < uint64_t(COVERAGE_LIMIT)) {
+        uint add = coverage_increment(coverage * raster.opacity);
         if (add > 0u) {
-            atomicAdd(pixel_words[2u * pixel + 1u], ~uint64_t(add) + 1UL);
+            atomicAdd(pixel_words[cover], ~uint64_t(add) + 1UL);
         }
     }
 }
@@ -193,6 +206,7 @@ void raster_segment(RasterVertex a, RasterVertex b, uint material, float random)
             // The column's end pixels' tiles (and the two others of their square when it spans
             // two tiles): strictly behind all of them, it changes nothing.
             uvec2 e0 = uvec2(x_major ? ivec2(i, j0) : ivec2(j0, i)) / TILE_SIZE;
+            // (tile_depth holds depth bits, as column.depth_bits.)
             uvec2 e1 = uvec2(x_major ? ivec2(i, j1) : ivec2(j1, i)) / TILE_SIZE;
             if (all(lessThanEqual(e1 - e0, uvec2(1u)))) {
                 uint w = raster.tiles_x;

@@ -34,6 +34,8 @@ pub mod binding {
     pub const SHADED: u32 = 23;
     /// Compute rasterizer: per 8×8 tile, the farthest nearest depth when the tile is opaque.
     pub const RASTER_TILES: u32 = 24;
+    /// Compute rasterizer: counters (pixels whose fragments exceed their K slots).
+    pub const RASTER_COUNTERS: u32 = 25;
     /// Occluder pipelines (their own layout, not a strand pipeline): positions.
     pub const OCCLUDER_POSITIONS: u32 = 0;
     /// Occluder pipelines: normals.
@@ -53,10 +55,11 @@ pub const RASTER_BINDINGS: [u32; 3] = [binding::VISIBILITY, binding::SCENE_DEPTH
 pub const RASTER_TILE_BINDINGS: [u32; 2] = [binding::VISIBILITY, binding::RASTER_TILES];
 
 /// The compute rasterizer's shade pass: its own buffers, then the lighting.
-pub const RASTER_SHADE_BINDINGS: [u32; 7] = [
+pub const RASTER_SHADE_BINDINGS: [u32; 8] = [
     binding::VISIBILITY,
     binding::RASTER_FRAME,
     binding::SHADED,
+    binding::RASTER_COUNTERS,
     LIGHTING_BINDINGS[0],
     LIGHTING_BINDINGS[1],
     LIGHTING_BINDINGS[2],
@@ -95,6 +98,7 @@ pub const GLSL_DEFINES: &[(&str, u64)] = &[
     ("HK_BINDING_SCENE_DEPTH", binding::SCENE_DEPTH as u64),
     ("HK_BINDING_SHADED", binding::SHADED as u64),
     ("HK_BINDING_RASTER_TILES", binding::RASTER_TILES as u64),
+    ("HK_BINDING_RASTER_COUNTERS", binding::RASTER_COUNTERS as u64),
     ("HK_BINDING_OCCLUDER_POSITIONS", binding::OCCLUDER_POSITIONS as u64),
     ("HK_BINDING_OCCLUDER_NORMALS", binding::OCCLUDER_NORMALS as u64),
     ("HK_BINDING_OCCLUDER_INDICES", binding::OCCLUDER_INDICES as u64),

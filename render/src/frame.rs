@@ -161,6 +161,11 @@ pub struct RenderedFrame {
     pub oit_overflow: Option<u64>,
     /// OIT: nodes in the pool.
     pub oit_pool: Option<u64>,
+    /// Compute rasterizer: pixels with more fragments than their visibility slots (the rest are
+    /// blended behind the K nearest with the K-th's colour; `None` on the triangle raster).
+    pub raster_overflow: Option<u64>,
+    /// Compute rasterizer: visibility slots per pixel this frame had.
+    pub raster_slots: Option<u32>,
     /// Shadow maps were reused from an earlier frame.
     pub shadow_cached: bool,
     /// GPU time of the shadow maps when this frame computed them.
@@ -487,11 +492,25 @@ impl SceneRenderer {
             };
             indices.push(index as u32);
         }
-        if raster == RasterPath::Compute && table.len() > MAX_MATERIALS {
+        // Two words per pixel at least (one slot and the coverage) in one storage buffer.
+        let output = self.scene.scene.output;
+        let pixels = u64::from(output.width) * u64::from(output.height);
+        let range = u64::from(ctx.capabilities().max_storage_buffer_range);
+        let why_not = if table.len() > MAX_MATERIALS {
+            Some(format!("{} distinct hair materials (at most {MAX_MATERIALS})", table.len()))
+        } else if pixels * 16 > range {
+            Some(format!(
+                "{}×{} needs {} bytes of per-pixel words, over the device's {range}-byte storage-buffer range",
+                output.width,
+                output.height,
+                pixels * 16
+            ))
+        } else {
+            None
+        };
+        if let (RasterPath::Compute, Some(why)) = (raster, why_not) {
             if effects.raster == crate::scene::Raster::Compute {
-                return Err(RenderError::RasterUnavailable {
-                    why: format!("{} distinct hair materials (at most {MAX_MATERIALS})", table.len()),
-                });
+                return Err(RenderError::RasterUnavailable { why });
             }
             raster = RasterPath::Triangles;
         }
@@ -507,6 +526,18 @@ impl SceneRenderer {
     /// The rasterizer this renderer draws hair with.
     pub fn raster(&self) -> RasterPath {
         self.raster
+    }
+
+    /// The strand opacity of compute-raster material `material`.
+    pub(crate) fn raster_opacity(&self, material: u32) -> f32 {
+        self.raster_materials.get(material as usize).map_or(1.0, |m| m.opacity[0])
+    }
+
+    /// Compute rasterizer: visibility slots per pixel the scene asks for (the K nearest
+    /// fragments: `oit_k` with OIT, else 1).
+    fn raster_slots(&self) -> u32 {
+        let effects = self.scene.scene.effects;
+        if effects.transparency == Transparency::Oit { effects.oit_k } else { 1 }
     }
 
     fn view(&self) -> FrameView {
@@ -843,8 +874,9 @@ impl SceneRenderer {
         };
         let scene_target = SceneTarget::new(ctx, &mut pool, view.width, view.height, samples)?;
         // The OIT node pool is bounded by the output size and the storage-buffer range.
-        let oit_buffers = match &self.oit {
-            Some(oit) => {
+        // (The compute rasterizer keeps its own K nearest fragments per pixel.)
+        let oit_buffers = match (&self.oit, &self.compute_raster) {
+            (Some(oit), None) => {
                 let pixels = u64::from(view.width) * u64::from(view.height);
                 let range = u64::from(ctx.capabilities().max_storage_buffer_range) / OIT_NODE_BYTES;
                 let nodes = ((pixels as f64 * f64::from(oit.nodes_per_pixel)) as u64)
@@ -856,7 +888,7 @@ impl SceneRenderer {
                     pool: nodes,
                 })
             }
-            None => None,
+            _ => None,
         };
         let raster_buffers = match &self.compute_raster {
             Some(_) => {
@@ -870,15 +902,15 @@ impl SceneRenderer {
                     .chain(self.stored_characters.iter().map(|c| (c.transform, self.stored[c.hair].bounds)));
                 let view_proj = crate::camera::view_proj(&view.camera, view.width, view.height);
                 let rect = crate::raster::screen_rect(view_proj, view.width, view.height, boxes);
-                Some(RasterBuffers::new(
-                    ctx,
-                    &mut pool,
-                    &view,
-                    &self.raster_materials,
-                    self.scene.lights().len(),
-                    !self.occluders.is_empty(),
+                let desc = crate::raster::RasterFrameDesc {
+                    view: &view,
+                    materials: &self.raster_materials,
+                    light_count: self.scene.lights().len(),
+                    occluders: !self.occluders.is_empty(),
                     rect,
-                )?)
+                    k: self.raster_slots(),
+                };
+                Some(RasterBuffers::new(ctx, &mut pool, &desc)?)
             }
             None => None,
         };
@@ -935,6 +967,13 @@ impl SceneRenderer {
             }
             None => (None, None),
         };
+        let (raster_overflow, raster_slots) = match &raster_buffers {
+            Some(b) => {
+                let c: Vec<u32> = bytemuck::pod_collect_to_vec(&ctx.read_buffer(&b.counters, 16)?);
+                (Some(u64::from(c[0])), Some(b.k))
+            }
+            None => (None, None),
+        };
         let linear = scene_target.read(ctx)?;
         let passes = run.ran;
         // Every submission has waited for its fence: the transient resources can be reused.
@@ -959,6 +998,8 @@ impl SceneRenderer {
             graph: plan.graph.outline(),
             oit_overflow,
             oit_pool,
+            raster_overflow,
+            raster_slots,
             shadow_cached: plan.shadow_cached,
             shadow_ms,
         })

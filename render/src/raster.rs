@@ -1,32 +1,35 @@
 //! The compute strand rasterizer: hair drawn without the triangle pipeline, the fast path on
-//! CPU devices (lavapipe rasterizes pixel-thin ribbons at 5–9 M triangles/s; a compute kernel
-//! stepping along each segment is several times faster).
+//! CPU devices (lavapipe rasterizes pixel-thin ribbons at 5–9 M triangles/s).
 //!
-//! Per frame:
-//! 1. **clear** the visibility buffer (one 64-bit word per pixel) and the coverage buffer;
+//! Per frame (`docs/architecture.md` has the graph):
+//! 1. **clear** the per-pixel words: K visibility words (the K nearest fragments; K = 1 for
+//!    opaque and blended scenes, `oit_k` with OIT) and a coverage word;
 //! 2. **raster**: per character, one invocation per live strand slot generates the strand
 //!    (gen-gpu's strand-coherent evaluation, `hair_gen.glsl`, fused: no strand buffer) and
 //!    walks each segment along its screen-space major axis; every pixel its footprint overlaps
-//!    takes a 64-bit `atomicMin` of (view depth, attributes) and adds its coverage's optical
-//!    depth to the coverage buffer (`strand_raster.glsl`; stored strands go through the same
-//!    segment code, `hair_raster_stored.comp`). Occluders hide hair through a copy of their
-//!    depth buffer;
-//! 3. **shade**: each pixel's nearest fragment shaded with the triangle path's `shade_hair`;
-//! 4. **resolve**: a full-screen pass averages each pixel's shaded colour with its 3×3
-//!    neighbours' at about its depth (a pixel of sub-pixel strands stands for several strands;
-//!    its neighbours' nearest fragments sample them) and composites it at alpha
-//!    `1 − exp(−Σ optical depth)` over the target, writing depth.
+//!    gets a visibility word (view depth, then the shading inputs) inserted among its K nearest
+//!    by `atomicMin`, and its alpha's optical depth added to the coverage word
+//!    (`strand_raster.glsl`; stored strands go through the same segment code,
+//!    `hair_raster_stored.comp`). Occluders hide hair through a copy of their depth buffer. The
+//!    strands go in two phases around the **occlusion tiles**, which let the second skip what
+//!    lies behind opaque 8×8 tiles without changing a pixel;
+//! 3. **shade**: each pixel's K fragments shaded with the triangle path's `shade_hair` and
+//!    composited front to back, the rest behind them with the K-th's colour;
+//! 4. **resolve**: each pixel's colour averaged with its 3×3 neighbours' at about its depth (a
+//!    pixel of sub-pixel strands stands for several strands; its neighbours' fragments sample
+//!    them), composited at alpha `1 − exp(−Σ optical depth)` over the target, writing depth.
 //!
 //! Scenes in `"opaque"` and `"blended"` transparency draw alike here: every fragment's coverage
 //! counts (the density blended mode keeps, and what OIT's alpha is), the nearest fragment gives
 //! the colour. A pixel thus never loses the coverage of strands behind a sub-pixel strand, as
 //! the triangle raster's opaque mode does.
 //!
-//! Memory is two words per pixel plus the materials: independent of the strand count. The
-//! visibility word (layout in `raster_common.glsl`) holds the shading inputs themselves — view
-//! depth (relative resolution 2⁻¹⁶), an octahedral world tangent (9 + 9 bits), τ and the
-//! strand random (6 bits each), the material — so the resolve never re-generates a strand. The
-//! CPU port of the kernel ([`cpu`]) is what the GPU results are tested against.
+//! Memory is `8·(K + 1) + 16` bytes per pixel plus the materials: independent of the strand
+//! count. The visibility word (layout in `raster_common.glsl`) holds the shading inputs
+//! themselves — view depth (relative resolution 2⁻¹⁴), the material, an octahedral world
+//! tangent (9 + 9 bits), τ and the strand random (5 bits each), the coverage (4 bits) — so
+//! nothing re-generates a strand. The CPU port of the kernel ([`cpu`]) is what the GPU results
+//! are tested against.
 
 use gen_gpu::{
     Binding, Buffer, BufferDesc, ComputePipelineDesc, Context, GraphicsPipelineDesc, GraphicsStages,
@@ -36,7 +39,7 @@ use glam::{Mat4, Vec3};
 
 use crate::contract::{RASTER_BINDINGS, RASTER_SHADE_BINDINGS, RASTER_TILE_BINDINGS, RESOLVE_BINDINGS};
 use crate::graph::TransientPool;
-use crate::scene::{Effects, Raster, Transparency};
+use crate::scene::{Effects, Raster};
 use crate::shaders;
 use crate::target::SCENE_COLOR_FORMAT;
 
@@ -73,8 +76,6 @@ impl std::fmt::Display for RasterPath {
 pub fn compute_unavailable(effects: &Effects, caps: &gen_gpu::Capabilities) -> Option<String> {
     if !caps.buffer_int64_atomics {
         Some(format!("{} has no 64-bit buffer atomics (shaderBufferInt64Atomics)", caps.device_name))
-    } else if effects.transparency == Transparency::Oit {
-        Some("transparency \"oit\" is drawn by the triangle raster only, so far".into())
     } else if effects.msaa > 1 {
         Some("MSAA applies to the triangle raster (the compute rasterizer has its own coverage AA)".into())
     } else {
@@ -116,7 +117,8 @@ pub(crate) struct RasterPush {
     pub(crate) max_half_width: f32,
     pub(crate) phase: u32,
     pub(crate) tiles_x: u32,
-    pad: [u32; 2],
+    pub(crate) k: u32,
+    pub(crate) opacity: f32,
 }
 
 /// Which strands a raster dispatch draws (`RASTER_ALL`, … in `strand_raster.glsl`).
@@ -128,6 +130,13 @@ pub enum RasterPhase {
     Front = 1,
     /// The rest, skipping columns behind the tiles the front strands made opaque.
     Rest = 2,
+}
+
+/// The visibility slots per pixel a frame gets: `wanted` (1 for opaque and blended scenes,
+/// `oit_k` with OIT), fewer when `K + 1` words per pixel would not fit one storage buffer.
+pub fn slots_within(wanted: u32, pixels: u64, max_storage_buffer_range: u32) -> u32 {
+    let words = u64::from(max_storage_buffer_range) / 8 / pixels.max(1);
+    (wanted as u64).min(words.saturating_sub(1)).max(1) as u32
 }
 
 /// Side of the tiles of the occlusion test (`TILE_SIZE`).
@@ -209,7 +218,7 @@ impl ComputeRaster {
                 name: "compute raster shade",
                 shader: &shaders::RASTER_SHADE_COMP,
                 bindings: &shade_bindings,
-                push_constant_size: 16,
+                push_constant_size: 32,
                 specialization: &[],
             },
         )?;
@@ -223,7 +232,7 @@ impl ComputeRaster {
                 name: "compute raster tiles",
                 shader: &shaders::RASTER_TILES_COMP,
                 bindings: &tile_bindings,
-                push_constant_size: 16,
+                push_constant_size: 32,
                 specialization: &[],
             },
         )?;
@@ -291,7 +300,7 @@ impl ComputeRaster {
             stored.record_compute(rec, pipeline, &params, &extra, GROUP, |rec, slots| {
                 rec.push_constants(
                     pipeline,
-                    &raster_push(model, material, slots, false, RasterPhase::All, 1),
+                    &raster_push(model, material, slots, false, RasterPhase::All, 1, 1, 1.0),
                 );
             });
             rec.memory_barrier(
@@ -328,26 +337,51 @@ pub(crate) struct RasterBuffers {
     /// The pixels the frame's hair can cover (x0, y0, x1, y1; exclusive ends): the shade pass
     /// and the resolve run over just these.
     pub(crate) rect: [u32; 4],
+    /// Visibility slots per pixel (the K nearest fragments).
+    pub(crate) k: u32,
+    /// `[pixels whose fragments exceed their K slots, …]`.
+    pub(crate) counters: Buffer,
     /// The occluders' depth, copied from the depth attachment (when there are occluders).
     pub(crate) scene_depth: Option<Buffer>,
 }
 
+/// What sizes and fills one frame's [`RasterBuffers`].
+#[derive(Clone, Copy, Debug)]
+pub(crate) struct RasterFrameDesc<'a> {
+    pub(crate) view: &'a crate::camera::FrameView,
+    pub(crate) materials: &'a [RasterMaterial],
+    pub(crate) light_count: usize,
+    pub(crate) occluders: bool,
+    /// See [`RasterBuffers::rect`].
+    pub(crate) rect: [u32; 4],
+    /// Visibility slots wanted per pixel (see [`slots_within`]).
+    pub(crate) k: u32,
+}
+
 impl RasterBuffers {
-    /// Takes the buffers for a `width × height` frame from `pool` and writes the camera and
-    /// `materials` (at most [`MAX_MATERIALS`]).
+    /// Takes the buffers for the frame from `pool` and writes the camera and the materials (at
+    /// most [`MAX_MATERIALS`]).
     pub(crate) fn new(
         ctx: &Context,
         pool: &mut TransientPool,
-        view: &crate::camera::FrameView,
-        materials: &[RasterMaterial],
-        light_count: usize,
-        occluders: bool,
-        rect: [u32; 4],
+        desc: &RasterFrameDesc<'_>,
     ) -> gen_gpu::Result<Self> {
+        let RasterFrameDesc { view, materials, light_count, occluders, rect, k } = *desc;
         let pixels = u64::from(view.width) * u64::from(view.height);
         let transfer = vk::BufferUsageFlags::TRANSFER_DST;
-        let pixel_words =
-            pool.buffer(ctx, "visibility + coverage", BufferDesc::storage(pixels * 16).usage(transfer))?;
+        let k = slots_within(k, pixels, ctx.capabilities().max_storage_buffer_range);
+        let pixel_words = pool.buffer(
+            ctx,
+            "visibility + coverage",
+            BufferDesc::storage(pixels * (u64::from(k) + 1) * 8).usage(transfer),
+        )?;
+        let counters = pool.buffer(
+            ctx,
+            "raster counters",
+            BufferDesc::storage(16)
+                .usage(transfer | vk::BufferUsageFlags::TRANSFER_SRC)
+                .location(MemoryLocation::GpuToCpu),
+        )?;
         let scene_depth = if occluders {
             Some(pool.buffer(
                 ctx,
@@ -380,7 +414,7 @@ impl RasterBuffers {
         let shaded = pool.buffer(ctx, "shaded hair", BufferDesc::storage(pixels * 16))?;
         let (tx, ty) = tile_grid(view.width, view.height);
         let tiles = pool.buffer(ctx, "occlusion tiles", BufferDesc::storage(u64::from(tx * ty) * 4))?;
-        Ok(Self { pixel_words, frame, shaded, tiles, rect, scene_depth })
+        Ok(Self { pixel_words, frame, shaded, tiles, rect, k, counters, scene_depth })
     }
 
     pub(crate) fn give_back(self, pool: &mut TransientPool) {
@@ -388,6 +422,7 @@ impl RasterBuffers {
         pool.give_back_buffer(self.frame);
         pool.give_back_buffer(self.shaded);
         pool.give_back_buffer(self.tiles);
+        pool.give_back_buffer(self.counters);
         if let Some(d) = self.scene_depth {
             pool.give_back_buffer(d);
         }
@@ -434,6 +469,7 @@ pub fn screen_rect(
 }
 
 /// The push constants of one character's raster dispatch.
+#[allow(clippy::too_many_arguments, reason = "one field each of the push constants")]
 pub(crate) fn raster_push(
     transform: Mat4,
     material: u32,
@@ -441,6 +477,8 @@ pub(crate) fn raster_push(
     occluders: bool,
     phase: RasterPhase,
     tiles_x: u32,
+    k: u32,
+    opacity: f32,
 ) -> RasterPush {
     RasterPush {
         model: transform.to_cols_array(),
@@ -450,7 +488,8 @@ pub(crate) fn raster_push(
         max_half_width: MAX_HALF_WIDTH_PIXELS,
         phase: phase as u32,
         tiles_x,
-        pad: [0; 2],
+        k,
+        opacity,
     }
 }
 
@@ -598,34 +637,43 @@ pub mod cpu {
     }
 
     fn attributes(material: u32, tangent: Vec3, tau: f32, random: f32) -> u64 {
-        let q_tau = (tau * 63.0).round().clamp(0.0, 63.0) as u64;
-        let q_random = (random * 64.0).floor().clamp(0.0, 63.0) as u64;
-        (u64::from(material & (MAX_MATERIALS as u32 - 1)) << 30)
-            | (u64::from(encode_tangent(tangent)) << 12)
-            | (q_tau << 6)
-            | q_random
+        let q_tau = (tau * 31.0).round().clamp(0.0, 31.0) as u64;
+        let q_random = (random * 32.0).floor().clamp(0.0, 31.0) as u64;
+        (u64::from(material & (MAX_MATERIALS as u32 - 1)) << 32)
+            | (u64::from(encode_tangent(tangent)) << 14)
+            | (q_tau << 9)
+            | (q_random << 4)
     }
 
-    /// The visibility word of a fragment at view depth `w`.
+    /// Bit position of the view depth in a visibility word (`DEPTH_SHIFT`).
+    pub const DEPTH_SHIFT: u32 = 42;
+
+    /// The visibility word of a fragment at view depth `w` (its coverage bits 0).
     pub fn visibility_word(w: f32, material: u32, tangent: Vec3, tau: f32, random: f32) -> u64 {
-        (u64::from(w.to_bits() >> 7) << 40) | attributes(material, tangent, tau, random)
+        (u64::from(w.to_bits() >> 9) << DEPTH_SHIFT) | attributes(material, tangent, tau, random)
+    }
+
+    /// The coverage bits of a fragment of coverage `c > 0` (`coverage_bits`): 1..15.
+    pub fn coverage_bits(c: f32) -> u64 {
+        (c * 15.0).round().clamp(1.0, 15.0) as u64
     }
 
     /// The view depth a visibility word holds (the middle of its quantization step).
     pub fn visibility_depth(word: u64) -> f32 {
-        f32::from_bits((((word >> 40) as u32) << 7) | 64)
+        f32::from_bits((((word >> DEPTH_SHIFT) as u32) << 9) | 256)
     }
 
-    /// The coverage increment of a fragment (`coverage_increment`).
-    pub fn coverage_increment(coverage: f32) -> u32 {
-        (-(1.0 - coverage.min(0.999)).ln() * COVERAGE_SCALE + 0.5) as u32
+    /// The coverage increment of a fragment of alpha `a` (`coverage_increment`).
+    pub fn coverage_increment(a: f32) -> u32 {
+        (-(1.0 - a.min(0.999)).ln() * COVERAGE_SCALE + 0.5) as u32
     }
 
+    /// One slot (K = 1), strands of opacity 1.
     fn fragment(out: &mut RasterBuffers, pixel: usize, coverage: f32, word: u64) {
         if !(coverage > 0.0) {
             return;
         }
-        out.visibility[pixel] = out.visibility[pixel].min(word);
+        out.visibility[pixel] = out.visibility[pixel].min(word | coverage_bits(coverage));
         if out.coverage[pixel] < u64::from(COVERAGE_LIMIT) {
             out.coverage[pixel] += u64::from(coverage_increment(coverage));
         }

@@ -552,20 +552,11 @@ fn validate(loaded: &LoadedScene) -> Result<(), SceneError> {
             format!("{} with transparency \"oit\" (MSAA anti-aliases the opaque and blended modes)", e.msaa),
         ));
     }
-    if e.raster == Raster::Compute {
-        if e.transparency == Transparency::Oit {
-            return Err(SceneError::NotSupportedYet {
-                path: path.clone(),
-                field: "effects.raster".into(),
-                effect: format!("the compute rasterizer with transparency {:?}", e.transparency),
-            });
-        }
-        if e.msaa > 1 {
-            return Err(invalid(
-                "effects.msaa",
-                format!("{} with raster \"compute\" (MSAA applies to the triangle raster)", e.msaa),
-            ));
-        }
+    if e.raster == Raster::Compute && e.msaa > 1 {
+        return Err(invalid(
+            "effects.msaa",
+            format!("{} with raster \"compute\" (MSAA applies to the triangle raster)", e.msaa),
+        ));
     }
     if e.shadows {
         if !(16..=4096).contains(&e.shadow_map_size) {

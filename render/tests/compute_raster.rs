@@ -283,6 +283,33 @@ fn main() -> ExitCode {
                 against_triangles(ctx, "small_crowd", (256, 160), effects, 0.06)
             },
         ),
+        GpuTest::new("compute_raster_oit_matches_the_triangle_oit", Requirements::INT64_ATOMICS, |ctx| {
+            // The K nearest fragments per pixel composited front to back, the rest behind them:
+            // the goal is a mean FLIP of at most 0.05 against the triangle raster's OIT.
+            for (k, budget) in [(8, 0.05), (1, 0.1)] {
+                let effects = serde_json::json!({ "transparency": "oit", "oit_k": k });
+                let compute = render(ctx, "one_character", (256, 192), effects.clone(), "compute")?;
+                let triangles = render(ctx, "one_character", (256, 192), effects, "triangles")?;
+                let stats = compare(
+                    &format!("raster_oit_k{k}"),
+                    &compute.image,
+                    &triangles.image,
+                    Tolerance { mean: budget, percentile: (0.99, 0.75) },
+                )
+                .map_err(anyhow::Error::msg)?;
+                ensure!(compute.raster_slots == Some(k), "{:?}", compute.raster_slots);
+                let overflow = compute.raster_overflow.context("the compute raster counts overflow")?;
+                eprintln!(
+                    "  k = {k}: FLIP vs triangle OIT mean {:.4} (99th {:.4}); {overflow} pixels hold more than {k} fragments; alpha {:.4} vs {:.4}",
+                    stats.mean,
+                    stats.percentile,
+                    mean_alpha(&compute),
+                    mean_alpha(&triangles)
+                );
+                ensure!(overflow > 0, "dense hair has pixels with more than {k} fragments");
+            }
+            Ok(())
+        }),
         GpuTest::new("compute_raster_draws_stored_strands", Requirements::INT64_ATOMICS, |ctx| {
             // The artist's Sintel groom (11,400 × 16, TressFX) on its bust, with shadows.
             let dir = tempfile::tempdir()?;
@@ -325,34 +352,40 @@ fn main() -> ExitCode {
             "compute_raster_is_deterministic_and_exact_under_tile_culling",
             Requirements::INT64_ATOMICS,
             |ctx| {
-                // Atomics arrive in any order; the minimum and the clamped sum do not depend on it.
+                // Atomics arrive in any order; the minimum, the K smallest words and the clamped
+                // sum do not depend on it.
                 let dir = tempfile::tempdir()?;
-                let scene = load_scene(&scene_with(
-                    dir.path(),
-                    "small_crowd",
-                    160,
-                    100,
-                    serde_json::json!({ "transparency": "opaque", "raster": "compute" }),
-                )?)?;
-                let renderer = SceneRenderer::new(ctx, &scene, GenerationPath::Compute)?;
-                let a = renderer.render(ctx)?;
-                let b = renderer.render(ctx)?;
-                let c = SceneRenderer::new(ctx, &scene, GenerationPath::Compute)?.render(ctx)?;
-                ensure!(
-                    a.linear == b.linear && a.linear == c.linear,
-                    "the same scene renders different pixels"
-                );
-                // The occlusion tiles only skip what cannot change a pixel.
-                let single =
-                    SceneRenderer::new(ctx, &scene, GenerationPath::Compute)?.with_occlusion_tiles(false);
-                let d = single.render(ctx)?;
-                ensure!(
-                    d.passes.iter().all(|p| !p.contains("occlusion tiles"))
-                        && a.passes.iter().any(|p| p.contains("occlusion tiles")),
-                    "{:?}",
-                    d.passes
-                );
-                ensure!(a.linear == d.linear, "drawing without the occlusion tiles changes the image");
+                for transparency in ["opaque", "oit"] {
+                    let scene = load_scene(&scene_with(
+                        dir.path(),
+                        "small_crowd",
+                        160,
+                        100,
+                        serde_json::json!({ "transparency": transparency, "oit_k": 4, "raster": "compute" }),
+                    )?)?;
+                    let renderer = SceneRenderer::new(ctx, &scene, GenerationPath::Compute)?;
+                    let a = renderer.render(ctx)?;
+                    let b = renderer.render(ctx)?;
+                    let c = SceneRenderer::new(ctx, &scene, GenerationPath::Compute)?.render(ctx)?;
+                    ensure!(
+                        a.linear == b.linear && a.linear == c.linear,
+                        "{transparency}: the same scene renders different pixels"
+                    );
+                    // The occlusion tiles only skip what cannot change a pixel.
+                    let single =
+                        SceneRenderer::new(ctx, &scene, GenerationPath::Compute)?.with_occlusion_tiles(false);
+                    let d = single.render(ctx)?;
+                    ensure!(
+                        d.passes.iter().all(|p| !p.contains("occlusion tiles"))
+                            && a.passes.iter().any(|p| p.contains("occlusion tiles")),
+                        "{:?}",
+                        d.passes
+                    );
+                    ensure!(
+                        a.linear == d.linear,
+                        "{transparency}: drawing without the occlusion tiles changes the image"
+                    );
+                }
                 Ok(())
             },
         ),
@@ -394,7 +427,10 @@ fn main() -> ExitCode {
                     serde_json::json!({ "transparency": "blended", "raster": "auto" }),
                     caps.is_cpu() && caps.buffer_int64_atomics,
                 ),
-                (serde_json::json!({ "transparency": "oit", "raster": "auto" }), false),
+                (
+                    serde_json::json!({ "transparency": "oit", "raster": "auto" }),
+                    caps.is_cpu() && caps.buffer_int64_atomics,
+                ),
                 (serde_json::json!({ "transparency": "opaque", "msaa": 4, "raster": "auto" }), false),
                 (serde_json::json!({ "transparency": "opaque", "raster": "triangles" }), false),
             ] {
@@ -406,18 +442,29 @@ fn main() -> ExitCode {
                 let names: Vec<&str> = graph.passes.iter().map(|p| p.name.as_str()).collect();
                 ensure!(names.iter().any(|n| n.contains("compute raster")) == compute, "{names:?}");
             }
-            // Compute with OIT or MSAA is refused when the scene is read, naming the field.
-            for (effects, field) in [
-                (serde_json::json!({ "transparency": "oit", "raster": "compute" }), "effects.raster"),
-                (
-                    serde_json::json!({ "transparency": "opaque", "msaa": 4, "raster": "compute" }),
-                    "effects.msaa",
-                ),
-            ] {
-                let err = load_scene(&scene_with(dir.path(), "one_character", 32, 24, effects.clone())?)
-                    .err()
-                    .context("should be refused")?;
-                ensure!(err.to_string().contains(field), "{effects}: {err}");
+            // Compute with MSAA is refused when the scene is read, naming the field.
+            let effects = serde_json::json!({ "transparency": "opaque", "msaa": 4, "raster": "compute" });
+            let err = load_scene(&scene_with(dir.path(), "one_character", 32, 24, effects)?)
+                .err()
+                .context("should be refused")?;
+            ensure!(err.to_string().contains("effects.msaa"), "{err}");
+            // A frame whose per-pixel words exceed the storage-buffer range: auto falls back to
+            // the triangle raster, compute says why.
+            let range = u64::from(caps.max_storage_buffer_range);
+            let side = ((range / 16) as f64).sqrt() as u32 + 64;
+            if side <= render::scene::MAX_OUTPUT_SIDE {
+                for (raster, ok) in [("auto", true), ("compute", false)] {
+                    let effects = serde_json::json!({ "transparency": "opaque", "raster": raster });
+                    let scene = load_scene(&scene_with(dir.path(), "one_character", side, side, effects)?)?;
+                    match SceneRenderer::new(ctx, &scene, GenerationPath::Compute) {
+                        Ok(r) => {
+                            ensure!(ok && r.raster() == RasterPath::Triangles, "{raster}: {:?}", r.raster());
+                        }
+                        Err(e) => {
+                            ensure!(!ok && e.to_string().contains("storage-buffer range"), "{raster}: {e}");
+                        }
+                    }
+                }
             }
             Ok(())
         }),

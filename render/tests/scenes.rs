@@ -152,10 +152,12 @@ fn main() -> ExitCode {
             ensure!(groom.is_file(), "{} is missing (the repository's test data)", groom.display());
             for (name, effects) in [
                 ("sintel_opaque", serde_json::json!({ "transparency": "opaque", "raster": "triangles" })),
-                ("sintel_oit", serde_json::json!({ "transparency": "oit" })),
+                ("sintel_oit", serde_json::json!({ "transparency": "oit", "raster": "triangles" })),
                 (
                     "sintel_oit_shadows",
-                    serde_json::json!({ "transparency": "oit", "shadows": true, "shadow_map_size": 256 }),
+                    serde_json::json!({
+                        "transparency": "oit", "shadows": true, "shadow_map_size": 256, "raster": "triangles"
+                    }),
                 ),
             ] {
                 let scene = serde_json::json!({
@@ -298,7 +300,7 @@ fn main() -> ExitCode {
                         "hair": asset_dir, "color": [0.04, 0.015, 0.006],
                         "occluder": { "mesh": head, "color": [0.35, 0.22, 0.17] }
                     } ],
-                    "effects": { "transparency": "oit", "shadows": true, "shadow_map_size": 256 }
+                    "effects": { "transparency": "oit", "shadows": true, "shadow_map_size": 256, "raster": "triangles" }
                 });
                 let path = dir.path().join("lee_perry_smith.json");
                 std::fs::write(&path, serde_json::to_vec_pretty(&scene)?)?;

@@ -100,6 +100,7 @@ pub(crate) fn record_clear(rec: &mut Recorder<'_>, state: &FrameState<'_>) -> ge
     let Some(b) = state.raster else { return Ok(()) };
     // All ones: no fragment, and a complemented coverage sum of zero.
     rec.fill_buffer(&b.pixel_words, u32::MAX);
+    rec.fill_buffer(&b.counters, 0);
     Ok(())
 }
 
@@ -123,7 +124,7 @@ pub(crate) fn record_tiles(
         &cr.tiles,
         &[(binding::VISIBILITY, &b.pixel_words), (binding::RASTER_TILES, &b.tiles)],
     );
-    rec.push_constants(&cr.tiles, &[view.width, view.height, tx, ty]);
+    rec.push_constants(&cr.tiles, &[view.width, view.height, tx, ty, b.k, 0, 0, 0]);
     rec.dispatch((tx * ty).div_ceil(shaders::RASTER_TILES_COMP.workgroup_size[0]), 1, 1);
     Ok(())
 }
@@ -149,7 +150,9 @@ pub(crate) fn record_raster(
     for (i, frame) in state.frames {
         let c = &r.characters[*i];
         r.generator.bind_frame(rec, &cr.raster, &r.hairs[c.hair], frame, &extra);
-        let push = raster_push(c.transform, state.materials[*i], 0, occluders, phase, tiles_x);
+        let material = state.materials[*i];
+        let opacity = r.raster_opacity(material);
+        let push = raster_push(c.transform, material, 0, occluders, phase, tiles_x, b.k, opacity);
         rec.push_constants(&cr.raster, &push);
         Generator::record_fused_dispatch(rec, frame);
     }
@@ -157,11 +160,10 @@ pub(crate) fn record_raster(
     for ((c, params), &material) in r.stored_characters.iter().zip(state.stored_params).zip(stored_materials)
     {
         let pipeline = &cr.raster_stored;
+        let opacity = r.raster_opacity(material);
         r.stored[c.hair].record_compute(rec, pipeline, params, &extra, group_size(), |rec, slots| {
-            rec.push_constants(
-                pipeline,
-                &raster_push(c.transform, material, slots, occluders, phase, tiles_x),
-            );
+            let push = raster_push(c.transform, material, slots, occluders, phase, tiles_x, b.k, opacity);
+            rec.push_constants(pipeline, &push);
         });
     }
     Ok(())
@@ -178,6 +180,7 @@ pub(crate) fn record_shade(
         (binding::VISIBILITY, &b.pixel_words),
         (binding::RASTER_FRAME, &b.frame),
         (binding::SHADED, &b.shaded),
+        (binding::RASTER_COUNTERS, &b.counters),
         l[0],
         l[1],
         l[2],
@@ -185,9 +188,9 @@ pub(crate) fn record_shade(
     ];
     rec.bind_pipeline(&cr.shade);
     rec.push_storage_buffers(&cr.shade, &buffers);
-    rec.push_constants(&cr.shade, &b.rect);
-    let [gx, gy, _] = shaders::RASTER_SHADE_COMP.workgroup_size;
     let [x0, y0, x1, y1] = b.rect;
+    rec.push_constants(&cr.shade, &[x0, y0, x1, y1, b.k, 0, 0, 0]);
+    let [gx, gy, _] = shaders::RASTER_SHADE_COMP.workgroup_size;
     rec.dispatch((x1 - x0).div_ceil(gx), (y1 - y0).div_ceil(gy), 1);
     Ok(())
 }
@@ -209,7 +212,7 @@ pub(crate) fn record_resolve(
     rec.push_storage_buffers(&cr.resolve, &buffers);
     let view = &state.plan.view;
     let [x0, y0, x1, y1] = b.rect;
-    rec.push_constants(&cr.resolve, &[x0, y0, x1, y1, view.width, view.height, 0, 0]);
+    rec.push_constants(&cr.resolve, &[x0, y0, x1, y1, view.width, view.height, b.k, 0]);
     rec.draw(6, 1);
     rec.end_rendering();
     Ok(())
