@@ -629,9 +629,11 @@ fn raster_table(setup: &Setup<'_>, progress: &indicatif::ProgressBar) -> Result<
             "metres",
             None,
         )?;
-        for (label, camera, transparency) in
-            [("close-up", &near, "opaque"), ("close-up", &near, "oit"), ("far, ~1 % of the screen", &far, "opaque")]
-        {
+        for (label, camera, transparency) in [
+            ("close-up", &near, "opaque"),
+            ("close-up", &near, "oit"),
+            ("far, ~1 % of the screen", &far, "opaque"),
+        ] {
             let scene = serde_json::json!({
                 "output": { "width": width, "height": height },
                 "camera": camera,
