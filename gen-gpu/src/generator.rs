@@ -250,13 +250,9 @@ const MESH_THREADS: u32 = 32;
 pub use crate::backend::target::{COLOR_FORMAT, DEPTH_FORMAT};
 
 /// Set 0 of every strand pipeline ([`crate::contract`]) plus a consumer's own buffers (at
-/// [`crate::contract::binding::FIRST_CONSUMER`] and up): what a consumer pipeline that generates
-/// inside its own shader declares.
+/// [`crate::contract::binding::FIRST_CONSUMER`] and up: a fragment stage's, or those of a
+/// consumer pipeline that generates inside its own shader).
 pub fn strand_bindings(extra: &[u32]) -> Vec<Binding> {
-    bindings(extra)
-}
-
-fn bindings(extra: &[u32]) -> Vec<Binding> {
     use crate::contract::binding as b;
     let all = vk::ShaderStageFlags::ALL;
     let buffers = [b::GEN_PARAMS, b::BUNDLES, b::ROOT_SAMPLES, b::SAMPLE_SETS];
@@ -269,8 +265,40 @@ fn bindings(extra: &[u32]) -> Vec<Binding> {
         stages: all,
     }));
     list.extend(outputs.iter().map(|&i| Binding::storage_buffer(i, all)));
-    list.extend(extra.iter().map(|&i| Binding::storage_buffer(i, all)));
+    list.extend(Binding::storage_buffers(extra, all));
     list
+}
+
+/// The per-frame buffers every frame has (parameters, LOD per bundle, offsets and indirect
+/// arguments), around the strand buffers the caller sized.
+fn frame_buffers(
+    ctx: &Context,
+    hair: &GpuHair,
+    params: GenParams,
+    strands: (Buffer, Buffer),
+    (capacity, chunk_slots, chunks): (u64, u64, u64),
+) -> Result<FrameBuffers> {
+    let params = ctx.create_buffer_with_data(
+        "generation parameters",
+        BufferDesc::storage(size_of::<GenParams>() as u64).location(MemoryLocation::CpuToGpu),
+        bytemuck::bytes_of(&params),
+    )?;
+    let bundles = u64::from(hair.bundle_count);
+    let indirect = vk::BufferUsageFlags::INDIRECT_BUFFER;
+    Ok(FrameBuffers {
+        params,
+        lods: Buffer::new(ctx, "bundle LOD", BufferDesc::storage(bundles * 16))?,
+        offsets: Buffer::new(
+            ctx,
+            "strand offsets",
+            BufferDesc::storage(OFFSETS_HEADER + bundles * 4).usage(indirect),
+        )?,
+        strand_vertices: strands.0,
+        strand_info: strands.1,
+        capacity,
+        chunk_slots,
+        chunks,
+    })
 }
 
 impl Generator {
@@ -283,7 +311,7 @@ impl Generator {
         let per_vertex = u32::from(options.filtering != Filtering::StrandCoherent);
         let cubic = u32::from(options.exact_cubic);
         let extra = options.fragment.map_or(&[][..], |f| f.extra_bindings);
-        let bindings = bindings(extra);
+        let bindings = strand_bindings(extra);
         let compute = |name, shader| {
             Pipeline::compute(
                 ctx,
@@ -394,28 +422,12 @@ impl Generator {
                 why: "at most 16 chunks of the storage-buffer range and 2 GiB per frame buffer; raise the LOD α or split the character",
             });
         }
+        let strands = (
+            Buffer::new(ctx, "strand vertices", BufferDesc::storage(vertex_bytes))?,
+            Buffer::new(ctx, "strand info", BufferDesc::storage(capacity * 16))?,
+        );
         let params = params(hair, inputs, capacity, chunk_slots);
-        let params = ctx.create_buffer_with_data(
-            "generation parameters",
-            BufferDesc::storage(size_of::<GenParams>() as u64).location(MemoryLocation::CpuToGpu),
-            bytemuck::bytes_of(&params),
-        )?;
-        let bundles = u64::from(hair.bundle_count);
-        let indirect = vk::BufferUsageFlags::INDIRECT_BUFFER;
-        Ok(FrameBuffers {
-            params,
-            lods: Buffer::new(ctx, "bundle LOD", BufferDesc::storage(bundles * 16))?,
-            offsets: Buffer::new(
-                ctx,
-                "strand offsets",
-                BufferDesc::storage(OFFSETS_HEADER + bundles * 4).usage(indirect),
-            )?,
-            strand_vertices: Buffer::new(ctx, "strand vertices", BufferDesc::storage(vertex_bytes))?,
-            strand_info: Buffer::new(ctx, "strand info", BufferDesc::storage(capacity * 16))?,
-            capacity,
-            chunk_slots,
-            chunks,
-        })
+        frame_buffers(ctx, hair, params, strands, (capacity, chunk_slots, chunks))
     }
 
     /// Frame buffers for a consumer that generates inside its own shader (fused generation,
@@ -425,29 +437,14 @@ impl Generator {
     /// which [`Self::record_fused_dispatch`] runs.
     pub fn prepare_fused(&self, ctx: &Context, hair: &GpuHair, inputs: &FrameInputs) -> Result<FrameBuffers> {
         let capacity = hair.total_strands.max(1);
-        let params = params(hair, inputs, capacity, capacity);
-        let params = ctx.create_buffer_with_data(
-            "generation parameters",
-            BufferDesc::storage(size_of::<GenParams>() as u64).location(MemoryLocation::CpuToGpu),
-            bytemuck::bytes_of(&params),
-        )?;
-        let bundles = u64::from(hair.bundle_count);
-        let indirect = vk::BufferUsageFlags::INDIRECT_BUFFER;
-        Ok(FrameBuffers {
-            params,
-            lods: Buffer::new(ctx, "bundle LOD", BufferDesc::storage(bundles * 16))?,
-            offsets: Buffer::new(
-                ctx,
-                "strand offsets",
-                BufferDesc::storage(OFFSETS_HEADER + bundles * 4).usage(indirect),
-            )?,
-            // Bound but never written: fused consumers keep vertices in registers.
-            strand_vertices: Buffer::new(ctx, "strand vertices (unused)", BufferDesc::storage(SLOT_BYTES))?,
-            strand_info: Buffer::new(ctx, "strand info (unused)", BufferDesc::storage(16))?,
-            capacity: 1,
-            chunk_slots: 1,
-            chunks: 1,
-        })
+        // Bound but never written: fused consumers keep vertices in registers.
+        let strands = (
+            Buffer::new(ctx, "strand vertices (unused)", BufferDesc::storage(SLOT_BYTES))?,
+            Buffer::new(ctx, "strand info (unused)", BufferDesc::storage(16))?,
+        );
+        // All live slots in chunk 0 of the shaders' view (`chunk_slots = capacity`); the host
+        // side binds the one-slot windows above.
+        frame_buffers(ctx, hair, params(hair, inputs, capacity, capacity), strands, (1, 1, 1))
     }
 
     /// Binds `frame` and `hair` (set 0, chunk 0) plus `extra` consumer buffers for `pipeline`,
@@ -468,12 +465,6 @@ impl Generator {
     /// workgroups), with the arguments [`Self::record_lod`] wrote.
     pub fn record_fused_dispatch(rec: &Recorder<'_>, frame: &FrameBuffers) {
         rec.dispatch_indirect(&frame.offsets, DISPATCH_ARGS_OFFSET);
-    }
-
-    /// The buffer holding [`Self::record_lod`]'s indirect arguments (for a frame graph's
-    /// declarations).
-    pub fn indirect_arguments(frame: &FrameBuffers) -> &Buffer {
-        &frame.offsets
     }
 
     /// Binds everything, with chunk `chunk`'s windows of the strand buffers and the fragment

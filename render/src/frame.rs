@@ -8,9 +8,9 @@ use std::collections::HashMap;
 use std::sync::Mutex;
 
 use gen_gpu::{
-    Binding, Buffer, BufferDesc, Context, FragmentStage, FrameBuffers, FrameInputs, FrameTimings,
-    GenerationPath, GenerationStats, Generator, GeneratorOptions, GpuHair, GraphicsPipelineDesc,
-    GraphicsStages, Image, MemoryLocation, Pipeline, TexturePrecision, vk,
+    Buffer, BufferDesc, Context, FragmentStage, FrameBuffers, FrameInputs, FrameTimings, GenerationPath,
+    GenerationStats, Generator, GeneratorOptions, GpuHair, Image, MemoryLocation, Pipeline, TexturePrecision,
+    vk,
 };
 use glam::{Mat4, Vec3, Vec4};
 use hairmesh::reference::LodParams;
@@ -344,28 +344,14 @@ impl SceneRenderer {
                     ..GeneratorOptions::default()
                 },
             )?;
-            let bindings: Vec<Binding> = OIT_BINDINGS
-                .iter()
-                .map(|&b| Binding::storage_buffer(b, vk::ShaderStageFlags::FRAGMENT))
-                .collect();
-            let resolve = Pipeline::graphics(
+            // The nearest hair's depth is written (gl_FragDepth) for depth output.
+            let resolve = crate::target::composite_pipeline(
                 ctx,
-                &GraphicsPipelineDesc {
-                    name: "OIT resolve",
-                    stages: GraphicsStages::Vertex(&shaders::FULLSCREEN_VERT),
-                    fragment: &shaders::OIT_RESOLVE_FRAG,
-                    bindings: &bindings,
-                    push_constant_size: 4,
-                    specialization: &[],
-                    color_format: SCENE_COLOR_FORMAT,
-                    // The nearest hair's depth is written (gl_FragDepth) for depth output.
-                    depth_format: Some(gen_gpu::DEPTH_FORMAT),
-                    blend: gen_gpu::Blend::Over,
-                    depth_write: true,
-                    color_write: true,
-                    samples: 1,
-                    depth_compare: vk::CompareOp::LESS,
-                },
+                "OIT resolve",
+                &shaders::FULLSCREEN_VERT,
+                &shaders::OIT_RESOLVE_FRAG,
+                &OIT_BINDINGS,
+                4,
             )?;
             Some(Oit { fill, resolve, k: effects.oit_k, nodes_per_pixel: effects.oit_nodes_per_pixel })
         } else {

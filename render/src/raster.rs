@@ -31,17 +31,13 @@
 //! nothing re-generates a strand. The CPU port of the kernel ([`cpu`]) is what the GPU results
 //! are tested against.
 
-use gen_gpu::{
-    Binding, Buffer, BufferDesc, ComputePipelineDesc, Context, GraphicsPipelineDesc, GraphicsStages,
-    MemoryLocation, Pipeline, vk,
-};
+use gen_gpu::{Binding, Buffer, BufferDesc, ComputePipelineDesc, Context, MemoryLocation, Pipeline, vk};
 use glam::{Mat4, Vec3};
 
 use crate::contract::{RASTER_BINDINGS, RASTER_SHADE_BINDINGS, RASTER_TILE_BINDINGS, RESOLVE_BINDINGS};
 use crate::graph::TransientPool;
 use crate::scene::{Effects, Raster};
 use crate::shaders;
-use crate::target::SCENE_COLOR_FORMAT;
 
 /// Most hair materials (distinct colour/variation/specular settings) one frame may hold: the
 /// visibility word has 10 bits for it (`MAX_MATERIALS` in `raster_common.glsl`).
@@ -51,8 +47,6 @@ pub const MAX_MATERIALS: usize = 1024;
 pub const MAX_HALF_WIDTH_PIXELS: f32 = 64.0;
 /// Fixed-point units per unit of optical depth in the coverage buffer (`COVERAGE_SCALE`).
 pub const COVERAGE_SCALE: f32 = 256.0;
-/// Workgroup size of both raster kernels.
-const GROUP: u32 = 32;
 
 /// The rasterizer a renderer uses, once a scene's `"raster"` choice is resolved for a device.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -186,77 +180,37 @@ pub struct ComputeRaster {
 
 impl ComputeRaster {
     pub fn new(ctx: &Context) -> gen_gpu::Result<Self> {
-        let bindings = gen_gpu::strand_bindings(&RASTER_BINDINGS);
+        let compute = |name, shader, bindings: &[Binding], push_constant_size| {
+            Pipeline::compute(
+                ctx,
+                &ComputePipelineDesc { name, shader, bindings, push_constant_size, specialization: &[] },
+            )
+        };
+        let strand = gen_gpu::strand_bindings(&RASTER_BINDINGS);
         let push = size_of::<RasterPush>() as u32;
-        let raster = Pipeline::compute(
-            ctx,
-            &ComputePipelineDesc {
-                name: "compute raster (fused generation)",
-                shader: &shaders::HAIR_RASTER_COMP,
-                bindings: &bindings,
-                push_constant_size: push,
-                specialization: &[],
-            },
+        let raster = compute("compute raster (fused generation)", &shaders::HAIR_RASTER_COMP, &strand, push)?;
+        let raster_stored =
+            compute("compute raster (stored strands)", &shaders::HAIR_RASTER_STORED_COMP, &strand, push)?;
+        let stage = vk::ShaderStageFlags::COMPUTE;
+        let shade = compute(
+            "compute raster shade",
+            &shaders::RASTER_SHADE_COMP,
+            &Binding::storage_buffers(&RASTER_SHADE_BINDINGS, stage),
+            32,
         )?;
-        let raster_stored = Pipeline::compute(
-            ctx,
-            &ComputePipelineDesc {
-                name: "compute raster (stored strands)",
-                shader: &shaders::HAIR_RASTER_STORED_COMP,
-                bindings: &bindings,
-                push_constant_size: push,
-                specialization: &[],
-            },
+        let tiles = compute(
+            "compute raster tiles",
+            &shaders::RASTER_TILES_COMP,
+            &Binding::storage_buffers(&RASTER_TILE_BINDINGS, stage),
+            32,
         )?;
-        let shade_bindings: Vec<Binding> = RASTER_SHADE_BINDINGS
-            .iter()
-            .map(|&b| Binding::storage_buffer(b, vk::ShaderStageFlags::COMPUTE))
-            .collect();
-        let shade = Pipeline::compute(
+        let resolve = crate::target::composite_pipeline(
             ctx,
-            &ComputePipelineDesc {
-                name: "compute raster shade",
-                shader: &shaders::RASTER_SHADE_COMP,
-                bindings: &shade_bindings,
-                push_constant_size: 32,
-                specialization: &[],
-            },
-        )?;
-        let tile_bindings: Vec<Binding> = RASTER_TILE_BINDINGS
-            .iter()
-            .map(|&b| Binding::storage_buffer(b, vk::ShaderStageFlags::COMPUTE))
-            .collect();
-        let tiles = Pipeline::compute(
-            ctx,
-            &ComputePipelineDesc {
-                name: "compute raster tiles",
-                shader: &shaders::RASTER_TILES_COMP,
-                bindings: &tile_bindings,
-                push_constant_size: 32,
-                specialization: &[],
-            },
-        )?;
-        let resolve_bindings: Vec<Binding> = RESOLVE_BINDINGS
-            .iter()
-            .map(|&b| Binding::storage_buffer(b, vk::ShaderStageFlags::FRAGMENT))
-            .collect();
-        let resolve = Pipeline::graphics(
-            ctx,
-            &GraphicsPipelineDesc {
-                name: "compute raster resolve",
-                stages: GraphicsStages::Vertex(&shaders::RASTER_RECT_VERT),
-                fragment: &shaders::RASTER_RESOLVE_FRAG,
-                bindings: &resolve_bindings,
-                push_constant_size: 32,
-                specialization: &[],
-                color_format: SCENE_COLOR_FORMAT,
-                depth_format: Some(gen_gpu::DEPTH_FORMAT),
-                blend: gen_gpu::Blend::Over,
-                depth_write: true,
-                color_write: true,
-                samples: 1,
-                depth_compare: vk::CompareOp::LESS,
-            },
+            "compute raster resolve",
+            &shaders::RASTER_RECT_VERT,
+            &shaders::RASTER_RESOLVE_FRAG,
+            &RESOLVE_BINDINGS,
+            32,
         )?;
         let no_scene_depth = Buffer::new(ctx, "no scene depth", BufferDesc::storage(16))?;
         Ok(Self { raster, raster_stored, shade, tiles, resolve, no_scene_depth })
@@ -297,7 +251,7 @@ impl ComputeRaster {
                     vk::AccessFlags2::SHADER_STORAGE_READ | vk::AccessFlags2::SHADER_STORAGE_WRITE,
                 ),
             );
-            stored.record_compute(rec, pipeline, &params, &extra, GROUP, |rec, slots| {
+            stored.record_compute(rec, pipeline, &params, &extra, stored_group_size(), |rec, slots| {
                 rec.push_constants(
                     pipeline,
                     &raster_push(model, material, slots, false, RasterPhase::All, 1, 1, 1.0),
@@ -493,9 +447,9 @@ pub(crate) fn raster_push(
     }
 }
 
-/// Workgroup size of the stored-strand kernel.
-pub(crate) const fn group_size() -> u32 {
-    GROUP
+/// Workgroup size of the stored-strand kernel (from its SPIR-V).
+pub(crate) fn stored_group_size() -> u32 {
+    shaders::HAIR_RASTER_STORED_COMP.workgroup_size[0]
 }
 
 #[allow(

@@ -2,13 +2,48 @@
 //! multisampled and resolved, read back as a [`LinearFrame`]. PNG output encodes it to sRGB;
 //! EXR output keeps it linear.
 
-use gen_gpu::{Attachments, Buffer, BufferDesc, Context, Image, ImageDesc, MemoryLocation, Recorder, vk};
+use gen_gpu::{
+    Attachments, Binding, Buffer, BufferDesc, Context, GraphicsPipelineDesc, GraphicsStages, Image,
+    ImageDesc, MemoryLocation, Pipeline, Recorder, vk,
+};
 
 use crate::RgbaImage;
 use crate::graph::TransientPool;
 
 /// Colour format of the scene passes: linear, enough range for highlights, no banding.
 pub const SCENE_COLOR_FORMAT: vk::Format = vk::Format::R16G16B16A16_SFLOAT;
+
+/// A pass that blends premultiplied colour over the (single-sample) scene target and writes the
+/// hair's depth from its fragment stage (`gl_FragDepth`; the depth test keeps a nearer
+/// occluder's), reading storage buffers at `bindings`: the OIT resolve and the compute
+/// rasterizer's resolve.
+pub(crate) fn composite_pipeline(
+    ctx: &Context,
+    name: &str,
+    vertex: &'static shader_build::ShaderSpirv,
+    fragment: &'static shader_build::ShaderSpirv,
+    bindings: &[u32],
+    push_constant_size: u32,
+) -> gen_gpu::Result<Pipeline> {
+    Pipeline::graphics(
+        ctx,
+        &GraphicsPipelineDesc {
+            name,
+            stages: GraphicsStages::Vertex(vertex),
+            fragment,
+            bindings: &Binding::storage_buffers(bindings, vk::ShaderStageFlags::FRAGMENT),
+            push_constant_size,
+            specialization: &[],
+            color_format: SCENE_COLOR_FORMAT,
+            depth_format: Some(gen_gpu::DEPTH_FORMAT),
+            blend: gen_gpu::Blend::Over,
+            depth_write: true,
+            color_write: true,
+            samples: 1,
+            depth_compare: vk::CompareOp::LESS,
+        },
+    )
+}
 
 /// A frame read back: linear premultiplied RGBA over the background (alpha is the coverage of
 /// hair and occluders) and the depth buffer (Vulkan NDC depth in [0, 1], 1 = nothing).

@@ -19,6 +19,11 @@ impl Binding {
     pub fn storage_buffer(binding: u32, stages: vk::ShaderStageFlags) -> Self {
         Self { binding, ty: vk::DescriptorType::STORAGE_BUFFER, stages }
     }
+
+    /// A storage buffer at each of `bindings`, for `stages`.
+    pub fn storage_buffers(bindings: &[u32], stages: vk::ShaderStageFlags) -> Vec<Self> {
+        bindings.iter().map(|&b| Self::storage_buffer(b, stages)).collect()
+    }
 }
 
 /// How to create a compute [`Pipeline`].

@@ -9,7 +9,7 @@ use super::ScenePass;
 use crate::contract::binding;
 use crate::frame::{FrameIds, FrameState, SceneRenderer};
 use crate::graph::{Access, FrameGraph};
-use crate::raster::{RasterPhase, group_size, raster_push, tile_grid};
+use crate::raster::{RasterPhase, raster_push, stored_group_size, tile_grid};
 use crate::shaders;
 
 pub(crate) fn plan_clear(g: &mut FrameGraph<ScenePass>, ids: &FrameIds, submission: usize) {
@@ -161,7 +161,7 @@ pub(crate) fn record_raster(
     {
         let pipeline = &cr.raster_stored;
         let opacity = r.raster_opacity(material);
-        r.stored[c.hair].record_compute(rec, pipeline, params, &extra, group_size(), |rec, slots| {
+        r.stored[c.hair].record_compute(rec, pipeline, params, &extra, stored_group_size(), |rec, slots| {
             let push = raster_push(c.transform, material, slots, occluders, phase, tiles_x, b.k, opacity);
             rec.push_constants(pipeline, &push);
         });
