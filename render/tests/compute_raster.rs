@@ -11,7 +11,7 @@ use gen_gpu::{FrameInputs, GenerationPath, StoredStrands};
 use glam::{Mat4, Vec3};
 use hairkit_tests::harness::{GpuTest, Requirements, run_gpu_tests};
 use hairkit_tests::image_compare::{Tolerance, compare, output_dir};
-use hairkit_tests::scenes::{repo, scene_with};
+use hairkit_tests::scenes::{scene_with, sintel_scene};
 use render::frame::{RenderedFrame, SceneRenderer};
 use render::raster::cpu::{self, RasterView, StrandPoint};
 use render::raster::{ComputeRaster, RasterPath};
@@ -313,22 +313,10 @@ fn main() -> ExitCode {
         GpuTest::new("compute_raster_draws_stored_strands", Requirements::INT64_ATOMICS, |ctx| {
             // The artist's Sintel groom (11,400 × 16, TressFX) on its bust, with shadows.
             let dir = tempfile::tempdir()?;
-            let groom = repo("tests/data/strands/tressfx/v4/sintel_hair_full_16points.tfx");
-            let bust = repo("tests/data/heads/sintel/sintel_bust.obj");
             let mut frames = Vec::new();
             for raster in ["triangles", "compute"] {
-                let scene = serde_json::json!({
-                    "output": { "width": 256, "height": 256 },
-                    "camera": { "eye": [0.15, 1.62, 0.5], "target": [0.0, 1.52, 0.0], "fov_y_degrees": 40 },
-                    "lights": [ { "directional": { "direction": [0.3, 0.9, 0.6] } } ],
-                    "characters": [ {
-                        "hair": groom, "color": [0.171, 0.0397, 0.00719], "strand_width": 0.0004,
-                        "occluder": { "mesh": bust, "transform": { "scale": 0.01, "translation": [0, 1.195, 0] } }
-                    } ],
-                    "effects": { "transparency": "opaque", "shadows": true, "shadow_map_size": 256, "raster": raster }
-                });
-                let path = dir.path().join("sintel.json");
-                std::fs::write(&path, serde_json::to_vec_pretty(&scene)?)?;
+                let effects = serde_json::json!({ "transparency": "opaque", "shadows": true, "shadow_map_size": 256, "raster": raster });
+                let path = sintel_scene(dir.path(), "sintel", effects)?;
                 let frame =
                     SceneRenderer::new(ctx, &load_scene(&path)?, GenerationPath::Compute)?.render(ctx)?;
                 render::output::write_png(

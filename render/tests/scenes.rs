@@ -11,7 +11,7 @@ use hairkit_tests::image_compare::{Tolerance, compare};
 use render::frame::SceneRenderer;
 use render::scene::load_scene;
 
-use hairkit_tests::scenes::{repo, scene_with, small_scene};
+use hairkit_tests::scenes::{repo, scene_with, sintel_scene, small_scene};
 
 /// Compares with `tests/golden/NAME.png`; `HAIRKIT_UPDATE_GOLDEN=1` rewrites the golden.
 fn check_golden(name: &str, image: &render::RgbaImage) -> anyhow::Result<()> {
@@ -143,13 +143,8 @@ fn main() -> ExitCode {
         }),
         GpuTest::new("sintel_groom_from_tressfx_matches_its_golden_images", Requirements::NONE, |ctx| {
             // The artist's full Sintel groom (11,400 strands × 16 points) on the Sintel bust, read
-            // from tests/data at run time, the groom drawn as explicit strands. The groom
-            // is in metres, the bust in centimetres 1.195 m lower (found by matching the groom's
-            // roots to the bust's own guide file, sintel_hair.tfx).
+            // from tests/data at run time, the groom drawn as explicit strands.
             let dir = tempfile::tempdir()?;
-            let groom = repo("tests/data/strands/tressfx/v4/sintel_hair_full_16points.tfx");
-            let bust = repo("tests/data/heads/sintel/sintel_bust.obj");
-            ensure!(groom.is_file(), "{} is missing (the repository's test data)", groom.display());
             for (name, effects) in [
                 ("sintel_opaque", serde_json::json!({ "transparency": "opaque", "raster": "triangles" })),
                 ("sintel_oit", serde_json::json!({ "transparency": "oit", "raster": "triangles" })),
@@ -160,18 +155,7 @@ fn main() -> ExitCode {
                     }),
                 ),
             ] {
-                let scene = serde_json::json!({
-                    "output": { "width": 256, "height": 256 },
-                    "camera": { "eye": [0.15, 1.62, 0.5], "target": [0.0, 1.52, 0.0], "fov_y_degrees": 40 },
-                    "lights": [ { "directional": { "direction": [0.3, 0.9, 0.6] } } ],
-                    "characters": [ {
-                        "hair": groom, "color": [0.171, 0.0397, 0.00719], "strand_width": 0.0004,
-                        "occluder": { "mesh": bust, "transform": { "scale": 0.01, "translation": [0, 1.195, 0] } }
-                    } ],
-                    "effects": effects
-                });
-                let path = dir.path().join(format!("{name}.json"));
-                std::fs::write(&path, serde_json::to_vec_pretty(&scene)?)?;
+                let path = sintel_scene(dir.path(), name, effects)?;
                 let renderer = SceneRenderer::new(ctx, &load_scene(&path)?, GenerationPath::Compute)?;
                 let frame = renderer.render(ctx)?;
                 ensure!(frame.stats.strands == 11_400, "{:?}", frame.stats);

@@ -558,6 +558,23 @@ fn passes_section(setup: &Setup<'_>) -> Result<Section> {
     Ok(table_section("passes", "bench-effects.csv", table, setup, None))
 }
 
+/// The camera and the character of the artist's Sintel groom (TressFX, 11,400 × 16) on the Sintel
+/// bust (centimetres, 1.195 m below the groom's frame), when the repository's test data is there.
+fn sintel_groom() -> Option<(serde_json::Value, serde_json::Value)> {
+    let data = Path::new(env!("CARGO_MANIFEST_DIR")).join("../tests/data");
+    let groom = data.join("strands/tressfx/v4/sintel_hair_full_16points.tfx");
+    let bust = data.join("heads/sintel/sintel_bust.obj");
+    (groom.is_file() && bust.is_file()).then(|| {
+        (
+            serde_json::json!({ "eye": [0.15, 1.62, 0.5], "target": [0.0, 1.52, 0.0], "fov_y_degrees": 40 }),
+            serde_json::json!({
+                "hair": groom, "color": [0.171, 0.0397, 0.00719], "strand_width": 0.0004,
+                "occluder": { "mesh": bust, "transform": { "scale": 0.01, "translation": [0, 1.195, 0] } }
+            }),
+        )
+    })
+}
+
 fn raster_section(setup: &Setup<'_>, progress: &indicatif::ProgressBar) -> Result<Section> {
     let (table, rows) = raster_table(setup, progress)?;
     let plot = draw_raster_plot(setup.out, &rows)?;
@@ -647,18 +664,12 @@ fn raster_table(setup: &Setup<'_>, progress: &indicatif::ProgressBar) -> Result<
             scenes.push((format!("{strands}-strand character, {label}, {mode}"), path));
         }
     }
-    let groom = Path::new(env!("CARGO_MANIFEST_DIR"))
-        .join("../tests/data/strands/tressfx/v4/sintel_hair_full_16points.tfx");
-    let bust = Path::new(env!("CARGO_MANIFEST_DIR")).join("../tests/data/heads/sintel/sintel_bust.obj");
-    if groom.is_file() && bust.is_file() {
+    if let Some((camera, character)) = sintel_groom() {
         let scene = serde_json::json!({
             "output": { "width": width, "height": height },
-            "camera": { "eye": [0.15, 1.62, 0.5], "target": [0.0, 1.52, 0.0], "fov_y_degrees": 40 },
+            "camera": camera,
             "lights": lights,
-            "characters": [ {
-                "hair": groom, "color": [0.171, 0.0397, 0.00719], "strand_width": 0.0004,
-                "occluder": { "mesh": bust, "transform": { "scale": 0.01, "translation": [0, 1.195, 0] } }
-            } ],
+            "characters": [ character ],
             "effects": { "transparency": "oit", "shadows": true }
         });
         let path = dir.join("scene_sintel.json");
@@ -1163,9 +1174,7 @@ fn effects_table(setup: &Setup<'_>, width: u32, height: u32, frames: usize) -> R
         "metres",
         None,
     )?;
-    let groom = Path::new(env!("CARGO_MANIFEST_DIR"))
-        .join("../tests/data/strands/tressfx/v4/sintel_hair_full_16points.tfx");
-    let bust = Path::new(env!("CARGO_MANIFEST_DIR")).join("../tests/data/heads/sintel/sintel_bust.obj");
+    let sintel = sintel_groom();
     let mut scenes = vec![
         (
             format!("{strands}-strand character, opaque"),
@@ -1179,7 +1188,7 @@ fn effects_table(setup: &Setup<'_>, width: u32, height: u32, frames: usize) -> R
             false,
         ),
     ];
-    if groom.is_file() && bust.is_file() {
+    if sintel.is_some() {
         scenes.push((
             "Sintel full groom (11,400 × 16, TressFX) on the bust, OIT + shadows".to_owned(),
             serde_json::json!({ "transparency": "oit", "shadows": true }),
@@ -1197,16 +1206,9 @@ fn effects_table(setup: &Setup<'_>, width: u32, height: u32, frames: usize) -> R
         "| scene | strands | generate (ms) | raster / OIT fill (ms) | OIT resolve (ms) | shadow maps, first frame (ms) | frame (ms) |\n|---|---|---|---|---|---|---|"
     );
     let mut csv = String::from("scene,strands,generate_ms,raster_ms,resolve_ms,shadow_ms,frame_ms\n");
-    for (name, effects, sintel) in scenes {
-        let (camera, character) = if sintel {
-            (
-                serde_json::json!({ "eye": [0.15, 1.62, 0.5], "target": [0.0, 1.52, 0.0], "fov_y_degrees": 40 }),
-                // On the Sintel bust (centimetres, 1.195 m below the groom's frame).
-                serde_json::json!({
-                    "hair": groom, "color": [0.171, 0.0397, 0.00719], "strand_width": 0.0004,
-                    "occluder": { "mesh": bust, "transform": { "scale": 0.01, "translation": [0, 1.195, 0] } }
-                }),
-            )
+    for (name, effects, is_sintel) in scenes {
+        let (camera, character) = if let (true, Some(groom)) = (is_sintel, &sintel) {
+            groom.clone()
         } else {
             (
                 serde_json::json!({ "eye": [0.0, 1.82, 0.62], "target": [0.0, 1.55, 0.0], "fov_y_degrees": 45 }),
