@@ -91,7 +91,15 @@ fn main() -> ExitCode {
                     }),
                     "effects.shadow_layers",
                 ),
-                ("volume.json", Box::new(|v| v["effects"]["volume_lod"] = true.into()), "not supported yet"),
+                ("dynamics.json", Box::new(|v| v["effects"]["dynamics"] = true.into()), "not supported yet"),
+                (
+                    "ao_triangles.json",
+                    Box::new(|v| {
+                        v["effects"]["ao"] = true.into();
+                        v["effects"]["raster"] = "triangles".into();
+                    }),
+                    "compute rasterizer",
+                ),
                 (
                     "style.json",
                     Box::new(|v| v["characters"][0]["style"] = serde_json::json!({"curly": 1})),

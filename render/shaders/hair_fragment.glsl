@@ -12,7 +12,7 @@ layout(location = HK_LOCATION_COVERAGE_SIDE) in vec4 v_coverage_side;
 
 HairSample hair_sample_from_varyings() {
     return HairSample(v_position_tau.xyz, v_position_tau.w, v_tangent_random.xyz, v_tangent_random.w,
-                      v_coverage_side.x);
+                      v_coverage_side.x, 1.0);
 }
 
 HairMaterial hair_material_from_push_constants() {

@@ -8,6 +8,12 @@
 
 #include "lighting.glsl"
 
+// The light reaching a hair sample: the maps' (lighting.glsl), unless the includer defines
+// HAIR_LIGHT_TRANSMITTANCE(i, p) (the compute rasterizer's shade pass adds volume shadows).
+#ifndef HAIR_LIGHT_TRANSMITTANCE
+#define HAIR_LIGHT_TRANSMITTANCE(i, p) light_transmittance(i, p)
+#endif
+
 // One point of a strand, in the character's object space.
 struct HairSample {
     vec3 position;
@@ -15,6 +21,7 @@ struct HairSample {
     vec3 tangent;         // need not be normalized
     float strand_random;  // per-strand random in [0, 1)
     float coverage;       // the strand's pixel coverage (alpha before opacity)
+    float occlusion;      // ambient occlusion: the light the hair around lets through (1 = none)
 };
 
 // How a character's hair is shaded (frame.rs `Shading`, minus the pre-raster bytes).
@@ -63,8 +70,11 @@ vec4 shade_hair(HairSample s, HairMaterial m) {
         vec3 diffuse = base * mix(lambert, kajiya, 0.5);
         vec3 primary = vec3(m.specular_strength.x * strand_specular(t1, h, m.specular_shift.z));
         vec3 secondary = base * m.specular_strength.y * sparkle * strand_specular(t2, h, m.specular_shift.w);
-        color += lights[i].color.rgb * light_transmittance(i, p) * (diffuse + primary + secondary);
+        color += lights[i].color.rgb * HAIR_LIGHT_TRANSMITTANCE(i, p) * (diffuse + primary + secondary);
     }
+    // Ambient occlusion darkens every term, as vkhr's volume AO does: the hair around a point
+    // blocks its light from most directions, not only the ambient light's.
+    color *= clamp(s.occlusion, 0.0, 1.0);
     float alpha = clamp(s.coverage, 0.0, 1.0) * m.opacity;
     return vec4(color * alpha, alpha);
 }

@@ -31,26 +31,33 @@ float light_linear_depth(uint i, float z) {
     return d.z > 0.5 ? d.x * d.y / (d.y - z * (d.y - d.x)) : d.x + z * (d.y - d.x);
 }
 
-// Fraction of light `i` reaching the world point p through the hair and occluders in front of it.
-float light_transmittance(uint i, vec3 p) {
+// Whether the hair's own volume shadows it from light `i` (effects.volume_shadows and the
+// light's cast_shadows; render/src/volume.rs) instead of the deep opacity map's hair layers.
+bool light_volume_shadows(uint i) {
+    return lights[i].depth.w > 0.5;
+}
+
+// Fraction of light `i` reaching the world point p past the occluders (x) and through the hair
+// (y) in front of it, from its maps (1 where it has none).
+vec2 light_visibility(uint i, vec3 p) {
     float size = lights[i].map.x;
     if (size < 0.5) {
-        return 1.0;
+        return vec2(1.0);
     }
     vec4 clip = lights[i].view_proj * vec4(p, 1.0);
     if (clip.w <= 0.0) {
-        return 1.0;
+        return vec2(1.0);
     }
     vec3 ndc = clip.xyz / clip.w;
     vec2 uv = ndc.xy * 0.5 + 0.5;
     if (any(lessThan(uv, vec2(0.0))) || any(greaterThanEqual(uv, vec2(1.0)))) {
-        return 1.0;
+        return vec2(1.0);
     }
     uvec2 texel = uvec2(uv * size);
     uint index = uint(lights[i].map.y) + texel.y * uint(size) + texel.x;
     float depth = light_linear_depth(i, ndc.z);
     if (depth - light_linear_depth(i, occluder_depth[index]) > lights[i].map.z) {
-        return 0.0;
+        return vec2(0.0, 1.0);
     }
     float d = depth - light_linear_depth(i, shadow_depth[index]);
     vec3 ends = lights[i].layer_ends.xyz;
@@ -67,5 +74,11 @@ float light_transmittance(uint i, vec3 p) {
     } else {
         opacity = o.z;
     }
-    return exp(-1.5 * opacity);
+    return vec2(1.0, exp(-1.5 * opacity));
+}
+
+// Fraction of light `i` reaching the world point p through the hair and occluders in front of it.
+float light_transmittance(uint i, vec3 p) {
+    vec2 v = light_visibility(i, p);
+    return v.x * v.y;
 }

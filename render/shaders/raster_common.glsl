@@ -38,6 +38,14 @@ const float MAX_FRAGMENT_COVERAGE = 0.999;    // a solid fragment adds -ln(0.001
 const uint MAX_MATERIALS = 1024u;
 const uint DEPTH_SHIFT = 42u;
 
+// Interleaved gradient noise (Jimenez 2014): a fixed threshold in [0, 1) per pixel. In the
+// transition band between a character's strands and its volume, the volume draws the pixels
+// below its fraction and the strands the others: as the fraction follows the character's size
+// smoothly, pixels switch one by one, with no frame where the whole character pops.
+float transition_dither(uvec2 xy) {
+    return fract(52.9829189 * fract(dot(vec2(xy) + 0.5, vec2(0.06711056, 0.00583715))));
+}
+
 // Word i of pixel p with K slots (slot K is the coverage word).
 uint pixel_word(uint pixel, uint k, uint i) {
     return pixel * (k + 1u) + i;

@@ -9,6 +9,9 @@
 // the nearest fragment's colour. Pixels with fragments beyond their K slots are counted.
 #extension GL_GOOGLE_include_directive : require
 #include "raster_common.glsl"
+// Hair shading with volume shadows: the light through the character's own hair volume.
+float shade_light_transmittance(uint i, vec3 p);
+#define HAIR_LIGHT_TRANSMITTANCE(i, p) shade_light_transmittance(i, p)
 #include "hair_shading.glsl"
 #include "raster_frame.glsl"
 
@@ -24,6 +27,53 @@ layout(std430, set = 0, binding = HK_BINDING_VISIBILITY) readonly buffer PixelBu
 layout(std430, set = 0, binding = HK_BINDING_SHADED) writeonly buffer ShadedBuffer { vec4 shaded[]; };
 // x: pixels whose fragments did not all fit their K slots.
 layout(std430, set = 0, binding = HK_BINDING_RASTER_COUNTERS) buffer Counters { uint counters[]; };
+// The hair volumes (render/src/volume.rs), read for materials whose volume_info.y asks for AO
+// or volume shadows: AO per voxel, mean direction and σ per voxel, bricks.
+layout(std430, set = 0, binding = HK_BINDING_VOLUME_AO) readonly buffer AoBuffer { float volume_ao[]; };
+layout(std430, set = 0, binding = HK_BINDING_VOLUME) readonly buffer VolumeBuffer { vec4 volume[]; };
+layout(std430, set = 0, binding = HK_BINDING_VOLUME_BRICKS) readonly buffer BrickBuffer { uint bricks[]; };
+#include "volume_sample.glsl"
+
+// The material of the fragment being shaded (for shade_light_transmittance).
+RasterMaterial shading_material;
+
+// The maps' light (occluders, and the hair unless the material's volume shadows it), times the
+// transmittance of the character's hair volume from p toward light i (half a voxel on, so a
+// fragment does not shadow itself).
+float shade_light_transmittance(uint i, vec3 p) {
+    vec2 maps = light_visibility(i, p);
+    RasterMaterial m = shading_material;
+    if ((m.volume_info.y & 2u) == 0u || !light_volume_shadows(i)) {
+        return maps.x * maps.y;
+    }
+    vec3 origin = (m.world_to_voxel * vec4(p, 1.0)).xyz;
+    vec3 direction = mat3(m.world_to_voxel) * light_direction(i, p);
+    // A point light ends the path at the light.
+    vec4 lv = lights[i].vector;
+    float t1 = lv.w > 0.5 ? distance(lv.xyz, p) : 1e30;
+    float t0 = 0.5 / max(length(direction), 1e-20);
+    return maps.x * volume_transmittance(m.volume, m.volume_info.x, origin, direction, t0, t1, m.opacity.x);
+}
+
+// Trilinear AO of material m's volume at world point p (voxel centres at i + 0.5; points
+// outside take the border's, which the empty padding keeps near 1).
+float ambient_occlusion(RasterMaterial m, vec3 p) {
+    if ((m.volume_info.y & 1u) == 0u) {
+        return 1.0;
+    }
+    ivec3 d = ivec3(m.volume.xyz);
+    vec3 q = clamp((m.world_to_voxel * vec4(p, 1.0)).xyz - 0.5, vec3(0.0), vec3(d - 1));
+    ivec3 i0 = min(ivec3(floor(q)), d - 2);
+    vec3 f = q - vec3(i0);
+    float sum = 0.0;
+    for (int k = 0; k < 8; ++k) {
+        ivec3 o = ivec3(k & 1, (k >> 1) & 1, (k >> 2) & 1);
+        ivec3 c = min(i0 + o, d - 1);
+        vec3 w3 = mix(1.0 - f, f, vec3(o));
+        sum += (w3.x * w3.y * w3.z) * volume_ao[m.volume.w + (uint(c.z) * uint(d.y) + uint(c.y)) * uint(d.x) + uint(c.x)];
+    }
+    return sum;
+}
 
 vec3 shade_fragment(VisibleFragment f, vec2 ndc) {
     vec4 far_point = frame.inv_view_proj * vec4(ndc, 1.0, 1.0);
@@ -31,7 +81,8 @@ vec3 shade_fragment(VisibleFragment f, vec2 ndc) {
     vec3 position = frame.eye.xyz + ray * (f.w / max(dot(ray, frame.forward.xyz), 1e-6));
     RasterMaterial m = frame.materials[min(f.material, MAX_MATERIALS - 1u)];
     // Shaded at full coverage: compositing applies the alpha.
-    HairSample s = HairSample(position, f.tau, f.tangent, f.random, 1.0);
+    HairSample s = HairSample(position, f.tau, f.tangent, f.random, 1.0, ambient_occlusion(m, position));
+    shading_material = m;
     HairMaterial material = HairMaterial(mat4(1.0), frame.eye.xyz, uint(frame.eye.w), m.hair_color,
                                          m.specular_shift, m.specular_strength, 1.0);
     return shade_hair(s, material).rgb;

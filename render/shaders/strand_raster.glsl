@@ -7,10 +7,8 @@
 // being widened to a pixel). Columns are half-open at the segment's end, so consecutive segments
 // of a strand never cover a column twice. The CPU port is render/src/raster.rs (`cpu`).
 
-#include "raster_common.glsl"
+#include "visibility_write.glsl"
 
-// Visibility and coverage words of each pixel (raster_common.glsl).
-layout(std430, set = 0, binding = HK_BINDING_VISIBILITY) buffer PixelBuffer { uint64_t pixel_words[]; };
 // The occluders' Vulkan depth per pixel (1 = none), read when raster.flags bit 0 is set.
 layout(std430, set = 0, binding = HK_BINDING_SCENE_DEPTH) readonly buffer SceneDepthBuffer { float scene_depth[]; };
 // Per 8×8 tile: the farthest depth bits of its pixels' last (K-th) slots if every pixel is
@@ -28,6 +26,7 @@ layout(push_constant) uniform RasterParams {
     uint tiles_x;         // tiles per row of tile_depth
     uint k;               // visibility slots per pixel
     float opacity;        // of one strand (its material's)
+    float volume_fraction; // transition band: pixels whose dither is below it are the volume's
 } raster;
 
 // Which strands a dispatch draws: all of them, or in two phases around the tile pass: first a
@@ -111,6 +110,12 @@ void raster_fragment(uint pixel, float coverage, float ndc_z, inout ColumnAttrib
     if (!(coverage > 0.0)) {
         return;
     }
+    if (raster.volume_fraction > 0.0) {
+        uint width = uint(params.viewport.x);
+        if (transition_dither(uvec2(pixel % width, pixel / width)) < raster.volume_fraction) {
+            return;
+        }
+    }
     if ((raster.flags & 1u) != 0u && !(ndc_z < scene_depth[pixel])) {
         return;
     }
@@ -121,26 +126,9 @@ void raster_fragment(uint pixel, float coverage, float ndc_z, inout ColumnAttrib
             a.word = visibility_word(a.depth_bits, visibility_attributes(a.material, a.tangent, a.tau, a.random));
             a.encoded = true;
         }
-        // Insertion from the nearest slot on: a displaced word moves to the next slot.
-        uint64_t v = a.word | uint64_t(coverage_bits(coverage));
-        for (uint i = 0u; i < k; ++i) {
-            if (v >= pixel_words[first + i]) {
-                continue;
-            }
-            uint64_t held = atomicMin(pixel_words[first + i], v);
-            if (held == VISIBILITY_EMPTY) {
-                break;
-            }
-            v = max(v, held);
-        }
+        insert_visibility(first, k, a.word | uint64_t(coverage_bits(coverage)));
     }
-    uint cover = first + k;
-    if (~pixel_words[cover] < uint64_t(COVERAGE_LIMIT)) {
-        uint add = coverage_increment(coverage * raster.opacity);
-        if (add > 0u) {
-            atomicAdd(pixel_words[cover], ~uint64_t(add) + 1UL);
-        }
-    }
+    add_coverage(first + k, coverage_increment(coverage * raster.opacity));
 }
 
 void raster_segment(RasterVertex a, RasterVertex b, uint material, float random) {

@@ -36,6 +36,15 @@ pub mod binding {
     pub const RASTER_TILES: u32 = 24;
     /// Compute rasterizer: counters (pixels whose fragments exceed their K slots).
     pub const RASTER_COUNTERS: u32 = 25;
+    /// Hair volumes: per voxel the mean strand direction and the area density σ
+    /// (`crate::volume`; every hair's region side by side).
+    pub const VOLUME: u32 = 26;
+    /// Hair volumes: per voxel the ambient occlusion (1 = none).
+    pub const VOLUME_AO: u32 = 27;
+    /// Voxelization: per voxel the 64-bit fixed-point sums of area and area × direction.
+    pub const VOXEL_SUMS: u32 = 28;
+    /// Hair volumes: per brick of 4³ voxels, 1 when a trilinear sample inside it can see hair.
+    pub const VOLUME_BRICKS: u32 = 29;
     /// Occluder pipelines (their own layout, not a strand pipeline): positions.
     pub const OCCLUDER_POSITIONS: u32 = 0;
     /// Occluder pipelines: normals.
@@ -54,12 +63,37 @@ pub const RASTER_BINDINGS: [u32; 3] = [binding::VISIBILITY, binding::SCENE_DEPTH
 /// The compute rasterizer's tile pass.
 pub const RASTER_TILE_BINDINGS: [u32; 2] = [binding::VISIBILITY, binding::RASTER_TILES];
 
-/// The compute rasterizer's shade pass: its own buffers, then the lighting.
-pub const RASTER_SHADE_BINDINGS: [u32; 8] = [
+/// What the voxelization kernel adds to the strand bindings.
+pub const VOXELIZE_BINDINGS: [u32; 1] = [binding::VOXEL_SUMS];
+
+/// The volume resolve: sums in, the volume (and AO initialised to none) out.
+pub const VOLUME_RESOLVE_BINDINGS: [u32; 3] = [binding::VOXEL_SUMS, binding::VOLUME, binding::VOLUME_AO];
+
+/// The volume bricks pass.
+pub const VOLUME_BRICK_BINDINGS: [u32; 2] = [binding::VOLUME, binding::VOLUME_BRICKS];
+
+/// The volume AO pass.
+pub const VOLUME_AO_BINDINGS: [u32; 2] = [binding::VOLUME, binding::VOLUME_AO];
+
+/// The volume raymarch: the volume in, fragments into the compute rasterizer's visibility buffer.
+pub const MARCH_BINDINGS: [u32; 5] = [
+    binding::VOLUME,
+    binding::VOLUME_BRICKS,
+    binding::VISIBILITY,
+    binding::RASTER_FRAME,
+    binding::SCENE_DEPTH,
+];
+
+/// The compute rasterizer's shade pass: its own buffers, the volumes (AO, volume shadows), then
+/// the lighting.
+pub const RASTER_SHADE_BINDINGS: [u32; 11] = [
     binding::VISIBILITY,
     binding::RASTER_FRAME,
     binding::SHADED,
     binding::RASTER_COUNTERS,
+    binding::VOLUME_AO,
+    binding::VOLUME,
+    binding::VOLUME_BRICKS,
     LIGHTING_BINDINGS[0],
     LIGHTING_BINDINGS[1],
     LIGHTING_BINDINGS[2],
@@ -99,6 +133,10 @@ pub const GLSL_DEFINES: &[(&str, u64)] = &[
     ("HK_BINDING_SHADED", binding::SHADED as u64),
     ("HK_BINDING_RASTER_TILES", binding::RASTER_TILES as u64),
     ("HK_BINDING_RASTER_COUNTERS", binding::RASTER_COUNTERS as u64),
+    ("HK_BINDING_VOLUME", binding::VOLUME as u64),
+    ("HK_BINDING_VOLUME_AO", binding::VOLUME_AO as u64),
+    ("HK_BINDING_VOXEL_SUMS", binding::VOXEL_SUMS as u64),
+    ("HK_BINDING_VOLUME_BRICKS", binding::VOLUME_BRICKS as u64),
     ("HK_BINDING_OCCLUDER_POSITIONS", binding::OCCLUDER_POSITIONS as u64),
     ("HK_BINDING_OCCLUDER_NORMALS", binding::OCCLUDER_NORMALS as u64),
     ("HK_BINDING_OCCLUDER_INDICES", binding::OCCLUDER_INDICES as u64),

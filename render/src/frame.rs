@@ -29,6 +29,7 @@ use crate::raster::{
 use crate::scene::{Light, LoadedScene, Transparency};
 use crate::shadow::{ShadowAtlas, ShadowPipelines};
 use crate::target::{LinearFrame, SCENE_COLOR_FORMAT, SceneTarget};
+use crate::volume::{VolumeGrid, VolumePipelines, VolumeStore};
 
 pub use crate::error::RenderError;
 pub use crate::shaders;
@@ -76,6 +77,61 @@ pub(crate) struct SceneCharacter {
     pub(crate) transform: Mat4,
     pub(crate) color: [f32; 3],
     pub(crate) variation: f32,
+}
+
+/// The hair volumes of a scene with `"ao"` or `"volume_lod"` ([`crate::volume`]).
+pub(crate) struct SceneVolumes {
+    pub(crate) pipelines: VolumePipelines,
+    pub(crate) store: VolumeStore,
+    /// Per hair: the grid its region holds and the hair revision it was voxelized from.
+    cache: Mutex<Vec<Option<(VolumeGrid, u64)>>>,
+    /// Strand opacity of the scene's hair (the AO's and the raymarch's).
+    pub(crate) opacity: f32,
+}
+
+/// A hair's volume in a frame: its grid, and whether its region already holds it.
+#[derive(Clone, Copy, Debug)]
+pub(crate) struct HairVolumePlan {
+    pub(crate) grid: VolumeGrid,
+    pub(crate) cached: bool,
+}
+
+/// The graph's names of the volume resources, and each hair's volume this frame.
+#[derive(Clone, Debug)]
+pub(crate) struct VolumeIds {
+    pub(crate) volume: Res,
+    pub(crate) ao: Res,
+    pub(crate) bricks: Res,
+    pub(crate) lod: Vec<Res>,
+    pub(crate) sums: Vec<Res>,
+    pub(crate) hairs: Vec<Option<HairVolumePlan>>,
+    /// Characters raymarched this frame.
+    pub(crate) marched: Vec<usize>,
+    /// Per character: the share of its pixels its volume draws (1: all, in no strand batch;
+    /// between 0 and 1: the transition band, drawn by both).
+    pub(crate) fractions: Vec<f32>,
+}
+
+/// A voxelization recorded this frame.
+pub(crate) struct HairVolumeFrame {
+    pub(crate) grid: VolumeGrid,
+    pub(crate) first: u32,
+    pub(crate) first_brick: u32,
+    pub(crate) frame: FrameBuffers,
+    pub(crate) sums: Buffer,
+}
+
+/// A character raymarched this frame.
+pub(crate) struct MarchJob {
+    pub(crate) character: usize,
+    pub(crate) push: crate::volume::MarchPush,
+}
+
+/// The volume work of one frame.
+#[derive(Default)]
+pub(crate) struct VolumeFrame {
+    pub(crate) hairs: Vec<Option<HairVolumeFrame>>,
+    pub(crate) marches: Vec<MarchJob>,
 }
 
 /// An occluder mesh placed in the world.
@@ -126,6 +182,10 @@ pub struct SceneRenderer {
     /// Compute rasterizer: draw in two phases around the occlusion tiles (the default) or every
     /// strand in one ([`Self::with_occlusion_tiles`]).
     pub(crate) occlusion_tiles: bool,
+    /// Hair volumes (with `"ao"` or `"volume_lod"`).
+    pub(crate) volumes: Option<SceneVolumes>,
+    /// `"volume_lod"`: every character raymarched whatever its size ([`Self::with_volumes_everywhere`]).
+    volumes_everywhere: bool,
     /// See [`BATCH_BYTES`].
     batch_bytes: u64,
 }
@@ -166,6 +226,14 @@ pub struct RenderedFrame {
     pub raster_overflow: Option<u64>,
     /// Compute rasterizer: visibility slots per pixel this frame had.
     pub raster_slots: Option<u32>,
+    /// Characters drawn as volumes (the volume LOD path) this frame, wholly or in the transition
+    /// band.
+    pub volume_characters: usize,
+    /// Per generated character: the share of its pixels its volume drew (0: strands only, 1:
+    /// volume only, between: the transition band).
+    pub volume_fractions: Vec<f32>,
+    /// Hairs voxelized this frame (the others' volumes were cached).
+    pub volumes_voxelized: usize,
     /// Shadow maps were reused from an earlier frame.
     pub shadow_cached: bool,
     /// GPU time of the shadow maps when this frame computed them.
@@ -189,6 +257,10 @@ pub(crate) struct FrameIds {
     pub(crate) raster_frame: Res,
     pub(crate) shaded: Res,
     pub(crate) raster_tiles: Res,
+    /// Per uploaded hair: its asset.
+    pub(crate) hair_uploads: Vec<Res>,
+    /// Hair volumes (with `"ao"` or `"volume_lod"`).
+    pub(crate) volumes: Option<VolumeIds>,
     /// Per generated character: its hair asset, LOD result and strands.
     pub(crate) hair: Vec<Res>,
     pub(crate) lod: Vec<Res>,
@@ -238,6 +310,15 @@ pub struct FramePlan {
     pub(crate) view: FrameView,
     pub(crate) inputs: Vec<FrameInputs>,
     pub(crate) shadow_cached: bool,
+    /// Characters drawn as volumes (in no batch).
+    pub(crate) volume_characters: Vec<usize>,
+}
+
+impl FramePlan {
+    /// The share of character `i`'s pixels its volume draws this frame (0 without one).
+    pub(crate) fn volume_fraction(&self, i: usize) -> f32 {
+        self.ids.volumes.as_ref().and_then(|v| v.fractions.get(i).copied()).unwrap_or(0.0)
+    }
 }
 
 /// What the passes of one submission read: the frame's resources and the current batch's
@@ -255,6 +336,8 @@ pub(crate) struct FrameState<'a> {
     pub(crate) frames: &'a [(usize, FrameBuffers)],
     /// Parameters of the stored-strand characters (drawn with the last batch).
     pub(crate) stored_params: &'a [Buffer],
+    /// The frame's voxelizations and raymarches (first batch).
+    pub(crate) volumes: Option<&'a VolumeFrame>,
 }
 
 /// The OIT lists of one frame.
@@ -446,6 +529,8 @@ impl SceneRenderer {
             raster_materials: Vec::new(),
             character_materials: Vec::new(),
             occlusion_tiles: true,
+            volumes: None,
+            volumes_everywhere: false,
             batch_bytes: BATCH_BYTES,
         };
         renderer.set_up_raster(ctx)?;
@@ -468,8 +553,15 @@ impl SceneRenderer {
                 specular_shift: s.specular_shift,
                 specular_strength: s.specular_strength,
                 opacity: s.hair_opacity,
+                world_to_voxel: Mat4::IDENTITY.to_cols_array(),
+                volume: [0; 4],
+                volume_info: [0; 4],
             };
-            let index = match table.iter().position(|t| *t == m) {
+            // With AO or volume shadows a material names its character's volume: one per
+            // character.
+            let per_character = effects.ao || effects.volume_shadows;
+            let shared = if per_character { None } else { table.iter().position(|t| *t == m) };
+            let index = match shared {
                 Some(i) => i,
                 None => {
                     table.push(m);
@@ -495,7 +587,7 @@ impl SceneRenderer {
             None
         };
         if let (RasterPath::Compute, Some(why)) = (raster, why_not) {
-            if effects.raster == crate::scene::Raster::Compute {
+            if effects.raster == crate::scene::Raster::Compute || effects.uses_volumes() {
                 return Err(RenderError::RasterUnavailable { why });
             }
             raster = RasterPath::Triangles;
@@ -504,6 +596,22 @@ impl SceneRenderer {
             self.compute_raster = Some(ComputeRaster::new(ctx)?);
             self.raster_materials = table;
             self.character_materials = indices;
+            if effects.uses_volumes() {
+                let bounds: Vec<(Vec3, Vec3)> = self
+                    .hairs
+                    .iter()
+                    .map(|h| {
+                        let (lo, hi) = h.asset.bounds();
+                        (lo.as_vec3(), hi.as_vec3())
+                    })
+                    .collect();
+                self.volumes = Some(SceneVolumes {
+                    pipelines: VolumePipelines::new(ctx)?,
+                    store: VolumeStore::new(ctx, &bounds, effects.volume_resolution)?,
+                    cache: Mutex::new(vec![None; self.hairs.len()]),
+                    opacity: if self.oit.is_some() { 0.7 } else { 1.0 },
+                });
+            }
         }
         self.raster = raster;
         Ok(())
@@ -551,6 +659,13 @@ impl SceneRenderer {
     /// strands, the occlusion tiles and the rest (the image is the same; tests compare them).
     pub fn with_occlusion_tiles(mut self, on: bool) -> Self {
         self.occlusion_tiles = on;
+        self
+    }
+
+    /// With `"volume_lod"`: `true` raymarches every character, whatever its projected size (the
+    /// camera inside its hair too), for comparisons and benchmarks of the volume path.
+    pub fn with_volumes_everywhere(mut self, on: bool) -> Self {
+        self.volumes_everywhere = on;
         self
     }
 
@@ -627,6 +742,7 @@ impl SceneRenderer {
             .shadow
             .as_ref()
             .map(|_| crate::passes::shadow::declare(self, &mut g, &character_hair, &stored));
+        let (volumes, volume_characters) = self.plan_volumes(&mut g, &view);
         let ids = FrameIds {
             color,
             depth,
@@ -645,6 +761,8 @@ impl SceneRenderer {
             strands,
             stored,
             shadow,
+            hair_uploads: hair,
+            volumes,
         };
         if let Some(s) = &ids.shadow {
             crate::passes::shadow::plan(self, &mut g, &ids, s, shadow_cached);
@@ -657,22 +775,144 @@ impl SceneRenderer {
                 character_inputs(&view.camera, &character, view.width, view.height, view.lod)
             })
             .collect();
-        let batches = self.batches(&inputs);
+        let volume_only: Vec<usize> = ids
+            .volumes
+            .as_ref()
+            .map(|v| v.marched.iter().copied().filter(|&i| v.fractions[i] >= 1.0).collect())
+            .unwrap_or_default();
+        let batches = self.batches(&inputs, &volume_only);
         let first_batch_submission = usize::from(ids.shadow.is_some());
         for (k, batch) in batches.iter().enumerate() {
             let submission = first_batch_submission + k;
             crate::passes::frame_batch(self, &mut g, &ids, batch, submission, k == 0, k + 1 == batches.len());
         }
-        FramePlan { graph: g, ids, batches, first_batch_submission, view, inputs, shadow_cached }
+        FramePlan {
+            graph: g,
+            ids,
+            batches,
+            first_batch_submission,
+            view,
+            inputs,
+            shadow_cached,
+            volume_characters,
+        }
+    }
+
+    /// The projected size in pixels of `c`'s hair in `view`: the larger side of the screen
+    /// rectangle of its bounds' corners (unclipped; infinite when a corner lies behind the near
+    /// plane, the eye inside the bounds included).
+    pub(crate) fn projected_pixels(&self, c: &SceneCharacter, view: &FrameView) -> f32 {
+        let (lo, hi) = self.hairs[c.hair].asset.bounds();
+        let (lo, hi) = (lo.as_vec3(), hi.as_vec3());
+        let m = crate::camera::view_proj(&view.camera, view.width, view.height) * c.transform;
+        let size = glam::Vec2::new(view.width as f32, view.height as f32);
+        let mut a = glam::Vec2::splat(f32::INFINITY);
+        let mut b = glam::Vec2::splat(f32::NEG_INFINITY);
+        for k in 0..8 {
+            let corner = Vec3::new(
+                if k & 1 == 0 { lo.x } else { hi.x },
+                if k & 2 == 0 { lo.y } else { hi.y },
+                if k & 4 == 0 { lo.z } else { hi.z },
+            );
+            let clip = m * corner.extend(1.0);
+            // (A NaN fails the comparison too.)
+            if !clip.is_finite() || clip.w <= crate::camera::NEAR {
+                return f32::INFINITY;
+            }
+            let p = glam::Vec2::new(clip.x, clip.y) / clip.w * 0.5 * size;
+            a = a.min(p);
+            b = b.max(p);
+        }
+        (b - a).max_element()
+    }
+
+    /// Which characters the frame raymarches (`"volume_lod"`: at most `volume_lod_pixels` on
+    /// screen)
+    /// and each hair's volume: the resolution its volume-drawn characters' sizes ask for, at
+    /// least [`crate::volume::AO_RESOLUTION`] with AO; cached when its region holds a grid at
+    /// least that fine of the hair's current revision.
+    fn plan_volumes(
+        &self,
+        g: &mut FrameGraph<ScenePass>,
+        view: &FrameView,
+    ) -> (Option<VolumeIds>, Vec<usize>) {
+        let Some(volumes) = &self.volumes else { return (None, Vec::new()) };
+        let effects = self.scene.scene.effects;
+        let max = volumes.store.max_resolution;
+        let pixels: Vec<f32> = self.characters.iter().map(|c| self.projected_pixels(c, view)).collect();
+        let mut fractions: Vec<f32> = pixels
+            .iter()
+            .map(|&p| match (effects.volume_lod, self.volumes_everywhere) {
+                (false, _) => 0.0,
+                (true, true) => 1.0,
+                (true, false) => crate::volume::volume_fraction(p, effects.volume_lod_pixels),
+            })
+            .collect();
+        let marched: Vec<usize> = (0..self.characters.len()).filter(|&i| fractions[i] > 0.0).collect();
+        let cache = volumes.cache.lock().unwrap_or_else(|e| e.into_inner());
+        let hairs = (0..self.hairs.len())
+            .map(|h| {
+                let mut want: Option<u32> = None;
+                for (i, _) in self.characters.iter().enumerate().filter(|(_, c)| c.hair == h) {
+                    if marched.contains(&i) {
+                        let r = crate::volume::resolution_for_pixels(pixels[i], max);
+                        want = Some(want.map_or(r, |w| w.max(r)));
+                    }
+                    if effects.ao || effects.volume_shadows {
+                        let r = crate::volume::AO_RESOLUTION.min(max);
+                        want = Some(want.map_or(r, |w| w.max(r)));
+                    }
+                }
+                let want = want?;
+                let revision = self.hairs[h].revision();
+                // A cached grid at least this fine serves (a character moving away does not
+                // re-voxelize its hair; one coming closer does, once per octave).
+                if let Some((grid, r)) = cache[h]
+                    && r == revision
+                    && grid.resolution >= want
+                {
+                    return Some(HairVolumePlan { grid, cached: true });
+                }
+                let (lo, hi) = self.hairs[h].asset.bounds();
+                let grid = VolumeGrid::around(lo.as_vec3(), hi.as_vec3(), want)?;
+                // A grid beyond its region (never, for a resolution within the store's) is skipped.
+                if grid.voxels() > volumes.store.regions[h].1 {
+                    return None;
+                }
+                Some(HairVolumePlan { grid, cached: false })
+            })
+            .collect::<Vec<_>>();
+        // Characters whose hair got no volume (an unfinite box) keep their strands.
+        let marched: Vec<usize> =
+            marched.into_iter().filter(|&i| hairs[self.characters[i].hair].is_some()).collect();
+        for (i, f) in fractions.iter_mut().enumerate() {
+            if !marched.contains(&i) {
+                *f = 0.0;
+            }
+        }
+        let ids = VolumeIds {
+            marched: marched.clone(),
+            fractions,
+            volume: g.buffer("hair volumes"),
+            ao: g.buffer("hair volumes: AO"),
+            bricks: g.buffer("hair volumes: bricks"),
+            lod: (0..self.hairs.len()).map(|h| g.buffer(format!("voxelize lod {h}"))).collect(),
+            sums: (0..self.hairs.len()).map(|h| g.buffer(format!("voxel sums {h}"))).collect(),
+            hairs,
+        };
+        (Some(ids), marched)
     }
 
     /// Characters in batches whose strand buffers fit `batch_bytes`, so a crowd never holds
     /// every character's strands at once (at least one character per batch; one empty batch
     /// when there are none).
-    fn batches(&self, inputs: &[FrameInputs]) -> Vec<Vec<usize>> {
+    fn batches(&self, inputs: &[FrameInputs], volume_characters: &[usize]) -> Vec<Vec<usize>> {
         let mut batches: Vec<Vec<usize>> = vec![Vec::new()];
         let mut batch_bytes = 0;
         for (i, (c, inputs)) in self.characters.iter().zip(inputs).enumerate() {
+            if volume_characters.contains(&i) {
+                continue;
+            }
             // Fused generation holds no strand buffer.
             let bytes = if self.compute_raster.is_some() {
                 0
@@ -730,6 +970,13 @@ impl SceneRenderer {
                     None => (Mat4::IDENTITY, [0.0; 4], [0.0; 4], [0.0; 4]),
                 };
                 let [r, g, b] = l.color();
+                let casts = matches!(
+                    l,
+                    Light::Directional { cast_shadows: true, .. } | Light::Point { cast_shadows: true, .. }
+                );
+                // w: the hair's volume shadows it from this light (`light_volume_shadows`).
+                let volume_shadows = self.scene.scene.effects.volume_shadows && casts;
+                let depth = [depth[0], depth[1], depth[2], if volume_shadows { 1.0 } else { 0.0 }];
                 GpuLight {
                     vector: vector.to_array(),
                     color: [r, g, b, 0.0],
@@ -888,9 +1135,10 @@ impl SceneRenderer {
                     .chain(self.stored_characters.iter().map(|c| (c.transform, self.stored[c.hair].bounds)));
                 let view_proj = crate::camera::view_proj(&view.camera, view.width, view.height);
                 let rect = crate::raster::screen_rect(view_proj, view.width, view.height, boxes);
+                let materials = self.frame_materials(&plan);
                 let desc = crate::raster::RasterFrameDesc {
                     view: &view,
-                    materials: &self.raster_materials,
+                    materials: &materials,
                     light_count: self.scene.lights().len(),
                     occluders: !self.occluders.is_empty(),
                     rect,
@@ -900,6 +1148,7 @@ impl SceneRenderer {
             }
             None => None,
         };
+        let volume_frame = self.volume_frame(ctx, &mut pool, &plan, raster_buffers.as_ref())?;
         let mut images: HashMap<Res, &Image> = HashMap::new();
         images.insert(plan.ids.color, &scene_target.color);
         images.insert(plan.ids.depth, &scene_target.depth);
@@ -933,6 +1182,7 @@ impl SceneRenderer {
                 materials: &self.character_materials,
                 frames: &frames,
                 stored_params: if last { &stored_params } else { &[] },
+                volumes: if k == 0 { volume_frame.as_ref() } else { None },
             };
             let submission = plan.first_batch_submission + k;
             let ((), t) = ctx.submit("scene frame", |rec| {
@@ -975,6 +1225,17 @@ impl SceneRenderer {
         if let Some(b) = raster_buffers {
             b.give_back(&mut pool);
         }
+        let mut volumes_voxelized = 0;
+        if let (Some(volumes), Some(vf)) = (&self.volumes, volume_frame) {
+            let mut cache = volumes.cache.lock().unwrap_or_else(|e| e.into_inner());
+            for (h, hv) in vf.hairs.into_iter().enumerate() {
+                if let Some(hv) = hv {
+                    cache[h] = Some((hv.grid, self.hairs[h].revision()));
+                    pool.give_back_buffer(hv.sums);
+                    volumes_voxelized += 1;
+                }
+            }
+        }
         Ok(RenderedFrame {
             image: linear.to_srgb8(),
             linear,
@@ -986,9 +1247,128 @@ impl SceneRenderer {
             oit_pool,
             raster_overflow,
             raster_slots,
+            volume_characters: plan.volume_characters.len(),
+            volume_fractions: (0..self.characters.len()).map(|i| plan.volume_fraction(i)).collect(),
+            volumes_voxelized,
             shadow_cached: plan.shadow_cached,
             shadow_ms,
         })
+    }
+
+    /// The compute rasterizer's materials for a frame: with AO each names its character's volume
+    /// (grid and placement).
+    fn frame_materials(&self, plan: &FramePlan) -> Vec<RasterMaterial> {
+        let mut materials = self.raster_materials.clone();
+        let effects = self.scene.scene.effects;
+        let flags = u32::from(effects.ao) | (u32::from(effects.volume_shadows) << 1);
+        let (Some(volumes), Some(ids), true) = (&self.volumes, &plan.ids.volumes, flags != 0) else {
+            return materials;
+        };
+        for (c, &m) in self.characters.iter().zip(&self.character_materials) {
+            if let (Some(Some(p)), Some(material)) = (ids.hairs.get(c.hair), materials.get_mut(m as usize)) {
+                let [x, y, z] = p.grid.dims;
+                material.world_to_voxel = p.grid.world_to_voxel(c.transform).to_cols_array();
+                material.volume = [x, y, z, volumes.store.regions[c.hair].0 as u32];
+                material.volume_info = [volumes.store.brick_regions[c.hair].0 as u32, flags, 0, 0];
+            }
+        }
+        materials
+    }
+
+    /// The frame's voxelizations (LOD and generation inputs: every strand, full detail, no
+    /// culling; a sums buffer each) and raymarches.
+    fn volume_frame(
+        &self,
+        ctx: &Context,
+        pool: &mut TransientPool,
+        plan: &FramePlan,
+        raster: Option<&RasterBuffers>,
+    ) -> Result<Option<VolumeFrame>, RenderError> {
+        let (Some(volumes), Some(ids), Some(raster)) = (&self.volumes, &plan.ids.volumes, raster) else {
+            return Ok(None);
+        };
+        let view = &plan.view;
+        let mut frame = VolumeFrame::default();
+        for (h, p) in ids.hairs.iter().enumerate() {
+            let voxelize = match p {
+                Some(p) if !p.cached => {
+                    let hair = &self.hairs[h];
+                    let mut inputs =
+                        FrameInputs::looking_at(&hair.asset, view.camera.eye, view.width, view.height);
+                    inputs.lod = LodParams { enabled: false, ..LodParams::default() };
+                    inputs.cull = false;
+                    let sums = pool.buffer(
+                        ctx,
+                        "voxel sums",
+                        BufferDesc::storage(p.grid.voxels() * crate::volume::SUM_VOXEL_BYTES)
+                            .usage(vk::BufferUsageFlags::TRANSFER_DST),
+                    )?;
+                    Some(HairVolumeFrame {
+                        grid: p.grid,
+                        first: volumes.store.regions[h].0 as u32,
+                        first_brick: volumes.store.brick_regions[h].0 as u32,
+                        frame: self.generator.prepare_fused(ctx, hair, &inputs)?,
+                        sums,
+                    })
+                }
+                _ => None,
+            };
+            frame.hairs.push(voxelize);
+        }
+        let view_proj = crate::camera::view_proj(&view.camera, view.width, view.height);
+        for &i in &plan.volume_characters {
+            let c = &self.characters[i];
+            let Some(Some(p)) = ids.hairs.get(c.hair) else { continue };
+            let [x, y, z] = p.grid.dims;
+            let material = self.character_materials.get(i).copied().unwrap_or(0);
+            let flags = u32::from(!self.occluders.is_empty());
+            frame.marches.push(MarchJob {
+                character: i,
+                push: crate::volume::MarchPush {
+                    world_to_voxel: p.grid.world_to_voxel(c.transform).to_cols_array(),
+                    dims: [x, y, z, volumes.store.regions[c.hair].0 as u32],
+                    rect: crate::volume::march_rect(view_proj, view.width, view.height, c.transform, &p.grid),
+                    info: [material, raster.k, flags, volumes.opacity.to_bits()],
+                    extra: [
+                        volumes.store.brick_regions[c.hair].0 as u32,
+                        plan.volume_fraction(i).to_bits(),
+                        0,
+                        0,
+                    ],
+                },
+            });
+        }
+        Ok(Some(frame))
+    }
+
+    /// Reads hair `hair`'s volume back (`None` before a frame voxelized it): for tests and
+    /// inspection.
+    pub fn read_volume(
+        &self,
+        ctx: &Context,
+        hair: usize,
+    ) -> Result<Option<crate::volume::VolumeReadback>, RenderError> {
+        let Some(volumes) = &self.volumes else { return Ok(None) };
+        let cached = volumes.cache.lock().unwrap_or_else(|e| e.into_inner()).get(hair).copied().flatten();
+        let Some((grid, _)) = cached else { return Ok(None) };
+        let (first, _) = volumes.store.regions[hair];
+        let end = first + grid.voxels();
+        let all: Vec<[f32; 4]> = bytemuck::pod_collect_to_vec(
+            &ctx.read_buffer(&volumes.store.volume, end * crate::volume::VOLUME_VOXEL_BYTES)?,
+        );
+        let ao: Vec<f32> = bytemuck::pod_collect_to_vec(
+            &ctx.read_buffer(&volumes.store.ao, end * crate::volume::AO_VOXEL_BYTES)?,
+        );
+        let (first_brick, _) = volumes.store.brick_regions[hair];
+        let brick_end = first_brick + grid.bricks();
+        let bricks: Vec<u32> =
+            bytemuck::pod_collect_to_vec(&ctx.read_buffer(&volumes.store.bricks, brick_end * 4)?);
+        Ok(Some(crate::volume::VolumeReadback {
+            grid,
+            volume: all[first as usize..end as usize].to_vec(),
+            ao: ao[first as usize..end as usize].to_vec(),
+            bricks: bricks[first_brick as usize..brick_end as usize].to_vec(),
+        }))
     }
 
     /// Resources the pool has created so far (a steady scene stops creating after its first

@@ -1,7 +1,8 @@
 //! hairkit's renderer: scenes ([`scene`]) of characters whose hair is generated on the fly
 //! (or explicit strands), rendered by [`frame::SceneRenderer`] with the passes their effects
 //! ask for: hair shading with coverage AA, order-independent transparency, deep-opacity-map
-//! self-shadowing ([`shadow`]). Also cameras ([`camera`]) and image output ([`output`]). A
+//! self-shadowing ([`shadow`]), the compute rasterizer ([`raster`]), hair volumes for the volume
+//! LOD path and ambient occlusion ([`volume`]). Also cameras ([`camera`]) and image output ([`output`]). A
 //! library only: the `hairkit`, `hair-render` and `hair-bench` commands, crowd-scene writing
 //! and plots live in the `hairkit-cli` crate (`cli/`).
 
@@ -18,6 +19,7 @@ pub mod raster;
 pub mod scene;
 pub mod shadow;
 pub mod target;
+pub mod volume;
 
 pub use error::RenderError;
 pub use gen_gpu::RgbaImage;

@@ -92,6 +92,15 @@ pub fn resolve_raster(
             None => Ok(RasterPath::Compute),
             Some(why) => Err(crate::RenderError::RasterUnavailable { why }),
         },
+        // The volume effects draw through the compute rasterizer's visibility buffer.
+        Raster::Auto if effects.uses_volumes() => match unavailable {
+            None => Ok(RasterPath::Compute),
+            Some(why) => Err(crate::RenderError::RasterUnavailable {
+                why: format!(
+                    "effects.ao, effects.volume_lod and effects.volume_shadows need the compute rasterizer: {why}"
+                ),
+            }),
+        },
         Raster::Auto => Ok(if caps.is_cpu() && unavailable.is_none() {
             RasterPath::Compute
         } else {
@@ -113,6 +122,8 @@ pub(crate) struct RasterPush {
     pub(crate) tiles_x: u32,
     pub(crate) k: u32,
     pub(crate) opacity: f32,
+    /// The character's share of the transition band drawn by its volume ([`crate::volume`]).
+    pub(crate) volume_fraction: f32,
 }
 
 /// Which strands a raster dispatch draws (`RASTER_ALL`, … in `strand_raster.glsl`).
@@ -152,6 +163,12 @@ pub(crate) struct RasterMaterial {
     pub(crate) specular_shift: [f32; 4],
     pub(crate) specular_strength: [f32; 4],
     pub(crate) opacity: [f32; 4],
+    /// The character's hair volume for AO: world → voxel coordinates, and (dims, first voxel);
+    /// dims 0 without AO ([`crate::volume`]).
+    pub(crate) world_to_voxel: [f32; 16],
+    pub(crate) volume: [u32; 4],
+    /// x: the region's first brick, y: bit 0 AO, bit 1 volume shadows.
+    pub(crate) volume_info: [u32; 4],
 }
 
 /// The header of `RasterFrame` in `raster_resolve.frag`.
@@ -444,6 +461,7 @@ pub(crate) fn raster_push(
         tiles_x,
         k,
         opacity,
+        volume_fraction: 0.0,
     }
 }
 

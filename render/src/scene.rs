@@ -29,8 +29,12 @@
 //! lie outside the casters; `shadow_map_size`, `shadow_layers`). A character may carry an
 //! `occluder` mesh (its scalp or body, `{"mesh": "head.obj", "color": [..]}`), drawn opaque with
 //! Lambert shading, casting and receiving shadows. Colours are linear; `output.background` is
-//! the clear colour. Effects that are not built yet (`ao`, `volume_lod`, `dynamics`, shadows from
-//! a point light inside the casters) are refused with a clear "not supported yet".
+//! the clear colour. `ao` darkens hair by the hair around it (`ao_radius`, a fraction of the
+//! hair's size); `volume_lod` raymarches characters at most `volume_lod_pixels` on screen through
+//! their density volume instead of drawing their strands (`volume_resolution` bounds the
+//! volume; both need the compute rasterizer, `render::volume`). Effects that are not built yet
+//! (`dynamics`, shadows from a point light inside the casters) are refused with a clear "not
+//! supported yet".
 
 use std::path::{Path, PathBuf};
 
@@ -265,9 +269,34 @@ pub struct Effects {
     pub shadow_map_size: u32,
     /// Ends of the three opacity layers, as fractions of the light box's radius.
     pub shadow_layers: [f32; 3],
+    /// Ambient occlusion from the hair's density volume ([`crate::volume`]): every strand and
+    /// volume sample is darkened by the hair around it.
     pub ao: bool,
+    /// AO: radius of the sphere whose hair occludes a point, as a fraction of the hair's
+    /// largest extent.
+    pub ao_radius: f32,
+    /// Characters at most `volume_lod_pixels` on screen (the larger side of their hair's
+    /// projected bounds) are raymarched through their density volume instead of rasterized
+    /// strand by strand ([`crate::volume`]).
     pub volume_lod: bool,
+    /// Hair shadowed by its own density volume (a march toward each light with `cast_shadows`)
+    /// instead of the deep opacity maps' hair layers; with `shadows` the maps still give the
+    /// occluders' shadows.
+    pub volume_shadows: bool,
+    /// Projected size (pixels) at or below which a character is drawn as a volume (default 128:
+    /// where the default largest grid still has a voxel per pixel or more).
+    pub volume_lod_pixels: f32,
+    /// Largest volume resolution (voxels along the hair's longest side; a power of two): a
+    /// volume's resolution follows its character's projected size up to this.
+    pub volume_resolution: u32,
     pub dynamics: bool,
+}
+
+impl Effects {
+    /// Whether the scene needs hair volumes (`ao`, `volume_lod` or `volume_shadows`).
+    pub fn uses_volumes(&self) -> bool {
+        self.ao || self.volume_lod || self.volume_shadows
+    }
 }
 
 impl Default for Effects {
@@ -282,7 +311,11 @@ impl Default for Effects {
             shadow_map_size: 512,
             shadow_layers: [0.02, 0.06, 0.16],
             ao: false,
+            ao_radius: 0.04,
             volume_lod: false,
+            volume_lod_pixels: 128.0,
+            volume_shadows: false,
+            volume_resolution: 128,
             dynamics: false,
         }
     }
@@ -582,11 +615,48 @@ fn validate(loaded: &LoadedScene) -> Result<(), SceneError> {
             format!("{} (expected more than 0, at most 256)", e.oit_nodes_per_pixel),
         ));
     }
-    let unsupported = [
-        (e.ao, "effects.ao", "ambient occlusion"),
-        (e.volume_lod, "effects.volume_lod", "the volume LOD path"),
-        (e.dynamics, "effects.dynamics", "dynamics"),
-    ];
+    if e.ao && !(e.ao_radius.is_finite() && e.ao_radius > 0.0 && e.ao_radius <= 0.5) {
+        return Err(invalid(
+            "effects.ao_radius",
+            format!("{} (expected more than 0, at most 0.5)", e.ao_radius),
+        ));
+    }
+    if e.volume_lod && !(e.volume_lod_pixels.is_finite() && e.volume_lod_pixels >= 0.0) {
+        return Err(invalid(
+            "effects.volume_lod_pixels",
+            format!("{} (expected a number of pixels, at least 0)", e.volume_lod_pixels),
+        ));
+    }
+    if e.uses_volumes()
+        && !(e.volume_resolution.is_power_of_two()
+            && (crate::volume::MIN_RESOLUTION..=crate::volume::MAX_RESOLUTION).contains(&e.volume_resolution))
+    {
+        return Err(invalid(
+            "effects.volume_resolution",
+            format!(
+                "{} (expected a power of two from {} to {})",
+                e.volume_resolution,
+                crate::volume::MIN_RESOLUTION,
+                crate::volume::MAX_RESOLUTION
+            ),
+        ));
+    }
+    if e.uses_volumes() && e.raster == Raster::Triangles {
+        let field = if e.ao {
+            "effects.ao"
+        } else if e.volume_lod {
+            "effects.volume_lod"
+        } else {
+            "effects.volume_shadows"
+        };
+        return Err(invalid(
+            field,
+            "needs the compute rasterizer (raster \"auto\" or \"compute\"): the volume's samples \
+             and occlusion go through its visibility buffer"
+                .into(),
+        ));
+    }
+    let unsupported = [(e.dynamics, "effects.dynamics", "dynamics")];
     if let Some((_, field, effect)) = unsupported.iter().find(|(on, ..)| *on) {
         return Err(SceneError::NotSupportedYet {
             path: path.clone(),

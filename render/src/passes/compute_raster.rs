@@ -79,6 +79,9 @@ pub(crate) fn plan_raster(
 pub(crate) fn plan_shade(g: &mut FrameGraph<ScenePass>, ids: &FrameIds, submission: usize) {
     g.pass("shade hair (compute raster)")
         .read(ids.visibility, Access::ComputeRead)
+        .reads(ids.volumes.iter().flat_map(|v| {
+            [(v.ao, Access::ComputeRead), (v.volume, Access::ComputeRead), (v.bricks, Access::ComputeRead)]
+        }))
         .read(ids.raster_frame, Access::ComputeRead)
         .reads(ids.compute_shading_reads())
         .write(ids.shaded, Access::ComputeWrite)
@@ -152,7 +155,8 @@ pub(crate) fn record_raster(
         r.generator.bind_frame(rec, &cr.raster, &r.hairs[c.hair], frame, &extra);
         let material = state.materials[*i];
         let opacity = r.raster_opacity(material);
-        let push = raster_push(c.transform, material, 0, occluders, phase, tiles_x, b.k, opacity);
+        let mut push = raster_push(c.transform, material, 0, occluders, phase, tiles_x, b.k, opacity);
+        push.volume_fraction = state.plan.volume_fraction(*i);
         rec.push_constants(&cr.raster, &push);
         Generator::record_fused_dispatch(rec, frame);
     }
@@ -181,6 +185,9 @@ pub(crate) fn record_shade(
         (binding::RASTER_FRAME, &b.frame),
         (binding::SHADED, &b.shaded),
         (binding::RASTER_COUNTERS, &b.counters),
+        (binding::VOLUME_AO, r.volumes.as_ref().map_or(&cr.no_scene_depth, |v| &v.store.ao)),
+        (binding::VOLUME, r.volumes.as_ref().map_or(&cr.no_scene_depth, |v| &v.store.volume)),
+        (binding::VOLUME_BRICKS, r.volumes.as_ref().map_or(&cr.no_scene_depth, |v| &v.store.bricks)),
         l[0],
         l[1],
         l[2],

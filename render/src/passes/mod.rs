@@ -11,6 +11,7 @@
 //! | [`hair`] | the hair raster: blended mode's depth prepass, opaque/blended shading |
 //! | [`compute_raster`] | the compute rasterizer: clear, occluder depth copy, fused raster per batch, shade, resolve |
 //! | [`oit`] | clear the OIT lists, fill them, resolve them |
+//! | [`volume`] | per hair: LOD over every strand, clear, voxelize, resolve, AO (cached while the hair is unchanged); per far character: raymarch |
 //! | [`copy_out`] | the target into the readback buffers |
 
 pub mod compute_raster;
@@ -20,6 +21,7 @@ pub mod hair;
 pub mod occluders;
 pub mod oit;
 pub mod shadow;
+pub mod volume;
 
 use gen_gpu::Recorder;
 
@@ -54,6 +56,10 @@ pub enum ScenePass {
     RasterTiles,
     RasterShade,
     RasterResolve,
+    /// Hair `h`'s volume, one step ([`volume`]).
+    Volume(usize, volume::VolumeStep),
+    /// Raymarch of character `i`'s volume into the visibility buffer.
+    March(usize),
     CopyOut,
 }
 
@@ -74,10 +80,18 @@ pub(crate) fn frame_batch(
     }
     if r.compute_raster.is_some() {
         if first {
+            for h in 0..r.hairs.len() {
+                volume::plan_hair(r, g, ids, h, submission);
+            }
             compute_raster::plan_clear(g, ids, submission);
             if !r.occluders.is_empty() {
                 occluders::plan(g, ids, submission);
                 compute_raster::plan_occluder_depth(g, ids, submission);
+            }
+            if let Some(v) = &ids.volumes {
+                for &i in &v.marched {
+                    volume::plan_march(r, g, ids, i, submission);
+                }
             }
         }
         compute_raster::plan_raster(r, g, ids, batch, last, submission);
@@ -133,6 +147,8 @@ pub(crate) fn record(
         ScenePass::RasterTiles => compute_raster::record_tiles(r, rec, state),
         ScenePass::RasterShade => compute_raster::record_shade(r, rec, state),
         ScenePass::RasterResolve => compute_raster::record_resolve(r, rec, state, clear),
+        ScenePass::Volume(h, step) => volume::record_hair(r, rec, state, h, step),
+        ScenePass::March(i) => volume::record_march(r, rec, state, i),
         ScenePass::CopyOut => copy_out::record(rec, state),
     }
 }
