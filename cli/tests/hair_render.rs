@@ -246,5 +246,33 @@ fn main() -> ExitCode {
             ensure!(!ok && stderr.contains("quads"), "{stderr}");
             Ok(())
         }),
+        GpuTest::new("hair_render_draws_volumes_and_ao", Requirements::INT64_ATOMICS, |_| {
+            // The example scene far away with the volume effects: the graph names the
+            // voxelization, the AO and the raymarch, and the frame renders.
+            let dir = tempfile::tempdir()?;
+            let path = hairkit_tests::scenes::scene_with(
+                dir.path(),
+                "one_character",
+                96,
+                64,
+                serde_json::json!({ "raster": "auto", "ao": true, "volume_lod": true, "volume_shadows": true }),
+            )?;
+            let mut json: serde_json::Value = serde_json::from_slice(&std::fs::read(&path)?)?;
+            json["camera"]["eye"] = serde_json::json!([0.0, 3.8, 5.2]);
+            std::fs::write(&path, serde_json::to_vec_pretty(&json)?)?;
+            let scene = path.to_str().context("utf-8")?;
+            let (ok, stdout, stderr) = hair_render_output(&[scene, "--print-graph"]);
+            ensure!(ok, "{stderr}");
+            for pass in
+                ["voxelize hair 0", "volume AO hair 0", "volume bricks hair 0", "raymarch character 0"]
+            {
+                ensure!(stdout.contains(pass), "no {pass:?} in the graph:\n{stdout}");
+            }
+            let out = dir.path().join("far.png");
+            let (ok, stderr) = hair_render(&[scene, "-o", out.to_str().context("utf-8")?, "--validation"]);
+            ensure!(ok && out.is_file(), "{stderr}");
+            ensure!(!stderr.contains("vulkan validation"), "{stderr}");
+            Ok(())
+        }),
     ])
 }

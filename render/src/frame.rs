@@ -840,12 +840,16 @@ impl SceneRenderer {
         let effects = self.scene.scene.effects;
         let max = volumes.store.max_resolution;
         let pixels: Vec<f32> = self.characters.iter().map(|c| self.projected_pixels(c, view)).collect();
+        // A volume is drawn only where its voxels are at most about two pixels: never beyond
+        // twice the resolution the scene's volumes get (lowered when many hairs share the
+        // buffers).
+        let threshold = effects.volume_lod_pixels.min(2.0 * max as f32);
         let mut fractions: Vec<f32> = pixels
             .iter()
             .map(|&p| match (effects.volume_lod, self.volumes_everywhere) {
                 (false, _) => 0.0,
                 (true, true) => 1.0,
-                (true, false) => crate::volume::volume_fraction(p, effects.volume_lod_pixels),
+                (true, false) => crate::volume::volume_fraction(p, threshold),
             })
             .collect();
         let marched: Vec<usize> = (0..self.characters.len()).filter(|&i| fractions[i] > 0.0).collect();

@@ -283,8 +283,11 @@ pub struct Effects {
     /// instead of the deep opacity maps' hair layers; with `shadows` the maps still give the
     /// occluders' shadows.
     pub volume_shadows: bool,
-    /// Projected size (pixels) at or below which a character is drawn as a volume (default 128:
-    /// where the default largest grid still has a voxel per pixel or more).
+    /// Projected size (pixels: the larger side of the hair's projected bounds) at or below which
+    /// a character is drawn as a volume, with a transition band up to 1.5 times it. Default 256:
+    /// a head of long hair about 1 % of a 1280×720 frame, where the default largest grid (128)
+    /// has a voxel per two pixels; never beyond twice the resolution the scene's volumes get
+    /// (lowered when many hairs share them).
     pub volume_lod_pixels: f32,
     /// Largest volume resolution (voxels along the hair's longest side; a power of two): a
     /// volume's resolution follows its character's projected size up to this.
@@ -313,7 +316,7 @@ impl Default for Effects {
             ao: false,
             ao_radius: 0.04,
             volume_lod: false,
-            volume_lod_pixels: 128.0,
+            volume_lod_pixels: 256.0,
             volume_shadows: false,
             volume_resolution: 128,
             dynamics: false,

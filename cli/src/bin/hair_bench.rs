@@ -46,7 +46,7 @@ struct Cli {
     #[arg(long, default_value = "auto")]
     raster: render::scene::Raster,
     /// Run only these sections (comma-separated: generation, memory, stored, accuracy, crowd,
-    /// passes, raster) and replace only them in the report.
+    /// passes, raster, volume) and replace only them in the report.
     #[arg(long, value_name = "SECTION[,SECTION]")]
     only: Option<String>,
 }
@@ -620,12 +620,39 @@ fn passes_ms(frame: &render::frame::RenderedFrame, prefixes: &[&str]) -> f64 {
         .sum()
 }
 
+/// The heads crowd of `hairkit crowd` (9 × 3,000 strands with `--quick`, else 100 × 100k)
+/// written under `dir`, with strand α 64 / vertex α 1024 (the crowd section's LOD rows), and its
+/// name for the tables.
+fn heads_crowd(setup: &Setup<'_>, dir: &Path) -> Result<(String, render::scene::LoadedScene)> {
+    let base = hairkit_cli::crowd_scenes::CrowdOptions {
+        out: dir.join("crowd"),
+        teapots: 1,
+        teapot_strands: 100,
+        teapot_variants: 1,
+        size: (setup.width, setup.height),
+        ..hairkit_cli::crowd_scenes::CrowdOptions::default()
+    };
+    let options = if setup.quick {
+        hairkit_cli::crowd_scenes::CrowdOptions { characters: 9, strands: 3_000, ..base }
+    } else {
+        base
+    };
+    let crowd = hairkit_cli::crowd_scenes::write_crowds(&options, |_, _, _| {})?;
+    let name =
+        format!("{} heads × {} strands, LOD α 64 / 1024, blended", options.characters, options.strands);
+    let mut scene = render::scene::load_scene(&crowd.heads)?;
+    scene.scene.lod.enabled = true;
+    scene.scene.lod.strand_alpha = 64.0;
+    scene.scene.lod.vertex_alpha = 1024.0;
+    Ok((name, scene))
+}
+
 /// The triangle raster against the compute rasterizer on the same scenes, in one run: one
 /// character near (a close-up) and far (about 1 % of the screen), the artist's Sintel groom with
 /// shadows, the heads crowd with LOD; per scene the hair passes, the whole frame, the speed-up
 /// and the FLIP between the two images.
 fn raster_table(setup: &Setup<'_>, progress: &indicatif::ProgressBar) -> Result<(Table, Vec<(f64, f64)>)> {
-    let Setup { ctx, quick, width, height, frames, .. } = *setup;
+    let Setup { ctx, width, height, frames, .. } = *setup;
     if !ctx.capabilities().buffer_int64_atomics {
         anyhow::bail!(
             "{} has no 64-bit buffer atomics: no compute rasterizer",
@@ -678,34 +705,8 @@ fn raster_table(setup: &Setup<'_>, progress: &indicatif::ProgressBar) -> Result<
         std::fs::write(&path, serde_json::to_vec_pretty(&scene)?)?;
         scenes.push(("Sintel full groom (11,400 × 16, TressFX) on the bust, OIT + shadows".into(), path));
     }
-    // The heads crowd with strand α 64 / vertex α 1024 (the crowd section's LOD rows).
     progress.set_message("raster: writing the heads crowd");
-    let crowd_options = if quick {
-        hairkit_cli::crowd_scenes::CrowdOptions {
-            out: dir.join("crowd"),
-            characters: 9,
-            strands: 3_000,
-            teapots: 1,
-            teapot_strands: 100,
-            teapot_variants: 1,
-            size: (width, height),
-            ..hairkit_cli::crowd_scenes::CrowdOptions::default()
-        }
-    } else {
-        hairkit_cli::crowd_scenes::CrowdOptions {
-            out: dir.join("crowd"),
-            teapots: 1,
-            teapot_strands: 100,
-            teapot_variants: 1,
-            size: (width, height),
-            ..hairkit_cli::crowd_scenes::CrowdOptions::default()
-        }
-    };
-    let crowd = hairkit_cli::crowd_scenes::write_crowds(&crowd_options, |_, _, _| {})?;
-    let crowd_name = format!(
-        "{} heads × {} strands, LOD α 64 / 1024, blended",
-        crowd_options.characters, crowd_options.strands
-    );
+    let (crowd_name, crowd_scene) = heads_crowd(setup, &dir)?;
     let mut md = String::new();
     let _ = writeln!(md, "\n### Triangle raster vs compute rasterizer\n");
     let _ = writeln!(
@@ -724,10 +725,6 @@ fn raster_table(setup: &Setup<'_>, progress: &indicatif::ProgressBar) -> Result<
     for (name, path) in &scenes {
         all.push((name.clone(), render::scene::load_scene(path)?));
     }
-    let mut crowd_scene = render::scene::load_scene(&crowd.heads)?;
-    crowd_scene.scene.lod.enabled = true;
-    crowd_scene.scene.lod.strand_alpha = 64.0;
-    crowd_scene.scene.lod.vertex_alpha = 1024.0;
     all.push((crowd_name, crowd_scene));
     let hair_prefixes = [
         "lod+cull",
@@ -1009,11 +1006,61 @@ fn volume_table(setup: &Setup<'_>, progress: &indicatif::ProgressBar) -> Result<
     }
     let _ = writeln!(
         md,
-        "\nAO on the close-up (strands): {:.1} ms per frame without, {:.1} ms with (+{:.1} %; the volume and its AO cached); computing them on the first frame: {:.1} ms.",
+        "\nAO on the close-up (strands): {:.1} ms per frame without, {:.1} ms with ({:+.1} %; the volume and its AO cached); computing them on the first frame: {:.1} ms.",
         ao_rows[0].0,
         ao_rows[1].0,
         (ao_rows[1].0 / ao_rows[0].0 - 1.0) * 100.0,
         ao_rows[1].1
+    );
+    // Self-shadowing two ways: deep opacity maps (rendered through the triangle raster, cached
+    // after the first frame) and the march through the hair's own volume (every frame).
+    let _ = writeln!(md, "\n| shadows | scene | first frame (ms) | frame (ms) |\n|---|---|---|---|");
+    for (label, distance, extra, everywhere) in [
+        ("close-up, strands", 1.2f32, serde_json::json!({}), false),
+        ("0.9 % of the screen, volume", 6.7, serde_json::json!({ "volume_lod": true }), true),
+    ] {
+        for (shadows, effects) in [
+            ("none", serde_json::json!({})),
+            ("deep opacity maps", serde_json::json!({ "shadows": true })),
+            ("volume", serde_json::json!({ "volume_shadows": true })),
+        ] {
+            progress.set_message(format!("volume: shadows {shadows}, {label}"));
+            let mut e = serde_json::json!({ "transparency": "opaque", "raster": "compute" });
+            for source in [&extra, &effects] {
+                if let (Some(to), Some(from)) = (e.as_object_mut(), source.as_object()) {
+                    to.extend(from.clone());
+                }
+            }
+            let r = render::frame::SceneRenderer::new(ctx, &scene_at(distance, e)?, GenerationPath::Compute)?
+                .with_volumes_everywhere(everywhere);
+            let first = r.render(ctx)?;
+            let first_ms: f64 =
+                first.timings.passes.iter().filter(|p| p.depth == 0).filter_map(|p| p.gpu_ms).sum();
+            let (ms, _) = timed_frames(ctx, &r, frames)?;
+            let _ = writeln!(md, "| {shadows} | {label} | {first_ms:.1} | {ms:.1} |");
+        }
+    }
+    // The heads crowd: strands with LOD against the volume path for the characters it picks.
+    progress.set_message("volume: the heads crowd");
+    let (crowd_name, crowd) = heads_crowd(setup, &dir)?;
+    let strands = render::frame::SceneRenderer::new(ctx, &crowd, GenerationPath::Compute)?;
+    strands.render(ctx)?;
+    let (strand_ms, strand_frame) = timed_frames(ctx, &strands, frames)?;
+    let mut with_volumes = crowd.clone();
+    with_volumes.scene.effects.raster = render::scene::Raster::Compute;
+    with_volumes.scene.effects.volume_lod = true;
+    let volumes = render::frame::SceneRenderer::new(ctx, &with_volumes, GenerationPath::Compute)?;
+    let first = volumes.render(ctx)?;
+    let first_ms: f64 = first.timings.passes.iter().filter(|p| p.depth == 0).filter_map(|p| p.gpu_ms).sum();
+    let (volume_ms, volume_frame) = timed_frames(ctx, &volumes, frames)?;
+    let _ = writeln!(
+        md,
+        "\n{crowd_name}, from the first key of its camera path: {strand_ms:.1} ms per frame with strands (compute rasterizer), {volume_ms:.1} ms with `\"volume_lod\"` ({} of {} characters raymarched, {:.1}× faster, FLIP {:.4}); its first frame, voxelizing {} hairs, took {first_ms:.0} ms.",
+        volume_frame.volume_characters,
+        volume_frame.volume_fractions.len(),
+        strand_ms / volume_ms,
+        flip_mean(&strand_frame.image, &volume_frame.image),
+        first.volumes_voxelized,
     );
     let _ = std::fs::remove_dir_all(&dir);
     Ok((Table { markdown: md, csv }, rows))

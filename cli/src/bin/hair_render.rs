@@ -124,8 +124,12 @@ fn run(cli: &Cli) -> Result<()> {
         } else {
             render::output::write_png(&file, &frame.image)?;
         }
+        let volumes = match frame.volume_characters {
+            0 => String::new(),
+            n => format!(", {n} character{} as volumes", if n == 1 { "" } else { "s" }),
+        };
         println!(
-            "{} ({}x{}, {} path, {} raster, {:.0} ms)",
+            "{} ({}x{}, {} path, {} raster{volumes}, {:.0} ms)",
             file.display(),
             frame.image.width,
             frame.image.height,
@@ -139,8 +143,13 @@ fn run(cli: &Cli) -> Result<()> {
     if cli.stats {
         println!("{}", frame.timings);
         println!(
-            "strands {}, vertices {}, bundles culled {} of {}",
-            frame.stats.strands, frame.stats.vertices, frame.stats.bundles_culled, frame.stats.bundles
+            "strands {}, vertices {}, bundles culled {} of {}; {} characters as volumes, {} hairs voxelized",
+            frame.stats.strands,
+            frame.stats.vertices,
+            frame.stats.bundles_culled,
+            frame.stats.bundles,
+            frame.volume_characters,
+            frame.volumes_voxelized
         );
     }
     if let Some(json_path) = &cli.stats_json {
@@ -159,6 +168,8 @@ fn run(cli: &Cli) -> Result<()> {
             "vertices": frame.stats.vertices,
             "bundles": frame.stats.bundles,
             "bundles_culled": frame.stats.bundles_culled,
+            "volume_characters": frame.volume_characters,
+            "volumes_voxelized": frame.volumes_voxelized,
         });
         let text = serde_json::to_string_pretty(&json)?;
         hairmesh::atomic::write_file_atomic(json_path, |w| w.write_all(text.as_bytes()))
