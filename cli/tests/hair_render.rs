@@ -93,9 +93,9 @@ fn main() -> ExitCode {
                 ),
                 ("dynamics.json", Box::new(|v| v["effects"]["dynamics"] = true.into()), "not supported yet"),
                 (
-                    "ao_triangles.json",
+                    "volume_triangles.json",
                     Box::new(|v| {
-                        v["effects"]["ao"] = true.into();
+                        v["effects"]["volume_lod"] = true.into();
                         v["effects"]["raster"] = "triangles".into();
                     }),
                     "compute rasterizer",

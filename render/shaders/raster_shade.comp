@@ -29,7 +29,7 @@ layout(std430, set = 0, binding = HK_BINDING_SHADED) writeonly buffer ShadedBuff
 layout(std430, set = 0, binding = HK_BINDING_RASTER_COUNTERS) buffer Counters { uint counters[]; };
 // The hair volumes (render/src/volume.rs), read for materials whose volume_info.y asks for AO
 // or volume shadows: AO per voxel, mean direction and σ per voxel, bricks.
-layout(std430, set = 0, binding = HK_BINDING_VOLUME_AO) readonly buffer AoBuffer { float volume_ao[]; };
+#include "volume_ao.glsl"
 layout(std430, set = 0, binding = HK_BINDING_VOLUME) readonly buffer VolumeBuffer { vec4 volume[]; };
 layout(std430, set = 0, binding = HK_BINDING_VOLUME_BRICKS) readonly buffer BrickBuffer { uint bricks[]; };
 #include "volume_sample.glsl"
@@ -55,24 +55,12 @@ float shade_light_transmittance(uint i, vec3 p) {
     return maps.x * volume_transmittance(m.volume, m.volume_info.x, origin, direction, t0, t1, m.opacity.x);
 }
 
-// Trilinear AO of material m's volume at world point p (voxel centres at i + 0.5; points
-// outside take the border's, which the empty padding keeps near 1).
+// AO of material m's volume at world point p (1 without AO).
 float ambient_occlusion(RasterMaterial m, vec3 p) {
     if ((m.volume_info.y & 1u) == 0u) {
         return 1.0;
     }
-    ivec3 d = ivec3(m.volume.xyz);
-    vec3 q = clamp((m.world_to_voxel * vec4(p, 1.0)).xyz - 0.5, vec3(0.0), vec3(d - 1));
-    ivec3 i0 = min(ivec3(floor(q)), d - 2);
-    vec3 f = q - vec3(i0);
-    float sum = 0.0;
-    for (int k = 0; k < 8; ++k) {
-        ivec3 o = ivec3(k & 1, (k >> 1) & 1, (k >> 2) & 1);
-        ivec3 c = min(i0 + o, d - 1);
-        vec3 w3 = mix(1.0 - f, f, vec3(o));
-        sum += (w3.x * w3.y * w3.z) * volume_ao[m.volume.w + (uint(c.z) * uint(d.y) + uint(c.y)) * uint(d.x) + uint(c.x)];
-    }
-    return sum;
+    return volume_ao_sample(m.volume, (m.world_to_voxel * vec4(p, 1.0)).xyz);
 }
 
 vec3 shade_fragment(VisibleFragment f, vec2 ndc) {

@@ -9,4 +9,10 @@ layout(push_constant) uniform Shading {
     vec4 specular_shift;                     // x primary shift, y secondary shift, z primary exponent, w secondary exponent
     vec4 specular_strength;                  // x primary, y secondary, z ambient, w sparkle
     vec4 hair_opacity;                       // x: opacity of one strand (1 = opaque)
+    // The character's hair volume (render/src/volume.rs): object -> voxel coordinates are
+    // (p - volume_box.xyz) * volume_box.w; volume_grid: voxels per axis, first voxel;
+    // volume_info: x first brick, y bit 0 AO, bit 1 volume shadows (0: neither).
+    vec4 volume_box;
+    uvec4 volume_grid;
+    uvec4 volume_info;
 } shading;

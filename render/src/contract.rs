@@ -106,17 +106,26 @@ pub const RESOLVE_BINDINGS: [u32; 3] = [binding::VISIBILITY, binding::RASTER_FRA
 /// The OIT buffers (`oit.glsl`).
 pub const OIT_BINDINGS: [u32; 3] = [binding::OIT_HEADS, binding::OIT_NODES, binding::OIT_COUNTERS];
 
-/// The OIT fill stage's buffers: the lists, then the lighting.
-pub const OIT_FILL_BINDINGS: [u32; 7] = {
-    let mut out = [0; 7];
+/// What the hair fragment stages read of the hair volumes (AO, volume shadows;
+/// `hair_fragment.glsl`), in the order the draws bind them.
+pub const FRAGMENT_VOLUME_BINDINGS: [u32; 3] = [binding::VOLUME, binding::VOLUME_AO, binding::VOLUME_BRICKS];
+
+/// `a` then `b` (for the binding lists below).
+const fn concat<const A: usize, const B: usize, const N: usize>(a: [u32; A], b: [u32; B]) -> [u32; N] {
+    let mut out = [0; N];
     let mut i = 0;
-    while i < OIT_BINDINGS.len() + LIGHTING_BINDINGS.len() {
-        out[i] =
-            if i < OIT_BINDINGS.len() { OIT_BINDINGS[i] } else { LIGHTING_BINDINGS[i - OIT_BINDINGS.len()] };
+    while i < N {
+        out[i] = if i < A { a[i] } else { b[i - A] };
         i += 1;
     }
     out
-};
+}
+
+/// The shaded hair fragment stage's buffers: the lighting, then the volumes.
+pub const HAIR_FRAGMENT_BINDINGS: [u32; 7] = concat(LIGHTING_BINDINGS, FRAGMENT_VOLUME_BINDINGS);
+
+/// The OIT fill stage's buffers: the lists, the lighting, the volumes.
+pub const OIT_FILL_BINDINGS: [u32; 10] = concat(OIT_BINDINGS, HAIR_FRAGMENT_BINDINGS);
 
 /// Every constant of the header, as `(GLSL macro, value)`.
 pub const GLSL_DEFINES: &[(&str, u64)] = &[

@@ -21,7 +21,7 @@ use crate::camera::{Camera, Character, character_inputs};
 use crate::contract::{OIT_BINDINGS, OIT_FILL_BINDINGS, binding};
 use crate::graph::{Access, FrameGraph, GraphRun, Res, TransientPool};
 use crate::instance::{CharacterHair, SceneInstance};
-use crate::occluder::{LIGHTING_BINDINGS, OccluderMesh, OccluderPipelines};
+use crate::occluder::{OccluderMesh, OccluderPipelines};
 use crate::passes::ScenePass;
 use crate::raster::{
     ComputeRaster, MAX_MATERIALS, RasterBuffers, RasterMaterial, RasterPath, resolve_raster,
@@ -45,6 +45,11 @@ pub(crate) struct Shading {
     specular_shift: [f32; 4],
     specular_strength: [f32; 4],
     hair_opacity: [f32; 4],
+    /// The character's hair volume: object → voxel is `(p − xyz) · w`; its grid (dims, first
+    /// voxel); (first brick, bit 0 AO, bit 1 volume shadows). Zero without volumes.
+    volume_box: [f32; 4],
+    volume_grid: [u32; 4],
+    volume_info: [u32; 4],
 }
 
 /// `SceneLight` of `lighting.glsl` (std430).
@@ -284,6 +289,10 @@ impl FrameIds {
     fn shading_reads_as(&self, access: Access) -> Vec<(Res, Access)> {
         let mut r = vec![(self.lights, access)];
         r.extend(self.shadow.as_ref().map(|s| (s.maps, access)));
+        // AO and volume shadows.
+        if let Some(v) = &self.volumes {
+            r.extend([(v.volume, access), (v.ao, access), (v.bricks, access)]);
+        }
         r
     }
 
@@ -338,6 +347,9 @@ pub(crate) struct FrameState<'a> {
     pub(crate) stored_params: &'a [Buffer],
     /// The frame's voxelizations and raymarches (first batch).
     pub(crate) volumes: Option<&'a VolumeFrame>,
+    /// The hair volumes at the fragment stages' bindings (`FRAGMENT_VOLUME_BINDINGS`; unread
+    /// stand-ins without volumes).
+    pub(crate) volume_buffers: [(u32, &'a Buffer); 3],
 }
 
 /// The OIT lists of one frame.
@@ -380,7 +392,7 @@ impl SceneRenderer {
                         vk::CompareOp::LESS
                     },
                     color_write: true,
-                    extra_bindings: &LIGHTING_BINDINGS,
+                    extra_bindings: &crate::contract::HAIR_FRAGMENT_BINDINGS,
                 }),
                 color_format: Some(SCENE_COLOR_FORMAT),
                 samples: effects.msaa,
@@ -587,7 +599,7 @@ impl SceneRenderer {
             None
         };
         if let (RasterPath::Compute, Some(why)) = (raster, why_not) {
-            if effects.raster == crate::scene::Raster::Compute || effects.uses_volumes() {
+            if effects.raster == crate::scene::Raster::Compute || effects.volume_lod {
                 return Err(RenderError::RasterUnavailable { why });
             }
             raster = RasterPath::Triangles;
@@ -596,22 +608,24 @@ impl SceneRenderer {
             self.compute_raster = Some(ComputeRaster::new(ctx)?);
             self.raster_materials = table;
             self.character_materials = indices;
-            if effects.uses_volumes() {
-                let bounds: Vec<(Vec3, Vec3)> = self
-                    .hairs
-                    .iter()
-                    .map(|h| {
-                        let (lo, hi) = h.asset.bounds();
-                        (lo.as_vec3(), hi.as_vec3())
-                    })
-                    .collect();
-                self.volumes = Some(SceneVolumes {
-                    pipelines: VolumePipelines::new(ctx)?,
-                    store: VolumeStore::new(ctx, &bounds, effects.volume_resolution)?,
-                    cache: Mutex::new(vec![None; self.hairs.len()]),
-                    opacity: if self.oit.is_some() { 0.7 } else { 1.0 },
-                });
-            }
+        }
+        // AO and volume shadows work on either rasterizer; the volume LOD path needs the
+        // compute rasterizer (the scene is refused otherwise).
+        if effects.uses_volumes() {
+            let bounds: Vec<(Vec3, Vec3)> = self
+                .hairs
+                .iter()
+                .map(|h| {
+                    let (lo, hi) = h.asset.bounds();
+                    (lo.as_vec3(), hi.as_vec3())
+                })
+                .collect();
+            self.volumes = Some(SceneVolumes {
+                pipelines: VolumePipelines::new(ctx)?,
+                store: VolumeStore::new(ctx, &bounds, effects.volume_resolution)?,
+                cache: Mutex::new(vec![None; self.hairs.len()]),
+                opacity: if self.oit.is_some() { 0.7 } else { 1.0 },
+            });
         }
         self.raster = raster;
         Ok(())
@@ -944,6 +958,26 @@ impl SceneRenderer {
             specular_strength: [0.25, 0.35, 0.2, 0.6],
             // Opaque mode draws strands solid (coverage aside); OIT lets a strand transmit.
             hair_opacity: [if self.oit.is_some() { 0.7 } else { 1.0 }, 0.0, 0.0, 0.0],
+            volume_box: [0.0; 4],
+            volume_grid: [0; 4],
+            volume_info: [0; 4],
+        }
+    }
+
+    /// The triangle raster's part of AO and volume shadows: generated character `i`'s volume
+    /// this frame into its shading constants.
+    pub(crate) fn volume_shading(&self, plan: &FramePlan, i: usize, s: &mut Shading) {
+        let effects = self.scene.scene.effects;
+        let flags = u32::from(effects.ao) | (u32::from(effects.volume_shadows) << 1);
+        let (Some(volumes), Some(ids), Some(c)) = (&self.volumes, &plan.ids.volumes, self.characters.get(i))
+        else {
+            return;
+        };
+        if let (Some(Some(p)), true) = (ids.hairs.get(c.hair), flags != 0) {
+            let [x, y, z] = p.grid.dims;
+            s.volume_box = p.grid.origin.extend(1.0 / p.grid.voxel).to_array();
+            s.volume_grid = [x, y, z, volumes.store.regions[c.hair].0 as u32];
+            s.volume_info = [volumes.store.brick_regions[c.hair].0 as u32, flags, 0, 0];
         }
     }
 
@@ -1153,6 +1187,19 @@ impl SceneRenderer {
             None => None,
         };
         let volume_frame = self.volume_frame(ctx, &mut pool, &plan, raster_buffers.as_ref())?;
+        let stand_in = &self.no_shadow[0];
+        let volume_buffers = match &self.volumes {
+            Some(v) => [
+                (binding::VOLUME, &v.store.volume),
+                (binding::VOLUME_AO, &v.store.ao),
+                (binding::VOLUME_BRICKS, &v.store.bricks),
+            ],
+            None => [
+                (binding::VOLUME, stand_in),
+                (binding::VOLUME_AO, stand_in),
+                (binding::VOLUME_BRICKS, stand_in),
+            ],
+        };
         let mut images: HashMap<Res, &Image> = HashMap::new();
         images.insert(plan.ids.color, &scene_target.color);
         images.insert(plan.ids.depth, &scene_target.depth);
@@ -1187,6 +1234,7 @@ impl SceneRenderer {
                 frames: &frames,
                 stored_params: if last { &stored_params } else { &[] },
                 volumes: if k == 0 { volume_frame.as_ref() } else { None },
+                volume_buffers,
             };
             let submission = plan.first_batch_submission + k;
             let ((), t) = ctx.submit("scene frame", |rec| {
@@ -1288,7 +1336,7 @@ impl SceneRenderer {
         plan: &FramePlan,
         raster: Option<&RasterBuffers>,
     ) -> Result<Option<VolumeFrame>, RenderError> {
-        let (Some(volumes), Some(ids), Some(raster)) = (&self.volumes, &plan.ids.volumes, raster) else {
+        let (Some(volumes), Some(ids)) = (&self.volumes, &plan.ids.volumes) else {
             return Ok(None);
         };
         let view = &plan.view;
@@ -1319,6 +1367,8 @@ impl SceneRenderer {
             };
             frame.hairs.push(voxelize);
         }
+        // The raymarches write into the compute rasterizer's visibility buffer.
+        let Some(raster) = raster else { return Ok(Some(frame)) };
         let view_proj = crate::camera::view_proj(&view.camera, view.width, view.height);
         for &i in &plan.volume_characters {
             let c = &self.characters[i];

@@ -92,13 +92,11 @@ pub fn resolve_raster(
             None => Ok(RasterPath::Compute),
             Some(why) => Err(crate::RenderError::RasterUnavailable { why }),
         },
-        // The volume effects draw through the compute rasterizer's visibility buffer.
-        Raster::Auto if effects.uses_volumes() => match unavailable {
+        // The volume LOD path draws through the compute rasterizer's visibility buffer.
+        Raster::Auto if effects.volume_lod => match unavailable {
             None => Ok(RasterPath::Compute),
             Some(why) => Err(crate::RenderError::RasterUnavailable {
-                why: format!(
-                    "effects.ao, effects.volume_lod and effects.volume_shadows need the compute rasterizer: {why}"
-                ),
+                why: format!("effects.volume_lod needs the compute rasterizer: {why}"),
             }),
         },
         Raster::Auto => Ok(if caps.is_cpu() && unavailable.is_none() {

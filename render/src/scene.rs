@@ -30,9 +30,10 @@
 //! `occluder` mesh (its scalp or body, `{"mesh": "head.obj", "color": [..]}`), drawn opaque with
 //! Lambert shading, casting and receiving shadows. Colours are linear; `output.background` is
 //! the clear colour. `ao` darkens hair by the hair around it (`ao_radius`, a fraction of the
-//! hair's size); `volume_lod` raymarches characters at most `volume_lod_pixels` on screen through
-//! their density volume instead of drawing their strands (`volume_resolution` bounds the
-//! volume; both need the compute rasterizer, `render::volume`). Effects that are not built yet
+//! hair's size); `volume_shadows` shadows it by its own density volume; `volume_lod`
+//! raymarches characters at most `volume_lod_pixels` on screen through their density volume
+//! instead of drawing their strands (needs the compute rasterizer); `volume_resolution` bounds
+//! the volumes (`render::volume`). Effects that are not built yet
 //! (`dynamics`, shadows from a point light inside the casters) are refused with a clear "not
 //! supported yet".
 
@@ -644,18 +645,11 @@ fn validate(loaded: &LoadedScene) -> Result<(), SceneError> {
             ),
         ));
     }
-    if e.uses_volumes() && e.raster == Raster::Triangles {
-        let field = if e.ao {
-            "effects.ao"
-        } else if e.volume_lod {
-            "effects.volume_lod"
-        } else {
-            "effects.volume_shadows"
-        };
+    if e.volume_lod && e.raster == Raster::Triangles {
         return Err(invalid(
-            field,
-            "needs the compute rasterizer (raster \"auto\" or \"compute\"): the volume's samples \
-             and occlusion go through its visibility buffer"
+            "effects.volume_lod",
+            "needs the compute rasterizer (raster \"auto\" or \"compute\"): the raymarched samples go \
+             through its visibility buffer"
                 .into(),
         ));
     }

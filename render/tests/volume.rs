@@ -296,6 +296,32 @@ fn main() -> ExitCode {
                     first.image.pixels == second.image.pixels,
                     "the cached volume renders the same frame"
                 );
+                // An edit of the asset (the editor's loop) re-voxelizes it on the next frame, once.
+                let settings = scene((64, 48), serde_json::json!({ "ao": true }), 1.0)?;
+                let instance = SceneInstance::load(&settings)?;
+                let key = instance.characters[0].key.clone();
+                let mut edited = (*asset_of(&instance)?).clone();
+                let mut renderer = SceneRenderer::from_instance(ctx, &instance, GenerationPath::Compute)?;
+                renderer.render(ctx)?;
+                let before = renderer.read_volume(ctx, 0)?.context("no volume")?;
+                let mesh = edited.mesh();
+                let tips = mesh.layers.len() - 1;
+                let moves: Vec<hairmesh::asset::VertexMove> = (0..mesh.vertex_count())
+                    .filter(|&v| mesh.layers[0][v].x > 0.05)
+                    .map(|v| hairmesh::asset::VertexMove {
+                        layer: tips as u32,
+                        vertex: v as u32,
+                        position: mesh.layers[tips][v] + DVec3::new(0.08, 0.02, 0.0),
+                    })
+                    .collect();
+                let change = edited.move_vertices(&moves)?;
+                renderer.update_hair(ctx, &key, &edited, &change)?;
+                let after_edit = renderer.render(ctx)?;
+                let settled = renderer.render(ctx)?;
+                ensure!(after_edit.volumes_voxelized == 1, "an edit re-voxelizes: {:?}", after_edit.passes);
+                ensure!(settled.volumes_voxelized == 0, "and only once");
+                let after = renderer.read_volume(ctx, 0)?.context("no volume")?;
+                ensure!(after.volume != before.volume, "the edited hair's volume did not change");
                 Ok(())
             },
         ),
@@ -453,15 +479,66 @@ fn main() -> ExitCode {
             }
             Ok(())
         }),
-        GpuTest::new("volume_effects_need_the_compute_rasterizer", Requirements::NONE, |_ctx| {
+        GpuTest::new("the_volume_lod_path_needs_the_compute_rasterizer", Requirements::NONE, |_ctx| {
             let dir = tempfile::tempdir()?;
-            let path = scene_with(dir.path(), "one_character", 64, 48, serde_json::json!({ "ao": true }))?;
-            let error = load_scene(&path).err().context("ao with raster \"triangles\" was accepted")?;
+            let path =
+                scene_with(dir.path(), "one_character", 64, 48, serde_json::json!({ "volume_lod": true }))?;
+            let error =
+                load_scene(&path).err().context("volume_lod with raster \"triangles\" was accepted")?;
             ensure!(
-                error.to_string().contains("effects.ao") && error.to_string().contains("compute rasterizer"),
+                error.to_string().contains("effects.volume_lod")
+                    && error.to_string().contains("compute rasterizer"),
                 "{error}"
             );
             Ok(())
         }),
+        GpuTest::new(
+            "ao_and_volume_shadows_work_on_the_triangle_raster",
+            Requirements::INT64_ATOMICS,
+            |ctx| {
+                // Both rasterizers read the same volumes: AO darkens the hair by about as much on
+                // each (the fragment stage samples it in object space, the compute shade pass in
+                // world space), and volume shadows darken it on the triangle raster too, in every
+                // transparency mode.
+                let luminance = |effects: serde_json::Value| -> anyhow::Result<(f64, RenderedFrame)> {
+                    let f =
+                        SceneRenderer::new(ctx, &scene((128, 96), effects, 1.0)?, GenerationPath::Compute)?
+                            .render(ctx)?;
+                    Ok((mean_covered_luminance(&f), f))
+                };
+                let mut ratios = Vec::new();
+                for raster in ["compute", "triangles"] {
+                    let (plain, _) = luminance(serde_json::json!({ "raster": raster }))?;
+                    let (ao, frame) = luminance(serde_json::json!({ "raster": raster, "ao": true }))?;
+                    write(&frame, &format!("ao-{raster}"))?;
+                    ratios.push(ao / plain);
+                }
+                eprintln!(
+                    "  AO keeps {:.3} of the light on the compute rasterizer, {:.3} on triangles",
+                    ratios[0], ratios[1]
+                );
+                ensure!(ratios[1] < 0.95, "AO does not darken the triangle raster");
+                ensure!(
+                    (ratios[0] - ratios[1]).abs() <= 0.15 * ratios[0],
+                    "the rasterizers disagree on AO: {ratios:?}"
+                );
+                for transparency in ["opaque", "blended", "oit"] {
+                    let base = serde_json::json!({ "raster": "triangles", "transparency": transparency });
+                    let mut shadowed = base.clone();
+                    shadowed["volume_shadows"] = true.into();
+                    let ((plain, _), (dark, frame)) = (luminance(base)?, luminance(shadowed)?);
+                    write(&frame, &format!("volume-shadows-triangles-{transparency}"))?;
+                    eprintln!(
+                        "  volume shadows, triangles, {transparency}: {:.3} of the light",
+                        dark / plain
+                    );
+                    ensure!(
+                        dark < 0.97 * plain,
+                        "{transparency}: volume shadows do not darken the triangle raster"
+                    );
+                }
+                Ok(())
+            },
+        ),
     ])
 }

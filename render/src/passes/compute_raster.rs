@@ -79,9 +79,6 @@ pub(crate) fn plan_raster(
 pub(crate) fn plan_shade(g: &mut FrameGraph<ScenePass>, ids: &FrameIds, submission: usize) {
     g.pass("shade hair (compute raster)")
         .read(ids.visibility, Access::ComputeRead)
-        .reads(ids.volumes.iter().flat_map(|v| {
-            [(v.ao, Access::ComputeRead), (v.volume, Access::ComputeRead), (v.bricks, Access::ComputeRead)]
-        }))
         .read(ids.raster_frame, Access::ComputeRead)
         .reads(ids.compute_shading_reads())
         .write(ids.shaded, Access::ComputeWrite)

@@ -52,7 +52,9 @@ pub(crate) fn record_raster(
     state: &FrameState<'_>,
     clear: Option<[f32; 3]>,
 ) -> gen_gpu::Result<()> {
-    draw_into_target(r, rec, state, clear, &r.generator, state.frames, &state.lighting)
+    let (l, v) = (state.lighting, state.volume_buffers);
+    let buffers = [l[0], l[1], l[2], l[3], v[0], v[1], v[2]];
+    draw_into_target(r, rec, state, clear, &r.generator, state.frames, &buffers)
 }
 
 /// One rendering scope on the scene target (cleared to `clear`, or loaded) drawing `batch` and
@@ -68,25 +70,28 @@ pub(crate) fn draw_into_target<'b>(
 ) -> gen_gpu::Result<()> {
     state.target.begin_rendering(rec, clear);
     let eye = state.plan.view.camera.eye;
-    let drawn = draw_characters(r, rec, generator, batch, state.stored_params, extra, eye);
+    let drawn = draw_characters(r, rec, generator, batch, state, extra, eye);
     rec.end_rendering();
     drawn
 }
 
-/// Draws `batch`'s generated characters, then the stored ones, with `generator`'s fragment
-/// stage and its extra buffers.
+/// Draws `batch`'s generated characters (shaded with their volumes' AO and shadows when the
+/// scene has them), then the stored ones, with `generator`'s fragment stage and its extra
+/// buffers.
 pub(crate) fn draw_characters<'b>(
     r: &SceneRenderer,
     rec: &mut Recorder<'_>,
     generator: &Generator,
     batch: impl IntoIterator<Item = &'b (usize, FrameBuffers)>,
-    stored_params: &[Buffer],
+    state: &FrameState<'_>,
     extra: &[(u32, &Buffer)],
     eye: Vec3,
 ) -> gen_gpu::Result<()> {
+    let stored_params = state.stored_params;
     for (i, frame) in batch {
         let c = &r.characters[*i];
-        let shading = r.shading(c, eye);
+        let mut shading = r.shading(c, eye);
+        r.volume_shading(state.plan, *i, &mut shading);
         let extras = DrawExtras { fragment_constants: bytemuck::bytes_of(&shading), buffers: extra };
         generator.record_draw_with(rec, &r.hairs[c.hair], frame, r.path, false, extras)?;
     }

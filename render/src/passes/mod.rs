@@ -102,6 +102,11 @@ pub(crate) fn frame_batch(
         }
         return;
     }
+    if first {
+        for h in 0..r.hairs.len() {
+            volume::plan_hair(r, g, ids, h, submission);
+        }
+    }
     if first && r.oit.is_some() {
         oit::plan_clear(g, ids, submission);
     }

@@ -51,9 +51,9 @@ pub(crate) fn record_clear(rec: &mut Recorder<'_>, state: &FrameState<'_>) -> ge
 }
 
 /// The fill stage's buffers: the lists, then the lighting.
-fn fill_buffers<'a>(state: &FrameState<'a>) -> Option<[(u32, &'a gen_gpu::Buffer); 7]> {
+fn fill_buffers<'a>(state: &FrameState<'a>) -> Option<[(u32, &'a gen_gpu::Buffer); 10]> {
     let oit = state.oit?;
-    let l = state.lighting;
+    let (l, v) = (state.lighting, state.volume_buffers);
     Some([
         (binding::OIT_HEADS, &oit.heads),
         (binding::OIT_NODES, &oit.nodes),
@@ -62,6 +62,9 @@ fn fill_buffers<'a>(state: &FrameState<'a>) -> Option<[(u32, &'a gen_gpu::Buffer
         l[1],
         l[2],
         l[3],
+        v[0],
+        v[1],
+        v[2],
     ])
 }
 
