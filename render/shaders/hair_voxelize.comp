@@ -15,55 +15,7 @@
 
 layout(local_size_x = 32) in;
 
-// Per voxel: area, then area × direction x, y, z (two's complement), in 1 / AREA_SCALE units.
-layout(std430, set = 0, binding = HK_BINDING_VOXEL_SUMS) buffer SumBuffer { uint64_t sums[]; };
-
-layout(push_constant) uniform VoxelizeParams {
-    mat4 object_to_voxel;  // uniform scale: voxel coordinates, voxel i spanning [i, i + 1)
-    uvec4 dims;            // xyz voxels per axis
-} vox;
-
-const float AREA_SCALE = 1048576.0;  // volume.rs AREA_SCALE
-
-// volume.rs cpu::segment_samples
-uint segment_samples(float length_voxels) {
-    return uint(clamp(ceil(2.0 * length_voxels), 1.0, 4096.0));
-}
-
-int64_t fixed_signed(float x) {
-    return int64_t(round(x * AREA_SCALE));
-}
-
-// Segment a-b in voxel coordinates, full widths wa, wb in voxels.
-void voxelize_segment(vec3 a, vec3 b, float wa, float wb) {
-    vec3 d = b - a;
-    float len = length(d);
-    if (!(len > 0.0)) {
-        return;
-    }
-    vec3 direction = d / len;
-    uint n = segment_samples(len);
-    float step = len / float(n);
-    vec3 size = vec3(vox.dims.xyz);
-    for (uint j = 0u; j < n; ++j) {
-        float t = (float(j) + 0.5) / float(n);
-        vec3 p = a + d * t;
-        if (any(lessThan(p, vec3(0.0))) || any(greaterThanEqual(p, size))) {
-            continue;
-        }
-        uvec3 c = uvec3(p);
-        uint voxel = (c.z * vox.dims.y + c.y) * vox.dims.x + c.x;
-        float area = step * mix(wa, wb, t);
-        uint64_t q = uint64_t(area * AREA_SCALE + 0.5);
-        if (q == 0UL) {
-            continue;
-        }
-        atomicAdd(sums[4u * voxel], q);
-        atomicAdd(sums[4u * voxel + 1u], uint64_t(fixed_signed(direction.x * area)));
-        atomicAdd(sums[4u * voxel + 2u], uint64_t(fixed_signed(direction.y * area)));
-        atomicAdd(sums[4u * voxel + 3u], uint64_t(fixed_signed(direction.z * area)));
-    }
-}
+#include "voxelize_common.glsl"
 
 void main() {
     uint group = gl_WorkGroupID.y * DISPATCH_ROW + gl_WorkGroupID.x;

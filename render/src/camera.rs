@@ -37,6 +37,17 @@ pub const NEAR: f32 = 0.01;
 pub const FAR: f32 = 1000.0;
 
 /// World space → Vulkan clip space (y down, depth in [0, 1]) of `camera`.
+/// The eight corners of the box `lo`–`hi` (corner k takes `hi` on axis i when bit i of k is set).
+pub fn box_corners(lo: Vec3, hi: Vec3) -> [Vec3; 8] {
+    std::array::from_fn(|k| {
+        Vec3::new(
+            if k & 1 == 0 { lo.x } else { hi.x },
+            if k & 2 == 0 { lo.y } else { hi.y },
+            if k & 4 == 0 { lo.z } else { hi.z },
+        )
+    })
+}
+
 pub fn view_proj(camera: &Camera, width: u32, height: u32) -> Mat4 {
     let aspect = width as f32 / height.max(1) as f32;
     let proj = Mat4::perspective_rh(camera.fov_y, aspect, NEAR, FAR);

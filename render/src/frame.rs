@@ -122,8 +122,16 @@ pub(crate) struct HairVolumeFrame {
     pub(crate) grid: VolumeGrid,
     pub(crate) first: u32,
     pub(crate) first_brick: u32,
-    pub(crate) frame: FrameBuffers,
+    pub(crate) source: VoxelSource,
     pub(crate) sums: Buffer,
+}
+
+/// Where a voxelization's strands come from.
+pub(crate) enum VoxelSource {
+    /// A generated hair: its LOD pass's buffers (every strand, full detail).
+    Generated(Box<FrameBuffers>),
+    /// Stored strands `s`: their parameters.
+    Stored(usize, Buffer),
 }
 
 /// A character raymarched this frame.
@@ -612,18 +620,12 @@ impl SceneRenderer {
         // AO and volume shadows work on either rasterizer; the volume LOD path needs the
         // compute rasterizer (the scene is refused otherwise).
         if effects.uses_volumes() {
-            let bounds: Vec<(Vec3, Vec3)> = self
-                .hairs
-                .iter()
-                .map(|h| {
-                    let (lo, hi) = h.asset.bounds();
-                    (lo.as_vec3(), hi.as_vec3())
-                })
-                .collect();
+            let bounds: Vec<(Vec3, Vec3)> =
+                (0..self.volume_sources()).map(|v| self.volume_bounds(v)).collect();
             self.volumes = Some(SceneVolumes {
                 pipelines: VolumePipelines::new(ctx)?,
                 store: VolumeStore::new(ctx, &bounds, effects.volume_resolution)?,
-                cache: Mutex::new(vec![None; self.hairs.len()]),
+                cache: Mutex::new(vec![None; bounds.len()]),
                 opacity: if self.oit.is_some() { 0.7 } else { 1.0 },
             });
         }
@@ -812,6 +814,28 @@ impl SceneRenderer {
         }
     }
 
+    /// Hair volumes a scene can have: one per uploaded hair, then one per stored-strand set
+    /// (the index [`Self::read_volume`] takes).
+    pub fn volume_sources(&self) -> usize {
+        self.hairs.len() + self.stored.len()
+    }
+
+    /// The object-space bounds of volume source `v`.
+    pub(crate) fn volume_bounds(&self, v: usize) -> (Vec3, Vec3) {
+        match v.checked_sub(self.hairs.len()) {
+            None => {
+                let (lo, hi) = self.hairs[v].asset.bounds();
+                (lo.as_vec3(), hi.as_vec3())
+            }
+            Some(s) => self.stored[s].bounds,
+        }
+    }
+
+    /// What volume source `v`'s volume is made from (stored strands never change).
+    fn volume_revision(&self, v: usize) -> u64 {
+        self.hairs.get(v).map_or(0, GpuHair::revision)
+    }
+
     /// The projected size in pixels of `c`'s hair in `view`: the larger side of the screen
     /// rectangle of its bounds' corners (unclipped; infinite when a corner lies behind the near
     /// plane, the eye inside the bounds included).
@@ -822,12 +846,7 @@ impl SceneRenderer {
         let size = glam::Vec2::new(view.width as f32, view.height as f32);
         let mut a = glam::Vec2::splat(f32::INFINITY);
         let mut b = glam::Vec2::splat(f32::NEG_INFINITY);
-        for k in 0..8 {
-            let corner = Vec3::new(
-                if k & 1 == 0 { lo.x } else { hi.x },
-                if k & 2 == 0 { lo.y } else { hi.y },
-                if k & 4 == 0 { lo.z } else { hi.z },
-            );
+        for corner in crate::camera::box_corners(lo, hi) {
             let clip = m * corner.extend(1.0);
             // (A NaN fails the comparison too.)
             if !clip.is_finite() || clip.w <= crate::camera::NEAR {
@@ -868,6 +887,32 @@ impl SceneRenderer {
             .collect();
         let marched: Vec<usize> = (0..self.characters.len()).filter(|&i| fractions[i] > 0.0).collect();
         let cache = volumes.cache.lock().unwrap_or_else(|e| e.into_inner());
+        let stored_volumes = (0..self.stored.len()).map(|s| {
+            // Strand files: AO and volume shadows (no volume LOD yet).
+            let used = self.stored_characters.iter().any(|c| c.hair == s);
+            let want = (used && (effects.ao || effects.volume_shadows))
+                .then(|| crate::volume::AO_RESOLUTION.min(max));
+            (self.hairs.len() + s, want)
+        });
+        let cache_plan = |v: usize, want: Option<u32>| -> Option<HairVolumePlan> {
+            let want = want?;
+            let revision = self.volume_revision(v);
+            // A cached grid at least this fine serves (a character moving away does not
+            // re-voxelize its hair; one coming closer does, once per octave).
+            if let Some((grid, r)) = cache[v]
+                && r == revision
+                && grid.resolution >= want
+            {
+                return Some(HairVolumePlan { grid, cached: true });
+            }
+            let (lo, hi) = self.volume_bounds(v);
+            let grid = VolumeGrid::around(lo, hi, want)?;
+            // A grid beyond its region (never, for a resolution within the store's) is skipped.
+            if grid.voxels() > volumes.store.regions[v].1 {
+                return None;
+            }
+            Some(HairVolumePlan { grid, cached: false })
+        };
         let hairs = (0..self.hairs.len())
             .map(|h| {
                 let mut want: Option<u32> = None;
@@ -881,24 +926,10 @@ impl SceneRenderer {
                         want = Some(want.map_or(r, |w| w.max(r)));
                     }
                 }
-                let want = want?;
-                let revision = self.hairs[h].revision();
-                // A cached grid at least this fine serves (a character moving away does not
-                // re-voxelize its hair; one coming closer does, once per octave).
-                if let Some((grid, r)) = cache[h]
-                    && r == revision
-                    && grid.resolution >= want
-                {
-                    return Some(HairVolumePlan { grid, cached: true });
-                }
-                let (lo, hi) = self.hairs[h].asset.bounds();
-                let grid = VolumeGrid::around(lo.as_vec3(), hi.as_vec3(), want)?;
-                // A grid beyond its region (never, for a resolution within the store's) is skipped.
-                if grid.voxels() > volumes.store.regions[h].1 {
-                    return None;
-                }
-                Some(HairVolumePlan { grid, cached: false })
+                (h, want)
             })
+            .chain(stored_volumes)
+            .map(|(v, want)| cache_plan(v, want))
             .collect::<Vec<_>>();
         // Characters whose hair got no volume (an unfinite box) keep their strands.
         let marched: Vec<usize> =
@@ -915,7 +946,7 @@ impl SceneRenderer {
             ao: g.buffer("hair volumes: AO"),
             bricks: g.buffer("hair volumes: bricks"),
             lod: (0..self.hairs.len()).map(|h| g.buffer(format!("voxelize lod {h}"))).collect(),
-            sums: (0..self.hairs.len()).map(|h| g.buffer(format!("voxel sums {h}"))).collect(),
+            sums: (0..self.volume_sources()).map(|v| g.buffer(format!("voxel sums {v}"))).collect(),
             hairs,
         };
         (Some(ids), marched)
@@ -964,20 +995,17 @@ impl SceneRenderer {
         }
     }
 
-    /// The triangle raster's part of AO and volume shadows: generated character `i`'s volume
-    /// this frame into its shading constants.
-    pub(crate) fn volume_shading(&self, plan: &FramePlan, i: usize, s: &mut Shading) {
+    /// The triangle raster's part of AO and volume shadows: volume source `v`'s volume this
+    /// frame into a character's shading constants.
+    pub(crate) fn volume_shading(&self, plan: &FramePlan, v: usize, s: &mut Shading) {
         let effects = self.scene.scene.effects;
         let flags = u32::from(effects.ao) | (u32::from(effects.volume_shadows) << 1);
-        let (Some(volumes), Some(ids), Some(c)) = (&self.volumes, &plan.ids.volumes, self.characters.get(i))
-        else {
-            return;
-        };
-        if let (Some(Some(p)), true) = (ids.hairs.get(c.hair), flags != 0) {
+        let (Some(volumes), Some(ids)) = (&self.volumes, &plan.ids.volumes) else { return };
+        if let (Some(Some(p)), true) = (ids.hairs.get(v), flags != 0) {
             let [x, y, z] = p.grid.dims;
             s.volume_box = p.grid.origin.extend(1.0 / p.grid.voxel).to_array();
-            s.volume_grid = [x, y, z, volumes.store.regions[c.hair].0 as u32];
-            s.volume_info = [volumes.store.brick_regions[c.hair].0 as u32, flags, 0, 0];
+            s.volume_grid = [x, y, z, volumes.store.regions[v].0 as u32];
+            s.volume_info = [volumes.store.brick_regions[v].0 as u32, flags, 0, 0];
         }
     }
 
@@ -1282,7 +1310,7 @@ impl SceneRenderer {
             let mut cache = volumes.cache.lock().unwrap_or_else(|e| e.into_inner());
             for (h, hv) in vf.hairs.into_iter().enumerate() {
                 if let Some(hv) = hv {
-                    cache[h] = Some((hv.grid, self.hairs[h].revision()));
+                    cache[h] = Some((hv.grid, self.volume_revision(h)));
                     pool.give_back_buffer(hv.sums);
                     volumes_voxelized += 1;
                 }
@@ -1316,12 +1344,18 @@ impl SceneRenderer {
         let (Some(volumes), Some(ids), true) = (&self.volumes, &plan.ids.volumes, flags != 0) else {
             return materials;
         };
-        for (c, &m) in self.characters.iter().zip(&self.character_materials) {
-            if let (Some(Some(p)), Some(material)) = (ids.hairs.get(c.hair), materials.get_mut(m as usize)) {
+        // Generated characters, then stored ones (whose volumes follow the hairs').
+        let sources = self
+            .characters
+            .iter()
+            .map(|c| (c, c.hair))
+            .chain(self.stored_characters.iter().map(|c| (c, self.hairs.len() + c.hair)));
+        for ((c, v), &m) in sources.zip(&self.character_materials) {
+            if let (Some(Some(p)), Some(material)) = (ids.hairs.get(v), materials.get_mut(m as usize)) {
                 let [x, y, z] = p.grid.dims;
                 material.world_to_voxel = p.grid.world_to_voxel(c.transform).to_cols_array();
-                material.volume = [x, y, z, volumes.store.regions[c.hair].0 as u32];
-                material.volume_info = [volumes.store.brick_regions[c.hair].0 as u32, flags, 0, 0];
+                material.volume = [x, y, z, volumes.store.regions[v].0 as u32];
+                material.volume_info = [volumes.store.brick_regions[v].0 as u32, flags, 0, 0];
             }
         }
         materials
@@ -1344,11 +1378,29 @@ impl SceneRenderer {
         for (h, p) in ids.hairs.iter().enumerate() {
             let voxelize = match p {
                 Some(p) if !p.cached => {
-                    let hair = &self.hairs[h];
-                    let mut inputs =
-                        FrameInputs::looking_at(&hair.asset, view.camera.eye, view.width, view.height);
-                    inputs.lod = LodParams { enabled: false, ..LodParams::default() };
-                    inputs.cull = false;
+                    let source = match h.checked_sub(self.hairs.len()) {
+                        None => {
+                            let hair = &self.hairs[h];
+                            let mut inputs = FrameInputs::looking_at(
+                                &hair.asset,
+                                view.camera.eye,
+                                view.width,
+                                view.height,
+                            );
+                            inputs.lod = LodParams { enabled: false, ..LodParams::default() };
+                            inputs.cull = false;
+                            VoxelSource::Generated(Box::new(
+                                self.generator.prepare_fused(ctx, hair, &inputs)?,
+                            ))
+                        }
+                        Some(s) => {
+                            // Stored strands have no LOD: the parameters only place the camera.
+                            let character = Character { hair: s, transform: Mat4::IDENTITY };
+                            let inputs =
+                                character_inputs(&view.camera, &character, view.width, view.height, view.lod);
+                            VoxelSource::Stored(s, self.stored[s].frame_params(ctx, &inputs)?)
+                        }
+                    };
                     let sums = pool.buffer(
                         ctx,
                         "voxel sums",
@@ -1359,7 +1411,7 @@ impl SceneRenderer {
                         grid: p.grid,
                         first: volumes.store.regions[h].0 as u32,
                         first_brick: volumes.store.brick_regions[h].0 as u32,
-                        frame: self.generator.prepare_fused(ctx, hair, &inputs)?,
+                        source,
                         sums,
                     })
                 }
@@ -1434,13 +1486,11 @@ impl SceneRenderer {
 
 /// The axis-aligned box around `bounds` (a box) transformed by `m`.
 pub(crate) fn transformed_box(m: Mat4, (a, b): (Vec3, Vec3)) -> (Vec3, Vec3) {
-    (0..8).fold((Vec3::INFINITY, Vec3::NEG_INFINITY), |(lo, hi), k| {
-        let corner = Vec3::new(
-            if k & 1 == 0 { a.x } else { b.x },
-            if k & 2 == 0 { a.y } else { b.y },
-            if k & 4 == 0 { a.z } else { b.z },
-        );
-        let p = m.transform_point3(corner);
-        (lo.min(p), hi.max(p))
-    })
+    crate::camera::box_corners(a, b).into_iter().fold(
+        (Vec3::INFINITY, Vec3::NEG_INFINITY),
+        |(lo, hi), corner| {
+            let p = m.transform_point3(corner);
+            (lo.min(p), hi.max(p))
+        },
+    )
 }

@@ -413,12 +413,7 @@ pub fn screen_rect(
     let size = glam::Vec2::new(width as f32, height as f32);
     for (transform, (a, b)) in boxes {
         let m = view_proj * transform;
-        for k in 0..8 {
-            let corner = Vec3::new(
-                if k & 1 == 0 { a.x } else { b.x },
-                if k & 2 == 0 { a.y } else { b.y },
-                if k & 4 == 0 { a.z } else { b.z },
-            );
+        for corner in crate::camera::box_corners(a, b) {
             let clip = m * corner.extend(1.0);
             if !clip.is_finite() || clip.w <= crate::camera::NEAR {
                 return [0, 0, width, height];

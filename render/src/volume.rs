@@ -140,9 +140,7 @@ pub fn march_rect(view_proj: Mat4, width: u32, height: u32, model: Mat4, grid: &
     let mut lo = glam::Vec2::splat(f32::INFINITY);
     let mut hi = glam::Vec2::splat(f32::NEG_INFINITY);
     let mut behind = 0;
-    for k in 0..8 {
-        let corner =
-            grid.origin + extent * Vec3::new((k & 1) as f32, ((k >> 1) & 1) as f32, ((k >> 2) & 1) as f32);
+    for corner in crate::camera::box_corners(grid.origin, grid.origin + extent) {
         let clip = m * corner.extend(1.0);
         if !clip.is_finite() {
             return [0, 0, width, height];
@@ -224,6 +222,7 @@ pub fn volume_fraction(pixels: f32, volume_lod_pixels: f32) -> f32 {
 #[derive(Debug)]
 pub struct VolumePipelines {
     pub(crate) voxelize: Pipeline,
+    pub(crate) voxelize_stored: Pipeline,
     pub(crate) resolve: Pipeline,
     pub(crate) bricks: Pipeline,
     pub(crate) ao: Pipeline,
@@ -247,6 +246,12 @@ impl VolumePipelines {
         let voxelize = compute(
             "voxelize (fused generation)",
             &shaders::HAIR_VOXELIZE_COMP,
+            &gen_gpu::strand_bindings(&VOXELIZE_BINDINGS),
+            size_of::<VoxelizePush>() as u32,
+        )?;
+        let voxelize_stored = compute(
+            "voxelize (stored strands)",
+            &shaders::HAIR_VOXELIZE_STORED_COMP,
             &gen_gpu::strand_bindings(&VOXELIZE_BINDINGS),
             size_of::<VoxelizePush>() as u32,
         )?;
@@ -275,7 +280,7 @@ impl VolumePipelines {
             &gen_gpu::Binding::storage_buffers(&MARCH_BINDINGS, stage),
             size_of::<MarchPush>() as u32,
         )?;
-        Ok(Self { voxelize, resolve, bricks, ao, march })
+        Ok(Self { voxelize, voxelize_stored, resolve, bricks, ao, march })
     }
 }
 

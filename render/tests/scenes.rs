@@ -439,16 +439,7 @@ fn main() -> ExitCode {
                 let cached = renderer.render(ctx)?;
                 ensure!(cached.shadow_cached);
                 // Pull the tips on one side of the head outwards (+x).
-                let mesh = edited.mesh();
-                let tips = mesh.layers.len() - 1;
-                let moves: Vec<hairmesh::asset::VertexMove> = (0..mesh.vertex_count())
-                    .filter(|&v| mesh.layers[0][v].x > 0.05)
-                    .map(|v| hairmesh::asset::VertexMove {
-                        layer: tips as u32,
-                        vertex: v as u32,
-                        position: mesh.layers[tips][v] + glam::DVec3::new(0.08, 0.02, 0.0),
-                    })
-                    .collect();
+                let moves = hairkit_tests::scenes::pull_tips(&edited);
                 ensure!(!moves.is_empty());
                 let change = edited.move_vertices(&moves)?;
                 let sent = renderer.update_hair(ctx, &key, &edited, &change)?;

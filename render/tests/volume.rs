@@ -304,16 +304,7 @@ fn main() -> ExitCode {
                 let mut renderer = SceneRenderer::from_instance(ctx, &instance, GenerationPath::Compute)?;
                 renderer.render(ctx)?;
                 let before = renderer.read_volume(ctx, 0)?.context("no volume")?;
-                let mesh = edited.mesh();
-                let tips = mesh.layers.len() - 1;
-                let moves: Vec<hairmesh::asset::VertexMove> = (0..mesh.vertex_count())
-                    .filter(|&v| mesh.layers[0][v].x > 0.05)
-                    .map(|v| hairmesh::asset::VertexMove {
-                        layer: tips as u32,
-                        vertex: v as u32,
-                        position: mesh.layers[tips][v] + DVec3::new(0.08, 0.02, 0.0),
-                    })
-                    .collect();
+                let moves = hairkit_tests::scenes::pull_tips(&edited);
                 let change = edited.move_vertices(&moves)?;
                 renderer.update_hair(ctx, &key, &edited, &change)?;
                 let after_edit = renderer.render(ctx)?;
@@ -475,6 +466,56 @@ fn main() -> ExitCode {
                     ensure!(total == 0.0 && drawn == 0, "an empty hair drew {drawn} pixels");
                 } else {
                     ensure!(total > 0.0, "a single strand left no density");
+                }
+            }
+            Ok(())
+        }),
+        GpuTest::new("strand_files_get_ao_and_volume_shadows", Requirements::INT64_ATOMICS, |ctx| {
+            // The artist's Sintel groom (TressFX, stored strands) on its bust: its volume holds
+            // the projected area of its segments, and AO darkens it on both rasterizers.
+            let dir = tempfile::tempdir()?;
+            let luminance =
+                |effects: serde_json::Value| -> anyhow::Result<(f64, RenderedFrame, SceneRenderer)> {
+                    let path = hairkit_tests::scenes::sintel_scene(dir.path(), "sintel", effects)?;
+                    let renderer = SceneRenderer::new(ctx, &load_scene(&path)?, GenerationPath::Compute)?;
+                    let f = renderer.render(ctx)?;
+                    Ok((mean_covered_luminance(&f), f, renderer))
+                };
+            for raster in ["compute", "triangles"] {
+                let (plain, ..) = luminance(serde_json::json!({ "raster": raster }))?;
+                let (ao, frame, renderer) = luminance(serde_json::json!({ "raster": raster, "ao": true }))?;
+                write(&frame, &format!("sintel-ao-{raster}"))?;
+                eprintln!("  Sintel groom, {raster}: AO keeps {:.3} of the light", ao / plain);
+                // (The bust, which AO leaves alone, covers more pixels than the hair.)
+                ensure!(ao < 0.97 * plain, "{raster}: AO does not darken the groom");
+                ensure!(frame.passes.iter().any(|p| p.contains("stored strands")), "{:?}", frame.passes);
+                if raster == "compute" {
+                    let v = renderer.read_volume(ctx, 0)?.context("no volume for the groom")?;
+                    let settings = load_scene(&hairkit_tests::scenes::sintel_scene(
+                        dir.path(),
+                        "sintel",
+                        serde_json::json!({}),
+                    )?)?;
+                    let instance = SceneInstance::load(&settings)?;
+                    let CharacterHair::Stored { strands, width } = &instance.characters[0].hair else {
+                        anyhow::bail!("the groom is stored strands")
+                    };
+                    // As uploaded: the root width tapering to 0.3 of it at the tip.
+                    let mut carried = 0.0;
+                    let mut first = 0usize;
+                    for &n in &strands.strand_points {
+                        let points = &strands.points[first..first + n as usize];
+                        first += n as usize;
+                        for (k, w) in points.windows(2).enumerate() {
+                            let tau = |k: usize| k as f64 / (n as f64 - 1.0).max(1.0);
+                            let width = |k: usize| f64::from(*width) * (1.0 - 0.7 * tau(k));
+                            carried += f64::from((w[1] - w[0]).length()) * 0.5 * (width(k) + width(k + 1));
+                        }
+                    }
+                    let voxel = f64::from(v.grid.voxel);
+                    let total: f64 = v.volume.iter().map(|x| f64::from(x[3])).sum::<f64>() * voxel * voxel;
+                    eprintln!("  groom area carried {carried:.6}, in the volume {total:.6}");
+                    ensure!((total - carried).abs() <= 5e-3 * carried, "the groom's volume loses area");
                 }
             }
             Ok(())

@@ -67,3 +67,18 @@ pub fn scene_with(
     std::fs::write(&path, serde_json::to_vec_pretty(&json)?)?;
     Ok(path)
 }
+
+/// An edit as the editor makes one: the tip-layer vertices on the +x side of the head (root
+/// x > 0.05) pulled outwards and up.
+pub fn pull_tips(asset: &hairmesh::asset::HairAsset) -> Vec<hairmesh::asset::VertexMove> {
+    let mesh = asset.mesh();
+    let tips = mesh.layers.len() - 1;
+    (0..mesh.vertex_count())
+        .filter(|&v| mesh.layers[0][v].x > 0.05)
+        .map(|v| hairmesh::asset::VertexMove {
+            layer: tips as u32,
+            vertex: v as u32,
+            position: mesh.layers[tips][v] + glam::DVec3::new(0.08, 0.02, 0.0),
+        })
+        .collect()
+}

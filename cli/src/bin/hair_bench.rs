@@ -101,6 +101,18 @@ impl Row {
     }
 }
 
+/// The benchmark asset of `strands` strands written (f32 textures) to `dir`, which is returned.
+fn write_asset_dir(dir: &Path, strands: u64) -> Result<PathBuf> {
+    hairmesh::asset_io::write_asset(
+        dir,
+        &asset(strands)?,
+        hairmesh::asset_io::Precision::F32,
+        "metres",
+        None,
+    )?;
+    Ok(dir.to_owned())
+}
+
 fn median(mut v: Vec<f64>) -> f64 {
     v.sort_by(f64::total_cmp);
     v[v.len() / 2]
@@ -667,14 +679,7 @@ fn raster_table(setup: &Setup<'_>, progress: &indicatif::ProgressBar) -> Result<
     let far = serde_json::json!({ "eye": [0.0, 1.7, 4.2], "target": [0.0, 1.55, 0.0], "fov_y_degrees": 45 });
     let lights = serde_json::json!([ { "directional": { "direction": [0.5, 0.8, 0.6] } } ]);
     for &strands in setup.sizes {
-        let asset_dir = dir.join(format!("hair_{strands}"));
-        hairmesh::asset_io::write_asset(
-            &asset_dir,
-            &asset(strands)?,
-            hairmesh::asset_io::Precision::F32,
-            "metres",
-            None,
-        )?;
+        let asset_dir = write_asset_dir(&dir.join(format!("hair_{strands}")), strands)?;
         for (label, camera, transparency) in [
             ("close-up", &near, "opaque"),
             ("close-up", &near, "oit"),
@@ -887,14 +892,7 @@ fn volume_table(setup: &Setup<'_>, progress: &indicatif::ProgressBar) -> Result<
     let strands = *setup.sizes.last().context("no strand count")?;
     let dir = std::env::temp_dir().join(format!("hair-bench-volume-{}", std::process::id()));
     std::fs::create_dir_all(&dir)?;
-    let asset_dir = dir.join("hair");
-    hairmesh::asset_io::write_asset(
-        &asset_dir,
-        &asset(strands)?,
-        hairmesh::asset_io::Precision::F32,
-        "metres",
-        None,
-    )?;
+    let asset_dir = write_asset_dir(&dir.join("hair"), strands)?;
     let target = Vec3::new(0.0, 1.55, 0.0);
     let near = Vec3::new(0.0, 1.82, 0.62) - target;
     let scene_at = |distance: f32, effects: serde_json::Value| -> Result<render::scene::LoadedScene> {
@@ -1445,14 +1443,7 @@ fn effects_table(setup: &Setup<'_>, width: u32, height: u32, frames: usize) -> R
     let dir = std::env::temp_dir().join(format!("hair-bench-{}", std::process::id()));
     std::fs::create_dir_all(&dir)?;
     let strands = if quick { 5_000 } else { 100_000 };
-    let asset_dir = dir.join("hair");
-    hairmesh::asset_io::write_asset(
-        &asset_dir,
-        &asset(strands)?,
-        hairmesh::asset_io::Precision::F32,
-        "metres",
-        None,
-    )?;
+    let asset_dir = write_asset_dir(&dir.join("hair"), strands)?;
     let sintel = sintel_groom();
     let mut scenes = vec![
         (

@@ -91,12 +91,13 @@ pub(crate) fn draw_characters<'b>(
     for (i, frame) in batch {
         let c = &r.characters[*i];
         let mut shading = r.shading(c, eye);
-        r.volume_shading(state.plan, *i, &mut shading);
+        r.volume_shading(state.plan, c.hair, &mut shading);
         let extras = DrawExtras { fragment_constants: bytemuck::bytes_of(&shading), buffers: extra };
         generator.record_draw_with(rec, &r.hairs[c.hair], frame, r.path, false, extras)?;
     }
     for (c, params) in r.stored_characters.iter().zip(stored_params) {
-        let shading = r.shading(c, eye);
+        let mut shading = r.shading(c, eye);
+        r.volume_shading(state.plan, r.hairs.len() + c.hair, &mut shading);
         let extras = DrawExtras { fragment_constants: bytemuck::bytes_of(&shading), buffers: extra };
         r.stored[c.hair].record_draw(rec, generator, params, extras);
     }

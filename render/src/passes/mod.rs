@@ -80,7 +80,7 @@ pub(crate) fn frame_batch(
     }
     if r.compute_raster.is_some() {
         if first {
-            for h in 0..r.hairs.len() {
+            for h in 0..r.volume_sources() {
                 volume::plan_hair(r, g, ids, h, submission);
             }
             compute_raster::plan_clear(g, ids, submission);
@@ -103,7 +103,7 @@ pub(crate) fn frame_batch(
         return;
     }
     if first {
-        for h in 0..r.hairs.len() {
+        for h in 0..r.volume_sources() {
             volume::plan_hair(r, g, ids, h, submission);
         }
     }

@@ -7,7 +7,7 @@ use gen_gpu::{Generator, Recorder};
 
 use super::ScenePass;
 use crate::contract::binding;
-use crate::frame::{FrameIds, FrameState, SceneRenderer};
+use crate::frame::{FrameIds, FrameState, SceneRenderer, VoxelSource};
 use crate::graph::{Access, FrameGraph};
 use crate::shaders;
 use crate::volume::{MarchPush, VolumePassPush, VoxelizePush};
@@ -35,21 +35,34 @@ pub(crate) fn plan_hair(
     let Some(plan) = v.hairs[h] else { return };
     let n = plan.grid.dims;
     let size = format!("{}×{}×{}", n[0], n[1], n[2]);
-    g.pass(format!("lod hair {h} (voxelize: every strand)"))
-        .read(ids.hair_uploads[h], Access::ComputeRead)
-        .write(v.lod[h], Access::ComputeWrite)
-        .cached(plan.cached)
-        .submission(submission)
-        .add(ScenePass::Volume(h, VolumeStep::Lod));
+    // Volume sources after the uploaded hairs are stored strands (their characters' buffers).
+    let stored = h.checked_sub(r.hairs.len());
+    if stored.is_none() {
+        g.pass(format!("lod hair {h} (voxelize: every strand)"))
+            .read(ids.hair_uploads[h], Access::ComputeRead)
+            .write(v.lod[h], Access::ComputeWrite)
+            .cached(plan.cached)
+            .submission(submission)
+            .add(ScenePass::Volume(h, VolumeStep::Lod));
+    }
     g.pass(format!("clear voxel sums hair {h}"))
         .write(v.sums[h], Access::TransferWrite)
         .cached(plan.cached)
         .submission(submission)
         .add(ScenePass::Volume(h, VolumeStep::Clear));
-    g.pass(format!("voxelize hair {h} ({size}, fused generation)"))
-        .read(ids.hair_uploads[h], Access::ComputeRead)
-        .read(v.lod[h], Access::ComputeRead)
-        .read(v.lod[h], Access::IndirectRead)
+    let voxelize = match stored {
+        None => g
+            .pass(format!("voxelize hair {h} ({size}, fused generation)"))
+            .read(ids.hair_uploads[h], Access::ComputeRead)
+            .read(v.lod[h], Access::ComputeRead)
+            .read(v.lod[h], Access::IndirectRead),
+        Some(s) => {
+            let characters = r.stored_characters.iter().zip(&ids.stored).filter(|(c, _)| c.hair == s);
+            g.pass(format!("voxelize hair {h} ({size}, stored strands)"))
+                .reads(characters.map(|(_, &res)| (res, Access::ComputeRead)))
+        }
+    };
+    voxelize
         .write(v.sums[h], Access::ComputeWrite)
         .cached(plan.cached)
         .submission(submission)
@@ -116,26 +129,31 @@ pub(crate) fn record_hair(
 ) -> gen_gpu::Result<()> {
     let (Some(volumes), Some(frame)) = (&r.volumes, state.volumes) else { return Ok(()) };
     let Some(Some(hv)) = frame.hairs.get(h) else { return Ok(()) };
-    let hair = &r.hairs[h];
     let p = &volumes.pipelines;
     let grid = hv.grid;
     let [nx, ny, nz] = grid.dims;
     let region = [nx, ny, nz, hv.first];
     let bricks = [hv.first_brick, 0, 0, 0];
-    match step {
-        VolumeStep::Lod => r.generator.record_lod(rec, hair, &hv.frame),
-        VolumeStep::Clear => rec.fill_buffer(&hv.sums, 0),
-        VolumeStep::Voxelize => {
+    let sums = [(binding::VOXEL_SUMS, &hv.sums)];
+    let object_to_voxel = grid.object_to_voxel().to_cols_array();
+    match (step, &hv.source) {
+        (VolumeStep::Lod, VoxelSource::Generated(f)) => r.generator.record_lod(rec, &r.hairs[h], f),
+        (VolumeStep::Lod, VoxelSource::Stored(..)) => {}
+        (VolumeStep::Clear, _) => rec.fill_buffer(&hv.sums, 0),
+        (VolumeStep::Voxelize, VoxelSource::Generated(f)) => {
             rec.bind_pipeline(&p.voxelize);
-            r.generator.bind_frame(rec, &p.voxelize, hair, &hv.frame, &[(binding::VOXEL_SUMS, &hv.sums)]);
-            let push = VoxelizePush {
-                object_to_voxel: grid.object_to_voxel().to_cols_array(),
-                dims: [nx, ny, nz, 0],
-            };
-            rec.push_constants(&p.voxelize, &push);
-            Generator::record_fused_dispatch(rec, &hv.frame);
+            r.generator.bind_frame(rec, &p.voxelize, &r.hairs[h], f, &sums);
+            rec.push_constants(&p.voxelize, &VoxelizePush { object_to_voxel, dims: [nx, ny, nz, 0] });
+            Generator::record_fused_dispatch(rec, f);
         }
-        VolumeStep::Resolve => {
+        (VolumeStep::Voxelize, VoxelSource::Stored(s, params)) => {
+            let pipeline = &p.voxelize_stored;
+            let group = shaders::HAIR_VOXELIZE_STORED_COMP.workgroup_size[0];
+            r.stored[*s].record_compute(rec, pipeline, params, &sums, group, |rec, slots| {
+                rec.push_constants(pipeline, &VoxelizePush { object_to_voxel, dims: [nx, ny, nz, slots] });
+            });
+        }
+        (VolumeStep::Resolve, _) => {
             rec.bind_pipeline(&p.resolve);
             rec.push_storage_buffers(
                 &p.resolve,
@@ -149,7 +167,7 @@ pub(crate) fn record_hair(
             let (x, y) = voxel_groups(grid.voxels());
             rec.dispatch(x, y, 1);
         }
-        VolumeStep::Bricks => {
+        (VolumeStep::Bricks, _) => {
             rec.bind_pipeline(&p.bricks);
             rec.push_storage_buffers(
                 &p.bricks,
@@ -159,7 +177,7 @@ pub(crate) fn record_hair(
             let (x, y) = voxel_groups(grid.bricks());
             rec.dispatch(x, y, 1);
         }
-        VolumeStep::Ao => {
+        (VolumeStep::Ao, _) => {
             rec.bind_pipeline(&p.ao);
             rec.push_storage_buffers(
                 &p.ao,
