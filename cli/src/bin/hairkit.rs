@@ -404,6 +404,7 @@ fn demo(o: &DemoOptions, device: &DeviceArgs) -> Result<()> {
         "effects": {
             "transparency": "oit",
             "shadows": true,
+            "ao": true,
             "raster": o.raster
         }
     });
@@ -421,7 +422,7 @@ fn demo(o: &DemoOptions, device: &DeviceArgs) -> Result<()> {
         paths.retain(|p| *p == chosen);
     }
     println!(
-        "\n== people: {} characters, {width}x{height}, heads as occluders, OIT + deep-opacity shadows ({})",
+        "\n== people: {} characters, {width}x{height}, heads as occluders, OIT + deep-opacity shadows + volume AO ({})",
         o.characters,
         scene_path.display()
     );
