@@ -289,18 +289,28 @@ impl FrameIds {
         self.shading_reads_as(Access::FragmentRead)
     }
 
-    /// [`Self::shading_reads`] by a compute pass.
-    pub(crate) fn compute_shading_reads(&self) -> Vec<(Res, Access)> {
-        self.shading_reads_as(Access::ComputeRead)
+    /// What a pass that shades hair reads: [`Self::shading_reads`] and the hair volumes (AO and
+    /// volume shadows) when the scene has them.
+    pub(crate) fn hair_shading_reads(&self) -> Vec<(Res, Access)> {
+        let mut r = self.shading_reads();
+        r.extend(self.volume_reads(Access::FragmentRead));
+        r
+    }
+
+    /// [`Self::hair_shading_reads`] by a compute pass.
+    pub(crate) fn compute_hair_shading_reads(&self) -> Vec<(Res, Access)> {
+        let mut r = self.shading_reads_as(Access::ComputeRead);
+        r.extend(self.volume_reads(Access::ComputeRead));
+        r
+    }
+
+    fn volume_reads(&self, access: Access) -> Vec<(Res, Access)> {
+        self.volumes.iter().flat_map(|v| [(v.volume, access), (v.ao, access), (v.bricks, access)]).collect()
     }
 
     fn shading_reads_as(&self, access: Access) -> Vec<(Res, Access)> {
         let mut r = vec![(self.lights, access)];
         r.extend(self.shadow.as_ref().map(|s| (s.maps, access)));
-        // AO and volume shadows.
-        if let Some(v) = &self.volumes {
-            r.extend([(v.volume, access), (v.ao, access), (v.bricks, access)]);
-        }
         r
     }
 

@@ -80,7 +80,7 @@ pub(crate) fn plan_shade(g: &mut FrameGraph<ScenePass>, ids: &FrameIds, submissi
     g.pass("shade hair (compute raster)")
         .read(ids.visibility, Access::ComputeRead)
         .read(ids.raster_frame, Access::ComputeRead)
-        .reads(ids.compute_shading_reads())
+        .reads(ids.compute_hair_shading_reads())
         .write(ids.shaded, Access::ComputeWrite)
         .submission(submission)
         .add(ScenePass::RasterShade);

@@ -27,7 +27,7 @@ pub(crate) fn plan(
             .add(ScenePass::DepthPrepass);
     }
     g.pass(r.raster_pass_name())
-        .reads(ids.shading_reads())
+        .reads(ids.hair_shading_reads())
         .reads(reads)
         .writes(ids.target_writes())
         .submission(submission)

@@ -26,7 +26,7 @@ pub(crate) fn plan_fill(
     submission: usize,
 ) {
     g.pass(format!("raster hair ({}, OIT fill)", r.path))
-        .reads(ids.shading_reads())
+        .reads(ids.hair_shading_reads())
         .reads(strand_reads(r, ids, batch, last))
         // The target is attached for its depth (occluders hide hair); no colour is written.
         .writes(ids.target_writes())
