@@ -4,7 +4,7 @@
 // detail and samples each of its segments twice per voxel it crosses; each sample adds its share
 // of the segment's projected area (length × width, voxel units) and that area times the
 // segment's direction to the voxel it falls in, as 64-bit fixed point (exact sums in any order).
-// Dispatched over every strand (a LOD pass with LOD and culling off). CPU port:
+// Dispatched over the strands of a LOD pass without culling (volume.rs voxelization_inputs). CPU port:
 // volume.rs cpu::voxelize.
 #extension GL_GOOGLE_include_directive : require
 #extension GL_EXT_shader_atomic_int64 : require

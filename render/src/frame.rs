@@ -128,7 +128,7 @@ pub(crate) struct HairVolumeFrame {
 
 /// Where a voxelization's strands come from.
 pub(crate) enum VoxelSource {
-    /// A generated hair: its LOD pass's buffers (every strand, full detail).
+    /// A generated hair: its LOD pass's buffers (`volume::voxelization_inputs`).
     Generated(Box<FrameBuffers>),
     /// Stored strands `s`: their parameters.
     Stored(usize, Buffer),
@@ -1371,7 +1371,7 @@ impl SceneRenderer {
         materials
     }
 
-    /// The frame's voxelizations (LOD and generation inputs: every strand, full detail, no
+    /// The frame's voxelizations (LOD and generation inputs: `volume::voxelization_inputs`, no
     /// culling; a sums buffer each) and raymarches.
     fn volume_frame(
         &self,
@@ -1391,14 +1391,7 @@ impl SceneRenderer {
                     let source = match h.checked_sub(self.hairs.len()) {
                         None => {
                             let hair = &self.hairs[h];
-                            let mut inputs = FrameInputs::looking_at(
-                                &hair.asset,
-                                view.camera.eye,
-                                view.width,
-                                view.height,
-                            );
-                            inputs.lod = LodParams { enabled: false, ..LodParams::default() };
-                            inputs.cull = false;
+                            let inputs = crate::volume::voxelization_inputs(&hair.asset, p.grid.resolution);
                             VoxelSource::Generated(Box::new(
                                 self.generator.prepare_fused(ctx, hair, &inputs)?,
                             ))

@@ -5,7 +5,10 @@
 //!
 //! Per hair and resolution (cached while its asset does not change; `docs/architecture.md`):
 //! 1. **voxelize** (`hair_voxelize.comp`): one invocation per strand generates it (gen-gpu's
-//!    strand-coherent evaluation, every strand at full detail, no culling) and samples each
+//!    strand-coherent evaluation, no culling, every vertex; strand LOD as a camera seeing a voxel
+//!    per pixel would apply it at α [`VOXELIZE_STRAND_ALPHA`]: a bundle covering few voxels
+//!    keeps fewer strands, widened to keep its projected area — a tenth of the strands of the
+//!    example hair at 64³ for 1.001 of the area) and samples each
 //!    segment twice per voxel it crosses; each sample adds its share of the strand's projected
 //!    area (length × width, in voxel units) and that area times the segment direction to its
 //!    voxel with 64-bit fixed-point atomics. Sampling at the voxel frequency leaves no gaps
@@ -114,6 +117,35 @@ impl VolumeGrid {
     pub fn index(&self, x: u32, y: u32, z: u32) -> usize {
         ((z as usize * self.dims[1] as usize) + y as usize) * self.dims[0] as usize + x as usize
     }
+}
+
+/// Strand LOD α of a voxelization, at a camera that sees the hair a voxel per pixel
+/// ([`voxelization_inputs`]).
+pub const VOXELIZE_STRAND_ALPHA: f64 = 16.0;
+
+/// The LOD inputs of a hair's voxelization at `resolution`: a camera that sees the hair's
+/// longest side about `resolution` pixels tall (a voxel per pixel), strand LOD at
+/// [`VOXELIZE_STRAND_ALPHA`] there — a bundle covering few voxels keeps fewer strands, widened
+/// to keep its projected area (the LOD's width compensation) — every vertex (no vertex LOD, so
+/// no morphing), no culling.
+pub fn voxelization_inputs(asset: &hairmesh::asset::HairAsset, resolution: u32) -> gen_gpu::FrameInputs {
+    let (lo, hi) = asset.bounds();
+    let (lo, hi) = (lo.as_vec3(), hi.as_vec3());
+    let centre = 0.5 * (lo + hi);
+    let extent = (hi - lo).max_element().max(1e-9);
+    // FrameInputs::looking_at's 45° field of view, filled by the box's near face.
+    let distance = 0.5 * extent / (22.5f32.to_radians()).tan() + 0.5 * extent;
+    let size = resolution.max(1);
+    let mut inputs =
+        gen_gpu::FrameInputs::looking_at(asset, centre + Vec3::new(0.0, 0.0, distance), size, size);
+    inputs.lod = hairmesh::reference::LodParams {
+        enabled: true,
+        strand_alpha: VOXELIZE_STRAND_ALPHA,
+        vertex_alpha: 1e-9,
+        ..hairmesh::reference::LodParams::default()
+    };
+    inputs.cull = false;
+    inputs
 }
 
 /// The resolution a character `pixels` tall on screen wants: a voxel per pixel or so, as a

@@ -10,12 +10,12 @@ use std::sync::Arc;
 
 use anyhow::{Context as _, ensure};
 use gen_gpu::GenerationPath;
-use glam::{DVec3, Vec3};
+use glam::Vec3;
 use hairkit_tests::harness::{GpuTest, Requirements, run_gpu_tests};
 use hairkit_tests::image_compare::{Tolerance, compare, output_dir};
 use hairkit_tests::scenes::scene_with;
 use hairmesh::asset::HairAsset;
-use hairmesh::reference::{LodParams, Projection, ViewParams};
+use hairmesh::reference::LodParams;
 use render::frame::{RenderedFrame, SceneRenderer};
 use render::instance::{CharacterHair, SceneInstance};
 use render::scene::{LoadedScene, load_scene};
@@ -72,14 +72,11 @@ fn main() -> ExitCode {
             ensure!(frame.volumes_voxelized == 1, "{:?}", frame.passes);
             let gpu = renderer.read_volume(ctx, 0)?.context("no volume after a frame with AO")?;
             let grid = gpu.grid;
-            // Every strand at full detail, as the voxelization's LOD pass asks for.
-            let view = ViewParams {
-                eye: DVec3::new(0.0, 0.0, 10.0),
-                vertical_resolution: 72.0,
-                projection: Projection::Perspective { fov_y: 0.8 },
-            };
-            let strands =
-                asset.generate_reference(&view, &LodParams { enabled: false, ..LodParams::default() });
+            // The strands the voxelization's LOD pass asks for (strand LOD at a voxel per pixel).
+            let inputs = render::volume::voxelization_inputs(&asset, grid.resolution);
+            let strands = asset.generate_reference(&inputs.view, &inputs.lod);
+            let full =
+                asset.generate_reference(&inputs.view, &LodParams { enabled: false, ..LodParams::default() });
             let sums =
                 cpu::voxelize(&grid, strands.iter().map(|s| (s.positions.as_slice(), s.widths.as_slice())));
             // Conservation: the area every segment carries (in voxel units), all inside the grid.
@@ -95,6 +92,22 @@ fn main() -> ExitCode {
                 .sum::<f64>()
                 / (voxel * voxel);
             let port_total: f64 = sums.area.iter().sum();
+            let full_area: f64 = full
+                .iter()
+                .flat_map(|s| {
+                    s.positions
+                        .windows(2)
+                        .zip(s.widths.windows(2))
+                        .map(|(p, w)| (p[1] - p[0]).length() * 0.5 * (w[0] + w[1]))
+                })
+                .sum::<f64>()
+                / (voxel * voxel);
+            eprintln!(
+                "  strand LOD keeps {} of {} strands, {:.4} of the full-detail area",
+                strands.len(),
+                full.len(),
+                carried / full_area
+            );
             let gpu_total: f64 = gpu.volume.iter().map(|v| f64::from(v[3])).sum();
             eprintln!(
                 "  grid {:?}: area carried {carried:.3}, CPU port {port_total:.3}, GPU {gpu_total:.3} (voxel units)",

@@ -38,7 +38,7 @@ pub(crate) fn plan_hair(
     // Volume sources after the uploaded hairs are stored strands (their characters' buffers).
     let stored = h.checked_sub(r.hairs.len());
     if stored.is_none() {
-        g.pass(format!("lod hair {h} (voxelize: every strand)"))
+        g.pass(format!("lod hair {h} (voxelize: a voxel per pixel)"))
             .read(ids.hair_uploads[h], Access::ComputeRead)
             .write(v.lod[h], Access::ComputeWrite)
             .cached(plan.cached)
