@@ -81,27 +81,20 @@ fn main() -> ExitCode {
                 cpu::voxelize(&grid, strands.iter().map(|s| (s.positions.as_slice(), s.widths.as_slice())));
             // Conservation: the area every segment carries (in voxel units), all inside the grid.
             let voxel = f64::from(grid.voxel);
-            let carried: f64 = strands
-                .iter()
-                .flat_map(|s| {
-                    s.positions
-                        .windows(2)
-                        .zip(s.widths.windows(2))
-                        .map(|(p, w)| (p[1] - p[0]).length() * 0.5 * (w[0] + w[1]))
-                })
-                .sum::<f64>()
-                / (voxel * voxel);
+            let area = |strands: &[hairmesh::reference::Strand]| -> f64 {
+                strands
+                    .iter()
+                    .flat_map(|s| {
+                        s.positions
+                            .windows(2)
+                            .zip(s.widths.windows(2))
+                            .map(|(p, w)| (p[1] - p[0]).length() * 0.5 * (w[0] + w[1]))
+                    })
+                    .sum::<f64>()
+                    / (voxel * voxel)
+            };
+            let (carried, full_area) = (area(&strands), area(&full));
             let port_total: f64 = sums.area.iter().sum();
-            let full_area: f64 = full
-                .iter()
-                .flat_map(|s| {
-                    s.positions
-                        .windows(2)
-                        .zip(s.widths.windows(2))
-                        .map(|(p, w)| (p[1] - p[0]).length() * 0.5 * (w[0] + w[1]))
-                })
-                .sum::<f64>()
-                / (voxel * voxel);
             eprintln!(
                 "  strand LOD keeps {} of {} strands, {:.4} of the full-detail area",
                 strands.len(),
