@@ -1,6 +1,7 @@
 #version 460
 // Occluder shading: Lambert with every scene light, shadowed by the hair's deep opacity maps and
-// by other occluders; both sides of the surface are lit (scalp meshes are often open).
+// by other occluders, darkened by its character's hair AO; both sides of the surface are lit
+// (scalp meshes are often open).
 #extension GL_GOOGLE_include_directive : require
 
 layout(push_constant) uniform Occluder {
@@ -8,9 +9,12 @@ layout(push_constant) uniform Occluder {
     mat4 view_proj;
     vec4 eye;
     vec4 color;
+    mat4 world_to_voxel;  // the character's hair volume (AO), when volume.x > 0
+    uvec4 volume;         // voxels per axis, first voxel
 } occluder;
 
 #include "lighting.glsl"
+#include "volume_ao.glsl"
 
 layout(location = 0) in vec3 v_position;
 layout(location = 1) in vec3 v_normal;
@@ -31,6 +35,10 @@ void main() {
         if (lambert > 0.0) {
             color += albedo * lights[i].color.rgb * lambert * light_transmittance(i, v_position);
         }
+    }
+    // The hair's AO darkens the scalp and skin under and beside it.
+    if (occluder.volume.x > 0u) {
+        color *= volume_ao_sample(occluder.volume, (occluder.world_to_voxel * vec4(v_position, 1.0)).xyz);
     }
     out_color = vec4(color, 1.0);
 }

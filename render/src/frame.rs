@@ -152,6 +152,10 @@ pub(crate) struct SceneOccluder {
     pub(crate) mesh: usize,
     pub(crate) transform: Mat4,
     pub(crate) color: [f32; 3],
+    /// Its character's hair: the volume source ([`SceneRenderer::volume_sources`]) and placement
+    /// whose AO darkens it.
+    pub(crate) hair_volume: usize,
+    pub(crate) hair_transform: Mat4,
 }
 
 /// Everything a scene needs on the GPU, built once and rendered many times.
@@ -479,6 +483,7 @@ impl SceneRenderer {
         let mut mesh_keys: HashMap<&str, usize> = HashMap::new();
         let mut meshes = Vec::new();
         let mut occluders = Vec::new();
+        let mut occluder_sources = Vec::new();
         for c in &instance.characters {
             if let Some(o) = &c.occluder {
                 let mesh = match mesh_keys.get(o.key.as_str()) {
@@ -489,9 +494,17 @@ impl SceneRenderer {
                         meshes.len() - 1
                     }
                 };
-                occluders.push(SceneOccluder { mesh, transform: o.transform, color: o.color });
+                // The hair's volume source is set below, once the uploads are counted.
+                occluders.push(SceneOccluder {
+                    mesh,
+                    transform: o.transform,
+                    color: o.color,
+                    hair_volume: usize::MAX,
+                    hair_transform: c.transform,
+                });
             }
-            match &c.hair {
+            // (Whether this character's hair is stored, and its index among its kind.)
+            let source = match &c.hair {
                 CharacterHair::Stored { strands, width } => {
                     stored.push(gen_gpu::StoredStrands::upload(
                         ctx,
@@ -506,6 +519,7 @@ impl SceneRenderer {
                         color: c.color,
                         variation: c.color_variation,
                     });
+                    (true, stored.len() - 1)
                 }
                 CharacterHair::Generated(asset) => {
                     let hair = match keys.get(c.key.as_str()) {
@@ -522,8 +536,16 @@ impl SceneRenderer {
                         color: c.color,
                         variation: c.color_variation,
                     });
+                    (false, hair)
                 }
+            };
+            if c.occluder.is_some() {
+                occluder_sources.push(source);
             }
+        }
+        // Volume sources: the uploaded hairs, then the stored strands.
+        for (o, (is_stored, index)) in occluders.iter_mut().zip(occluder_sources) {
+            o.hair_volume = if is_stored { hairs.len() + index } else { index };
         }
         let shadow = if scene.shadow_lights().is_empty() { None } else { Some(ShadowPipelines::new(ctx)?) };
         let no_shadow = [

@@ -34,6 +34,10 @@ pub struct OccluderPush {
     pub eye: [f32; 4],
     /// rgb albedo (linear); w: ambient.
     pub color: [f32; 4],
+    /// With `"ao"`: world → voxel coordinates of the character's hair volume, and its grid
+    /// (voxels per axis, first voxel; 0 voxels: no AO) — the hair darkens the scalp under it.
+    pub world_to_voxel: [f32; 16],
+    pub volume: [u32; 4],
 }
 
 /// Area-weighted vertex normals of the triangles `indices` over `positions`.
@@ -164,6 +168,7 @@ impl OccluderPipelines {
         let bindings: Vec<Binding> = [b::OCCLUDER_POSITIONS, b::OCCLUDER_NORMALS, b::OCCLUDER_INDICES]
             .into_iter()
             .chain(LIGHTING_BINDINGS)
+            .chain([b::VOLUME_AO])
             .map(|b| Binding::storage_buffer(b, stages))
             .collect();
         let desc = |name, fragment, color_format, samples, color_write| GraphicsPipelineDesc {
@@ -207,5 +212,7 @@ pub fn occluder_push(
         view_proj: view_proj.to_cols_array(),
         eye: eye.extend(lights as f32).to_array(),
         color: [color[0], color[1], color[2], 0.08],
+        world_to_voxel: Mat4::IDENTITY.to_cols_array(),
+        volume: [0; 4],
     }
 }

@@ -526,6 +526,49 @@ fn main() -> ExitCode {
             }
             Ok(())
         }),
+        GpuTest::new("the_hair_ao_darkens_the_occluders", Requirements::INT64_ATOMICS, |ctx| {
+            // The Sintel bust where no hair covers it (the same pixel with the groom in place and
+            // moved far away) gets darker with AO near the hair, as skin beside dense hair does.
+            let dir = tempfile::tempdir()?;
+            let frame = |ao: bool, away: bool| -> anyhow::Result<RenderedFrame> {
+                let path = hairkit_tests::scenes::sintel_scene(
+                    dir.path(),
+                    "sintel",
+                    serde_json::json!({ "ao": ao }),
+                )?;
+                let mut instance = SceneInstance::load(&load_scene(&path)?)?;
+                if away {
+                    instance.characters[0].transform =
+                        glam::Mat4::from_translation(Vec3::new(0.0, 100.0, 0.0));
+                }
+                Ok(SceneRenderer::from_instance(ctx, &instance, GenerationPath::Compute)?.render(ctx)?)
+            };
+            let (bare, plain, ao) = (frame(false, true)?, frame(false, false)?, frame(true, false)?);
+            write(&ao, "occluder-ao")?;
+            let luminance = |p: &[f32]| f64::from(0.2126 * p[0] + 0.7152 * p[1] + 0.0722 * p[2]);
+            let (mut bare_pixels, mut darker, mut brighter) = (0, 0, 0);
+            let pixels = bare
+                .linear
+                .rgba
+                .chunks_exact(4)
+                .zip(plain.linear.rgba.chunks_exact(4))
+                .zip(ao.linear.rgba.chunks_exact(4));
+            for ((b, p), a) in pixels {
+                if b[3] > 0.5 && b.iter().zip(p).all(|(x, y)| (x - y).abs() < 1e-4) {
+                    bare_pixels += 1;
+                    let (l_plain, l_ao) = (luminance(p), luminance(a));
+                    darker += usize::from(l_ao < 0.98 * l_plain);
+                    brighter += usize::from(l_ao > l_plain * 1.0001 + 1e-6);
+                }
+            }
+            eprintln!(
+                "  {bare_pixels} bare bust pixels: {darker} darker by over 2 % with AO, {brighter} brighter"
+            );
+            ensure!(bare_pixels > 1000, "too few bare bust pixels ({bare_pixels})");
+            ensure!(darker > 100, "the hair's AO does not reach the bust");
+            ensure!(brighter == 0, "AO brightened {brighter} pixels");
+            Ok(())
+        }),
         GpuTest::new("the_volume_lod_path_needs_the_compute_rasterizer", Requirements::NONE, |_ctx| {
             let dir = tempfile::tempdir()?;
             let path =

@@ -12,6 +12,8 @@ pub(crate) fn plan(g: &mut FrameGraph<ScenePass>, ids: &FrameIds, submission: us
     g.pass("occluders")
         .read(ids.occluder_meshes, Access::PreRasterRead)
         .reads(ids.shading_reads())
+        // The hair's AO darkens the occluders.
+        .reads(ids.volumes.iter().map(|v| (v.ao, Access::FragmentRead)))
         .writes(ids.target_writes())
         .submission(submission)
         .add(ScenePass::Occluders);
@@ -29,8 +31,19 @@ pub(crate) fn record(
     state.target.begin_rendering(rec, clear);
     let light_count = r.scene.lights().len();
     for o in &r.occluders {
-        let push = occluder_push(o.transform, view_proj, view.camera.eye, light_count, o.color);
-        r.meshes[o.mesh].record_draw(rec, &pipes.shade, &push, &state.lighting);
+        let mut push = occluder_push(o.transform, view_proj, view.camera.eye, light_count, o.color);
+        if let (true, Some(volumes), Some(Some(p))) = (
+            r.scene.scene.effects.ao,
+            r.volumes.as_ref(),
+            state.plan.ids.volumes.as_ref().and_then(|v| v.hairs.get(o.hair_volume)),
+        ) {
+            let [x, y, z] = p.grid.dims;
+            push.world_to_voxel = p.grid.world_to_voxel(o.hair_transform).to_cols_array();
+            push.volume = [x, y, z, volumes.store.regions[o.hair_volume].0 as u32];
+        }
+        let l = state.lighting;
+        let buffers = [l[0], l[1], l[2], l[3], state.volume_buffers[1]];
+        r.meshes[o.mesh].record_draw(rec, &pipes.shade, &push, &buffers);
     }
     rec.end_rendering();
     Ok(())
