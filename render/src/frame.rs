@@ -84,7 +84,7 @@ pub(crate) struct SceneCharacter {
     pub(crate) variation: f32,
 }
 
-/// The hair volumes of a scene with `"ao"` or `"volume_lod"` ([`crate::volume`]).
+/// The hair volumes of a scene with `"ao"`, `"volume_shadows"` or `"volume_lod"` ([`crate::volume`]).
 pub(crate) struct SceneVolumes {
     pub(crate) pipelines: VolumePipelines,
     pub(crate) store: VolumeStore,
@@ -120,8 +120,7 @@ pub(crate) struct VolumeIds {
 /// A voxelization recorded this frame.
 pub(crate) struct HairVolumeFrame {
     pub(crate) grid: VolumeGrid,
-    pub(crate) first: u32,
-    pub(crate) first_brick: u32,
+    pub(crate) address: crate::volume::VolumeAddress,
     pub(crate) source: VoxelSource,
     pub(crate) sums: Buffer,
 }
@@ -199,7 +198,7 @@ pub struct SceneRenderer {
     /// Compute rasterizer: draw in two phases around the occlusion tiles (the default) or every
     /// strand in one ([`Self::with_occlusion_tiles`]).
     pub(crate) occlusion_tiles: bool,
-    /// Hair volumes (with `"ao"` or `"volume_lod"`).
+    /// Hair volumes (with `"ao"`, `"volume_shadows"` or `"volume_lod"`).
     pub(crate) volumes: Option<SceneVolumes>,
     /// `"volume_lod"`: every character raymarched whatever its size ([`Self::with_volumes_everywhere`]).
     volumes_everywhere: bool,
@@ -276,7 +275,7 @@ pub(crate) struct FrameIds {
     pub(crate) raster_tiles: Res,
     /// Per uploaded hair: its asset.
     pub(crate) hair_uploads: Vec<Res>,
-    /// Hair volumes (with `"ao"` or `"volume_lod"`).
+    /// Hair volumes (with `"ao"`, `"volume_shadows"` or `"volume_lod"`).
     pub(crate) volumes: Option<VolumeIds>,
     /// Per generated character: its hair asset, LOD result and strands.
     pub(crate) hair: Vec<Res>,
@@ -892,10 +891,9 @@ impl SceneRenderer {
     }
 
     /// Which characters the frame raymarches (`"volume_lod"`: at most `volume_lod_pixels` on
-    /// screen)
-    /// and each hair's volume: the resolution its volume-drawn characters' sizes ask for, at
-    /// least [`crate::volume::AO_RESOLUTION`] with AO; cached when its region holds a grid at
-    /// least that fine of the hair's current revision.
+    /// screen) and each volume source's volume: the resolution its raymarched characters' sizes
+    /// ask for, at least [`crate::volume::AO_RESOLUTION`] with AO or volume shadows; cached when
+    /// its region holds a grid at least that fine of the source's current revision.
     fn plan_volumes(
         &self,
         g: &mut FrameGraph<ScenePass>,
@@ -1030,14 +1028,13 @@ impl SceneRenderer {
     /// The triangle raster's part of AO and volume shadows: volume source `v`'s volume this
     /// frame into a character's shading constants.
     pub(crate) fn volume_shading(&self, plan: &FramePlan, v: usize, s: &mut Shading) {
-        let effects = self.scene.scene.effects;
-        let flags = u32::from(effects.ao) | (u32::from(effects.volume_shadows) << 1);
+        let flags = self.scene.scene.effects.volume_flags();
         let (Some(volumes), Some(ids)) = (&self.volumes, &plan.ids.volumes) else { return };
         if let (Some(Some(p)), true) = (ids.hairs.get(v), flags != 0) {
-            let [x, y, z] = p.grid.dims;
+            let address = volumes.store.address(v, &p.grid);
             s.volume_box = p.grid.origin.extend(1.0 / p.grid.voxel).to_array();
-            s.volume_grid = [x, y, z, volumes.store.regions[v].0 as u32];
-            s.volume_info = [volumes.store.brick_regions[v].0 as u32, flags, 0, 0];
+            s.volume_grid = address.dims;
+            s.volume_info = [address.first_brick, flags, 0, 0];
         }
     }
 
@@ -1371,8 +1368,7 @@ impl SceneRenderer {
     /// (grid and placement).
     fn frame_materials(&self, plan: &FramePlan) -> Vec<RasterMaterial> {
         let mut materials = self.raster_materials.clone();
-        let effects = self.scene.scene.effects;
-        let flags = u32::from(effects.ao) | (u32::from(effects.volume_shadows) << 1);
+        let flags = self.scene.scene.effects.volume_flags();
         let (Some(volumes), Some(ids), true) = (&self.volumes, &plan.ids.volumes, flags != 0) else {
             return materials;
         };
@@ -1384,10 +1380,10 @@ impl SceneRenderer {
             .chain(self.stored_characters.iter().map(|c| (c, self.hairs.len() + c.hair)));
         for ((c, v), &m) in sources.zip(&self.character_materials) {
             if let (Some(Some(p)), Some(material)) = (ids.hairs.get(v), materials.get_mut(m as usize)) {
-                let [x, y, z] = p.grid.dims;
+                let address = volumes.store.address(v, &p.grid);
                 material.world_to_voxel = p.grid.world_to_voxel(c.transform).to_cols_array();
-                material.volume = [x, y, z, volumes.store.regions[v].0 as u32];
-                material.volume_info = [volumes.store.brick_regions[v].0 as u32, flags, 0, 0];
+                material.volume = address.dims;
+                material.volume_info = [address.first_brick, flags, 0, 0];
             }
         }
         materials
@@ -1434,8 +1430,7 @@ impl SceneRenderer {
                     )?;
                     Some(HairVolumeFrame {
                         grid: p.grid,
-                        first: volumes.store.regions[h].0 as u32,
-                        first_brick: volumes.store.brick_regions[h].0 as u32,
+                        address: volumes.store.address(h, &p.grid),
                         source,
                         sums,
                     })
@@ -1450,22 +1445,17 @@ impl SceneRenderer {
         for &i in &plan.volume_characters {
             let c = &self.characters[i];
             let Some(Some(p)) = ids.hairs.get(c.hair) else { continue };
-            let [x, y, z] = p.grid.dims;
+            let address = volumes.store.address(c.hair, &p.grid);
             let material = self.character_materials.get(i).copied().unwrap_or(0);
             let flags = u32::from(!self.occluders.is_empty());
             frame.marches.push(MarchJob {
                 character: i,
                 push: crate::volume::MarchPush {
                     world_to_voxel: p.grid.world_to_voxel(c.transform).to_cols_array(),
-                    dims: [x, y, z, volumes.store.regions[c.hair].0 as u32],
+                    dims: address.dims,
                     rect: crate::volume::march_rect(view_proj, view.width, view.height, c.transform, &p.grid),
                     info: [material, raster.k, flags, volumes.opacity.to_bits()],
-                    extra: [
-                        volumes.store.brick_regions[c.hair].0 as u32,
-                        plan.volume_fraction(i).to_bits(),
-                        0,
-                        0,
-                    ],
+                    extra: [address.first_brick, plan.volume_fraction(i).to_bits(), 0, 0],
                 },
             });
         }

@@ -301,6 +301,12 @@ impl Effects {
     pub fn uses_volumes(&self) -> bool {
         self.ao || self.volume_lod || self.volume_shadows
     }
+
+    /// What the shading reads from a volume, as the shaders' flags: bit 0 AO, bit 1 volume
+    /// shadows.
+    pub fn volume_flags(&self) -> u32 {
+        u32::from(self.ao) | (u32::from(self.volume_shadows) << 1)
+    }
 }
 
 impl Default for Effects {

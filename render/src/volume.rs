@@ -333,7 +333,24 @@ pub(crate) struct VolumeStore {
     pub(crate) max_resolution: u32,
 }
 
+/// Where the shaders find a volume: its grid's voxels per axis and first voxel (`uvec4 dims` /
+/// `volume` in the GLSL), and its first brick.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub(crate) struct VolumeAddress {
+    pub(crate) dims: [u32; 4],
+    pub(crate) first_brick: u32,
+}
+
 impl VolumeStore {
+    /// Volume source `v`'s region holding `grid`, as the shaders address it.
+    pub(crate) fn address(&self, v: usize, grid: &VolumeGrid) -> VolumeAddress {
+        let [x, y, z] = grid.dims;
+        VolumeAddress {
+            dims: [x, y, z, self.regions[v].0 as u32],
+            first_brick: self.brick_regions[v].0 as u32,
+        }
+    }
+
     /// Buffers for `bounds` (each hair's object box) at resolutions up to `max_resolution`,
     /// lowered by halves until they fit one storage buffer.
     pub(crate) fn new(ctx: &Context, bounds: &[(Vec3, Vec3)], max_resolution: u32) -> gen_gpu::Result<Self> {

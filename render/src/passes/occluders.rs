@@ -37,9 +37,8 @@ pub(crate) fn record(
             r.volumes.as_ref(),
             state.plan.ids.volumes.as_ref().and_then(|v| v.hairs.get(o.hair_volume)),
         ) {
-            let [x, y, z] = p.grid.dims;
             push.world_to_voxel = p.grid.world_to_voxel(o.hair_transform).to_cols_array();
-            push.volume = [x, y, z, volumes.store.regions[o.hair_volume].0 as u32];
+            push.volume = volumes.store.address(o.hair_volume, &p.grid).dims;
         }
         let l = state.lighting;
         let buffers = [l[0], l[1], l[2], l[3], state.volume_buffers[1]];

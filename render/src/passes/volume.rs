@@ -132,8 +132,8 @@ pub(crate) fn record_hair(
     let p = &volumes.pipelines;
     let grid = hv.grid;
     let [nx, ny, nz] = grid.dims;
-    let region = [nx, ny, nz, hv.first];
-    let bricks = [hv.first_brick, 0, 0, 0];
+    let region = hv.address.dims;
+    let bricks = [hv.address.first_brick, 0, 0, 0];
     let sums = [(binding::VOXEL_SUMS, &hv.sums)];
     let object_to_voxel = grid.object_to_voxel().to_cols_array();
     match (step, &hv.source) {
