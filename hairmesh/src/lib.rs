@@ -6,6 +6,7 @@
 pub mod asset;
 pub mod asset_io;
 pub mod atomic;
+pub mod convert;
 pub mod curve;
 mod error;
 pub mod hair_mesh;

@@ -21,6 +21,8 @@ pub enum RenderError {
         "the compute rasterizer (\"raster\": \"compute\") cannot draw this scene: {why}; use \"auto\" or \"triangles\""
     )]
     RasterUnavailable { why: String },
+    #[error("cannot render this view: {why}")]
+    InvalidView { why: String },
     #[error("{path}: lights[{light}]: {message}")]
     Light { path: std::path::PathBuf, light: usize, message: String },
 }

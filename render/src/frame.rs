@@ -686,6 +686,14 @@ impl SceneRenderer {
         self.view_from(Vec3::from_array(c.eye), Vec3::from_array(c.target))
     }
 
+    /// The scene's view (its output size, field of view and LOD settings) with the camera at
+    /// `eye` looking at `target`: what [`Self::render_camera`] draws. Change its size (at most
+    /// the scene's output) or LOD and pass it to [`Self::render_view`], e.g. for an editor's
+    /// quick previews.
+    pub fn frame_view(&self, eye: Vec3, target: Vec3) -> FrameView {
+        self.view_from(eye, target)
+    }
+
     pub(crate) fn view_from(&self, eye: Vec3, target: Vec3) -> FrameView {
         let s = &self.scene.scene;
         FrameView {
@@ -1132,7 +1140,23 @@ impl SceneRenderer {
         eye: Vec3,
         target: Vec3,
     ) -> Result<RenderedFrame, RenderError> {
-        let plan = self.plan(self.view_from(eye, target));
+        self.render_view(ctx, self.view_from(eye, target))
+    }
+
+    /// Renders one frame seen through `view` ([`Self::frame_view`]): plans its graph and runs it.
+    /// A view larger than the scene's output is refused (the renderer's per-pixel buffers and
+    /// rasterizer choice were sized for the output).
+    pub fn render_view(&self, ctx: &Context, view: FrameView) -> Result<RenderedFrame, RenderError> {
+        let output = self.scene.scene.output;
+        if view.width == 0 || view.height == 0 || view.width > output.width || view.height > output.height {
+            return Err(RenderError::InvalidView {
+                why: format!(
+                    "{}×{} is empty or larger than the scene's {}×{} output",
+                    view.width, view.height, output.width, output.height
+                ),
+            });
+        }
+        let plan = self.plan(view);
         let mut pool = self.pool.lock().unwrap_or_else(|e| e.into_inner());
         let mut run = GraphRun::new(&plan.graph);
         let mut timings = FrameTimings::default();

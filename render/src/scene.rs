@@ -446,6 +446,12 @@ impl LoadedScene {
     pub fn validate(&self) -> Result<(), SceneError> {
         validate(self)
     }
+
+    /// Checks every field but the character list (output, camera, lights, LOD, effects): for
+    /// the settings of a [`crate::instance::SceneInstance`] whose characters are in memory.
+    pub fn validate_settings(&self) -> Result<(), SceneError> {
+        validate_with(self, false)
+    }
 }
 
 /// Reads, parses and validates a scene file.
@@ -471,6 +477,11 @@ pub fn load_scene(path: &Path) -> Result<LoadedScene, SceneError> {
 }
 
 fn validate(loaded: &LoadedScene) -> Result<(), SceneError> {
+    validate_with(loaded, true)
+}
+
+/// [`validate`], with or without the character list (an in-memory instance brings its own).
+fn validate_with(loaded: &LoadedScene, characters: bool) -> Result<(), SceneError> {
     let s = &loaded.scene;
     let path = &loaded.path;
     let invalid = |field: &str, message: String| SceneError::Invalid {
@@ -543,7 +554,7 @@ fn validate(loaded: &LoadedScene) -> Result<(), SceneError> {
             return Err(invalid(&format!("lights[{i}].direction"), "is zero".into()));
         }
     }
-    if s.characters.is_empty() || s.characters.len() > MAX_CHARACTERS {
+    if characters && (s.characters.is_empty() || s.characters.len() > MAX_CHARACTERS) {
         return Err(invalid(
             "characters",
             format!("{} characters (expected 1..={MAX_CHARACTERS})", s.characters.len()),

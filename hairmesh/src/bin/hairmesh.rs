@@ -13,11 +13,10 @@ use std::time::Instant;
 
 use anyhow::{Context, Result, bail};
 use clap::{Parser, Subcommand};
-use hairmesh::ScalpSelector;
-use hairmesh::asset::{AssetParams, HairAsset, LayerSource, ScalpProvenance, StrandCount};
+use hairmesh::asset::LayerSource;
 use hairmesh::asset_io::{Precision, read_asset, write_asset};
-use hairmesh::hair_mesh::{BundleFace, DrapeParams, ExtrudeParams, HairMesh};
-use hairmesh::import::load_scalp;
+use hairmesh::convert::{ConvertSettings, Converted, LayerShape, convert_scalp};
+use hairmesh::hair_mesh::BundleFace;
 use hairmesh::style::Style;
 use hairmesh::texture::SliceLayout;
 
@@ -106,14 +105,6 @@ fn parse_vec3(text: &str) -> Result<glam::DVec3, String> {
 }
 
 impl ConvertArgs {
-    fn strand_count(&self) -> StrandCount {
-        match (self.density, self.strands) {
-            (Some(d), _) => StrandCount::Density(d),
-            (None, Some(n)) => StrandCount::Total(n),
-            (None, None) => StrandCount::Total(20_000),
-        }
-    }
-
     fn style(&self) -> Result<Style> {
         let Some(path) = &self.style else { return Ok(Style::default()) };
         let text = std::fs::read_to_string(path).with_context(|| format!("reading {}", path.display()))?;
@@ -168,60 +159,45 @@ fn step<T>(what: &str, f: impl FnOnce() -> Result<T>) -> Result<T> {
 
 fn convert(o: &ConvertArgs) -> Result<()> {
     let (input, out) = (o.input.as_path(), o.out.as_path());
-    let style = o.style()?;
-    let selector = ScalpSelector::parse(&o.scalp)?;
-    let scalp = step(&format!("importing {}", input.display()), || Ok(load_scalp(input, &selector)?))?;
-    for w in &scalp.warnings {
-        eprintln!("warning: {w}");
-    }
-    let (lo, hi) = scalp.bounds().context("empty scalp")?;
-    let length = o.length.unwrap_or(0.6 * lo.distance(hi));
-    let drape = |centre| DrapeParams {
+    let settings = ConvertSettings {
+        scalp: o.scalp.clone(),
         layers: o.layers,
-        length,
-        centre,
-        lift: o.lift,
-        gravity: glam::DVec3::NEG_Y,
-        comb: o.comb,
-    };
-    let hm = step("building the hair mesh", || {
-        Ok(if o.morph_layers {
-            HairMesh::from_morph_targets(&scalp)?
+        length: o.length,
+        shape: if o.morph_layers {
+            LayerShape::MorphTargets
         } else if let Some(centre) = o.drape {
-            HairMesh::drape(&scalp, &drape(centre))?
+            LayerShape::Drape { centre, comb: o.comb, lift: o.lift }
         } else {
-            HairMesh::extrude(
-                &scalp,
-                &ExtrudeParams { layers: o.layers, length, droop: o.droop, ..ExtrudeParams::default() },
-            )?
-        })
-    })?;
-    let params = AssetParams {
-        strands: o.strand_count(),
-        sample_sets: o.sample_sets,
+            LayerShape::Extrude { droop: o.droop }
+        },
+        strands: o.strands.unwrap_or(20_000),
+        density: o.density,
         seed: o.seed,
+        sample_sets: o.sample_sets,
         layout: match o.layout {
             LayoutArg::Lattice => SliceLayout::Lattice,
             LayoutArg::Blocks => SliceLayout::Blocks,
         },
+        style: o.style()?,
     };
-    let mut asset = step("textures and blue-noise root sets", || Ok(HairAsset::build(&hm, &params, style)?))?;
-    asset.provenance = Some(ScalpProvenance {
-        file: input.display().to_string(),
-        selector: o.scalp.clone(),
-        layers: if o.morph_layers {
-            LayerSource::MorphTargets
-        } else if let Some(centre) = o.drape {
-            LayerSource::Draped(drape(centre))
-        } else {
-            LayerSource::Extruded(ExtrudeParams {
-                layers: o.layers,
-                length,
-                droop: o.droop,
-                ..ExtrudeParams::default()
-            })
-        },
+    // Each step's time is printed when the next one starts, the last one's after the call.
+    let mut started: Option<Instant> = None;
+    let finish_step = |started: &mut Option<Instant>| {
+        if let Some(t) = started.take() {
+            eprintln!("{:.2} s", t.elapsed().as_secs_f64());
+        }
+    };
+    let converted = convert_scalp(input, &settings, &mut |step: &str| {
+        finish_step(&mut started);
+        eprint!("{step}… ");
+        started = Some(Instant::now());
     });
+    finish_step(&mut started);
+    let Converted { asset, scalp, length } = converted?;
+    for w in &scalp.warnings {
+        eprintln!("warning: {w}");
+    }
+    let hm = asset.mesh();
     let units = if matches!(input.extension().and_then(|e| e.to_str()), Some("gltf" | "glb")) {
         "metres"
     } else {
@@ -259,7 +235,7 @@ fn convert(o: &ConvertArgs) -> Result<()> {
     );
     println!(
         "slice layout:   {:?}: {} texels per slice for {} root vertices ({} as 2×2 blocks)",
-        params.layout,
+        settings.layout,
         t.layout.slice_texels(),
         hm.layers[0].len(),
         {

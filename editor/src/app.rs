@@ -1,0 +1,1357 @@
+//! The editor's UI: menu bar, conversion / style / scene panels, the viewport with the live
+//! preview and the hair-mesh overlay, the status bar, dialogs and prompts.
+//!
+//! [`EditorApp::ui`] draws one frame from the app's state and applies what the user did; it
+//! never blocks: conversions run in a thread ([`ConversionJob`]), preview frames come from the
+//! [`PreviewWorker`], file dialogs are egui windows (`egui_file`). Tests drive it through
+//! `egui_kittest`; `src/main.rs` through `eframe`.
+//!
+//! **Dragging hair-mesh vertices**: the overlay shows the outer layer (the tips' layer).
+//! Dragging one of its vertices moves it in the view plane through it; the inner layers of
+//! the same column follow in proportion to their height, layer `k` of `L` by `k / L` of the
+//! tip's motion, so the root stays on the scalp and the column keeps its shape. With
+//! *Mirror X* the vertex whose root mirrors this one's across x = 0 moves with it, mirrored.
+
+use std::path::{Path, PathBuf};
+use std::sync::mpsc::{Receiver, channel};
+use std::sync::{Arc, Mutex};
+use std::time::Instant;
+
+use egui::{Color32, Pos2, Rect, Sense, Stroke, Vec2};
+use glam::{DVec3, Vec3};
+use hairmesh::asset::VertexMove;
+use hairmesh::convert::{ConvertSettings, LayerShape};
+use hairmesh::style::Style;
+use render::scene::Transparency;
+
+use crate::EditorError;
+use crate::camera::{OrbitCamera, Projection, pick};
+use crate::document::{Document, Gesture, Source};
+use crate::presets::{PRESETS, Preset};
+use crate::preview::{PreviewEvent, PreviewRequest, PreviewScene, PreviewWorker};
+
+/// Pixels within which the pointer picks a hair-mesh vertex.
+const PICK_RADIUS: f32 = 8.0;
+/// Most recent files remembered.
+const MAX_RECENT: usize = 8;
+
+/// What a file dialog is for.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+enum DialogPurpose {
+    Open,
+    SaveAs,
+    ExportPng,
+    ExportScene,
+}
+
+/// What waits for the unsaved-changes prompt.
+#[derive(Clone, Debug, PartialEq)]
+pub enum PendingAction {
+    Open(PathBuf),
+    Quit,
+}
+
+/// A conversion running in a thread.
+#[derive(Debug)]
+pub struct ConversionJob {
+    pub file: PathBuf,
+    pub step: String,
+    started: Instant,
+    progress: Receiver<String>,
+    result: Receiver<Result<Document, EditorError>>,
+}
+
+/// What the preview is asked to draw: a new one means a new request.
+#[derive(Clone, Debug, PartialEq)]
+struct RequestKey {
+    generation: u64,
+    revision: u64,
+    camera: OrbitCamera,
+    size: [u32; 2],
+    scene: PreviewScene,
+}
+
+/// The last frame shown.
+#[derive(Clone, Debug)]
+pub struct ShownFrame {
+    pub id: u64,
+    pub draft: bool,
+    pub ms: f64,
+    pub strands: u64,
+    pub vertices: u64,
+    pub size: [u32; 2],
+    /// The frame answers the current request key (not an older state).
+    pub current: bool,
+    image: Arc<gen_gpu::RgbaImage>,
+}
+
+/// A vertex drag in progress: the vertices it moves and where they were when it began.
+#[derive(Clone, Debug)]
+struct VertexDrag {
+    /// Outer-layer vertex under the pointer, and its mirror (with Mirror X).
+    vertex: u32,
+    mirror: Option<u32>,
+    /// Column positions (layers 0..=L) at the start, per dragged vertex.
+    start: Vec<(u32, Vec<DVec3>)>,
+    pointer_start: Pos2,
+}
+
+/// `--screenshot`: save the window once the first full-quality preview is shown.
+#[derive(Debug)]
+pub struct ScreenshotRequest {
+    pub out: PathBuf,
+    asked: bool,
+    /// Set by the screenshot callback.
+    pub result: Arc<Mutex<Option<Result<(), String>>>>,
+}
+
+/// The editor's state.
+pub struct EditorApp {
+    pub doc: Option<Document>,
+    pub camera: OrbitCamera,
+    pub scene: PreviewScene,
+    /// Conversion settings shown in the panel (those of the open scalp, or the next one).
+    pub convert: ConvertSettings,
+    pub conversion: Option<ConversionJob>,
+    preview: Option<PreviewWorker>,
+    texture: Option<egui::TextureHandle>,
+    pub shown: Option<ShownFrame>,
+    /// Request keys sent, draft and full.
+    requested: Option<(RequestKey, bool)>,
+    last_request_id: Option<u64>,
+    /// A preset button pressed this frame (applied after the panel is drawn).
+    pending_preset: Option<&'static Preset>,
+    pub device: Option<String>,
+    pub preview_error: Option<String>,
+    /// The error shown in the error window (file and problem).
+    pub error: Option<String>,
+    /// One-line notes in the status bar (saved, exported, …).
+    pub note: Option<String>,
+    pub pending: Option<PendingAction>,
+    dialog: Option<(DialogPurpose, egui_file::FileDialog)>,
+    pub recent: Vec<PathBuf>,
+    /// Where the recent-file list is kept (`None`: memory only).
+    recent_file: Option<PathBuf>,
+    pub show_overlay: bool,
+    pub mirror_x: bool,
+    pub hovered_vertex: Option<u32>,
+    drag: Option<VertexDrag>,
+    /// The vertex under the pointer when the primary button went down.
+    press_vertex: Option<u32>,
+    /// The viewport has the pointer (orbit, pan or a vertex drag).
+    viewport_dragging: bool,
+    /// A slider or a drag is active this frame: previews are drafts.
+    interacting: bool,
+    viewport_size: [u32; 2],
+    /// Where the viewport was drawn last frame (points), for tests and tools.
+    pub viewport_rect: Rect,
+    pub screenshot: Option<ScreenshotRequest>,
+    /// The window should close (eframe's glue acts on it).
+    pub quit: bool,
+    /// Requests sent to the preview, and when the current state's first and full frames came.
+    pub stats: PreviewStats,
+}
+
+/// Preview latency as the UI sees it.
+#[derive(Clone, Debug, Default)]
+pub struct PreviewStats {
+    pub requests: u64,
+    /// Since the last change of the request key: the first frame shown, and the full one.
+    pub changed_at: Option<Instant>,
+    pub first_feedback_ms: Option<f64>,
+    pub refined_ms: Option<f64>,
+}
+
+impl std::fmt::Debug for EditorApp {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("EditorApp").field("doc", &self.doc.as_ref().map(Document::title)).finish()
+    }
+}
+
+impl EditorApp {
+    /// An editor with the preview worker started (it wakes `ctx` when a frame is ready).
+    /// `recent_file` keeps the recent-file list across sessions.
+    pub fn new(ctx: &egui::Context, recent_file: Option<PathBuf>) -> Self {
+        let waker = ctx.clone();
+        let preview = PreviewWorker::start(move || waker.request_repaint());
+        let recent = recent_file
+            .as_deref()
+            .and_then(|f| std::fs::read_to_string(f).ok())
+            .and_then(|t| serde_json::from_str::<Vec<PathBuf>>(&t).ok())
+            .unwrap_or_default();
+        Self {
+            doc: None,
+            camera: OrbitCamera::default(),
+            scene: PreviewScene::default(),
+            convert: ConvertSettings::default(),
+            conversion: None,
+            preview: Some(preview),
+            texture: None,
+            shown: None,
+            requested: None,
+            last_request_id: None,
+            pending_preset: None,
+            device: None,
+            preview_error: None,
+            error: None,
+            note: None,
+            pending: None,
+            dialog: None,
+            recent,
+            recent_file,
+            show_overlay: true,
+            mirror_x: false,
+            hovered_vertex: None,
+            drag: None,
+            press_vertex: None,
+            viewport_dragging: false,
+            interacting: false,
+            viewport_size: [0, 0],
+            viewport_rect: Rect::NOTHING,
+            screenshot: None,
+            quit: false,
+            stats: PreviewStats::default(),
+        }
+    }
+
+    /// Opens a scalp mesh (converted in the background with [`Self::convert`]) or an asset,
+    /// asking first when the open document has unsaved changes.
+    pub fn open(&mut self, path: &Path) {
+        if self.doc.as_ref().is_some_and(Document::is_dirty) {
+            self.pending = Some(PendingAction::Open(path.to_owned()));
+            return;
+        }
+        self.open_now(path);
+    }
+
+    fn open_now(&mut self, path: &Path) {
+        let ext = path.extension().and_then(|e| e.to_str()).unwrap_or_default().to_ascii_lowercase();
+        if matches!(ext.as_str(), "glb" | "gltf" | "obj") {
+            self.start_conversion(path.to_owned());
+        } else if path.is_dir() || path.file_name().is_some_and(|n| n == "hair.json") {
+            match Document::open_asset(path) {
+                Ok(doc) => {
+                    if let Some(s) = ConvertSettings::from_asset(doc.asset()) {
+                        self.convert = s;
+                    }
+                    self.set_document(doc);
+                    self.remember(path);
+                }
+                Err(e) => self.error = Some(e.to_string()),
+            }
+        } else {
+            self.error = Some(EditorError::UnknownFile { path: path.to_owned() }.to_string());
+        }
+    }
+
+    /// Converts `file` with the panel's settings (and the open document's style) in a thread.
+    pub fn start_conversion(&mut self, file: PathBuf) {
+        let mut settings = self.convert.clone();
+        if let Some(doc) = &self.doc {
+            settings.style = doc.style();
+        }
+        let (progress_send, progress) = channel();
+        let (result_send, result) = channel();
+        let thread_file = file.clone();
+        let spawned = std::thread::Builder::new().name("hair conversion".into()).spawn(move || {
+            let doc = Document::convert_scalp(&thread_file, &settings, &mut |step| {
+                let _ = progress_send.send(step.to_owned());
+            });
+            let _ = result_send.send(doc);
+        });
+        match spawned {
+            Ok(_) => {
+                self.conversion = Some(ConversionJob {
+                    file,
+                    step: "starting".into(),
+                    started: Instant::now(),
+                    progress,
+                    result,
+                })
+            }
+            Err(e) => self.error = Some(format!("cannot start the conversion: {e}")),
+        }
+    }
+
+    /// Waits for a running conversion (tests and `--screenshot`); `false` on timeout.
+    pub fn wait_for_conversion(&mut self, timeout: std::time::Duration) -> bool {
+        let Some(job) = &self.conversion else { return true };
+        match job.result.recv_timeout(timeout) {
+            Ok(result) => {
+                self.finish_conversion(result);
+                true
+            }
+            Err(_) => false,
+        }
+    }
+
+    fn finish_conversion(&mut self, result: Result<Document, EditorError>) {
+        let Some(job) = self.conversion.take() else { return };
+        match result {
+            Ok(doc) => {
+                self.note = Some(format!(
+                    "converted {} in {:.1} s: {} strands",
+                    job.file.display(),
+                    job.started.elapsed().as_secs_f64(),
+                    doc.asset().total_strands()
+                ));
+                self.set_document(doc);
+                self.remember(&job.file);
+            }
+            Err(e) => self.error = Some(e.to_string()),
+        }
+    }
+
+    fn set_document(&mut self, doc: Document) {
+        let (lo, hi) = doc.asset().bounds();
+        let (mut lo, mut hi) = (lo.as_vec3(), hi.as_vec3());
+        if let Some(o) = &doc.occluder
+            && let Some((olo, ohi)) = occluder_bounds(o)
+        {
+            lo = lo.min(olo);
+            hi = hi.max(ohi);
+        }
+        self.camera.frame(lo, hi);
+        self.scene.color = doc.color();
+        self.doc = Some(doc);
+        self.drag = None;
+        self.hovered_vertex = None;
+    }
+
+    fn remember(&mut self, path: &Path) {
+        let path = path.canonicalize().unwrap_or_else(|_| path.to_owned());
+        self.recent.retain(|p| *p != path);
+        self.recent.insert(0, path);
+        self.recent.truncate(MAX_RECENT);
+        if let Some(file) = &self.recent_file
+            && let Ok(text) = serde_json::to_string_pretty(&self.recent)
+        {
+            // Losing the list is harmless; the UI keeps working.
+            let _ = hairmesh::atomic::write_file_atomic(file, |w| w.write_all(text.as_bytes()));
+        }
+    }
+
+    /// Saves to the document's folder; without one, opens the Save As dialog.
+    pub fn save(&mut self) {
+        let Some(doc) = &mut self.doc else { return };
+        if doc.save_path.is_none() {
+            self.open_dialog(DialogPurpose::SaveAs);
+            return;
+        }
+        match doc.save() {
+            Ok(()) => {
+                self.note =
+                    Some(format!("saved {}", doc.save_path.as_deref().unwrap_or(Path::new("")).display()))
+            }
+            Err(e) => self.error = Some(e.to_string()),
+        }
+    }
+
+    pub fn save_as(&mut self, dir: &Path) {
+        let Some(doc) = &mut self.doc else { return };
+        match doc.save_as(dir) {
+            Ok(()) => {
+                self.note = Some(format!("saved {}", dir.display()));
+                self.remember(dir);
+            }
+            Err(e) => self.error = Some(e.to_string()),
+        }
+    }
+
+    /// Writes the last preview frame as PNG (atomically).
+    pub fn export_png(&mut self, path: &Path) {
+        let result = match &self.shown {
+            Some(f) => render::output::write_png(path, &f.image).map_err(|e| e.to_string()),
+            None => Err(EditorError::NoFrame.to_string()),
+        };
+        match result {
+            Ok(()) => self.note = Some(format!("exported {}", path.display())),
+            Err(e) => self.error = Some(e),
+        }
+    }
+
+    /// Writes a scene file that renders this view with `hair-render` (the document must be
+    /// saved: the scene names its folder).
+    pub fn export_scene(&mut self, path: &Path) {
+        match self.scene_file(path) {
+            Ok(text) => match hairmesh::atomic::write_file_atomic(path, |w| w.write_all(text.as_bytes())) {
+                Ok(()) => {
+                    self.note = Some(format!("exported {} (render it with hair-render)", path.display()))
+                }
+                Err(e) => self.error = Some(format!("{}: {e}", path.display())),
+            },
+            Err(e) => self.error = Some(e.to_string()),
+        }
+    }
+
+    /// The scene file of the current view, with paths relative to `scene_path`'s folder when
+    /// they can be.
+    pub fn scene_file(&self, scene_path: &Path) -> Result<String, EditorError> {
+        let Some(doc) = &self.doc else { return Err(EditorError::NoSavePath) };
+        let Some(asset_dir) = &doc.save_path else { return Err(EditorError::NoSavePath) };
+        let base = scene_path.parent().unwrap_or(Path::new("."));
+        let relative = |p: &Path| -> PathBuf {
+            let abs = p.canonicalize().unwrap_or_else(|_| p.to_owned());
+            let base = base.canonicalize().unwrap_or_else(|_| base.to_owned());
+            abs.strip_prefix(&base).map(Path::to_owned).unwrap_or(abs)
+        };
+        let occluder = match &doc.source {
+            Source::Scalp { file, .. } => Some(file.clone()),
+            Source::Asset { .. } => doc.asset().provenance.as_ref().map(|p| PathBuf::from(&p.file)),
+        }
+        .filter(|f| doc.occluder.is_some() && f.is_file())
+        .map(|f| render::scene::OccluderDesc {
+            mesh: relative(&f),
+            transform: Default::default(),
+            color: self.scene.occluder_color,
+        });
+        let color = doc.color();
+        let cam = self.camera.camera();
+        let [w, h] = self.shown.as_ref().map_or([960, 540], |s| s.size);
+        let scene = render::scene::Scene {
+            output: render::scene::Output { width: w, height: h, background: self.scene.background },
+            camera: render::scene::CameraDesc {
+                eye: cam.eye.to_array(),
+                target: cam.target.to_array(),
+                fov_y_degrees: self.camera.fov_y_degrees,
+            },
+            camera_path: Vec::new(),
+            lights: self.scene.lights.clone(),
+            characters: vec![render::scene::CharacterDesc {
+                hair: relative(asset_dir),
+                transform: Default::default(),
+                color: color.rgb,
+                color_variation: color.variation,
+                style: None,
+                strand_width: None,
+                occluder,
+            }],
+            effects: self.scene.effects,
+            lod: Default::default(),
+        };
+        serde_json::to_string_pretty(&scene)
+            .map_err(|e| EditorError::Io { path: scene_path.to_owned(), message: e.to_string() })
+    }
+
+    /// Applies a preset: the style always; with a scalp document, also its layers (converted
+    /// again in the background).
+    pub fn apply_preset(&mut self, preset: &Preset) {
+        let Some(doc) = &mut self.doc else { return };
+        let mesh = doc.asset().mesh();
+        let roots = &mesh.layers[0];
+        let (lo, hi) =
+            roots.iter().fold((DVec3::INFINITY, DVec3::NEG_INFINITY), |(lo, hi), p| (lo.min(*p), hi.max(*p)));
+        let (length, shape) = preset.layers_for(lo, hi);
+        let rescale = if let Source::Scalp { file, .. } = &doc.source { Some(file.clone()) } else { None };
+        let current_length = doc.asset().bundles.iter().map(|b| b.length).fold(0.0, f64::max);
+        let style_length = if rescale.is_some() { length } else { current_length };
+        doc.set_style(preset.style_for(style_length), None);
+        if let Some(file) = rescale {
+            self.convert.length = Some(length);
+            self.convert.layers = preset.layers;
+            self.convert.shape = shape;
+            self.start_conversion(file);
+        }
+    }
+
+    /// Undo / redo with errors shown.
+    pub fn undo(&mut self) {
+        if let Some(doc) = &mut self.doc
+            && let Err(e) = doc.undo()
+        {
+            self.error = Some(e.to_string());
+        }
+    }
+
+    pub fn redo(&mut self) {
+        if let Some(doc) = &mut self.doc
+            && let Err(e) = doc.redo()
+        {
+            self.error = Some(e.to_string());
+        }
+    }
+
+    /// Quits, asking first about unsaved changes.
+    pub fn request_quit(&mut self) {
+        if self.doc.as_ref().is_some_and(Document::is_dirty) {
+            self.pending = Some(PendingAction::Quit);
+        } else {
+            self.quit = true;
+        }
+    }
+
+    fn open_dialog(&mut self, purpose: DialogPurpose) {
+        let start = self
+            .doc
+            .as_ref()
+            .and_then(|d| d.save_path.clone())
+            .or_else(|| self.recent.first().cloned())
+            .and_then(|p| p.parent().map(Path::to_owned))
+            .unwrap_or_else(|| PathBuf::from("."));
+        let mut dialog = match purpose {
+            DialogPurpose::Open => {
+                egui_file::FileDialog::open_file().title("Open a scalp mesh or a hair asset")
+            }
+            DialogPurpose::SaveAs => {
+                egui_file::FileDialog::select_folder().title("Save the asset as a folder")
+            }
+            DialogPurpose::ExportPng => {
+                egui_file::FileDialog::save_file().title("Export the viewport as PNG")
+            }
+            DialogPurpose::ExportScene => egui_file::FileDialog::save_file().title("Export a scene file"),
+        }
+        .initial_path(start);
+        dialog.open();
+        self.dialog = Some((purpose, dialog));
+    }
+
+    /// The request the preview should be drawing now.
+    fn request_key(&self) -> Option<RequestKey> {
+        let doc = self.doc.as_ref()?;
+        if self.viewport_size[0] < 8 || self.viewport_size[1] < 8 {
+            return None;
+        }
+        let mut scene = self.scene.clone();
+        scene.color = doc.color();
+        Some(RequestKey {
+            generation: doc.generation,
+            revision: doc.asset().revision(),
+            camera: self.camera,
+            size: self.viewport_size,
+            scene,
+        })
+    }
+
+    /// Sends a draft while interacting and the full frame after, once per state.
+    fn update_preview(&mut self) {
+        let (Some(key), Some(doc)) = (self.request_key(), self.doc.as_ref()) else { return };
+        let draft = self.interacting;
+        let key_changed = self.requested.as_ref().is_none_or(|(k, _)| *k != key);
+        let refine = self.requested.as_ref().is_some_and(|(k, d)| *k == key && *d && !draft);
+        if !(key_changed || refine) {
+            return;
+        }
+        if key_changed {
+            self.stats.changed_at = Some(Instant::now());
+            self.stats.first_feedback_ms = None;
+            self.stats.refined_ms = None;
+        }
+        let Some(worker) = self.preview.as_mut() else { return };
+        let id = worker.request(PreviewRequest {
+            id: 0,
+            generation: key.generation,
+            asset: doc.asset().clone(),
+            changes: doc.changes().to_vec(),
+            occluder: doc.occluder.clone(),
+            scene: key.scene.clone(),
+            camera: key.camera,
+            width: key.size[0],
+            height: key.size[1],
+            draft,
+        });
+        self.stats.requests += 1;
+        self.last_request_id = Some(id);
+        self.requested = Some((key, draft));
+    }
+
+    fn poll_preview(&mut self, ctx: &egui::Context) {
+        let events = self.preview.as_ref().map(PreviewWorker::poll).unwrap_or_default();
+        for event in events {
+            self.apply_event(ctx, event);
+        }
+    }
+
+    /// Waits up to `timeout` for the next preview event and applies it (tests and
+    /// `--screenshot`); `false` on timeout.
+    pub fn wait_for_preview(&mut self, ctx: &egui::Context, timeout: std::time::Duration) -> bool {
+        let Some(event) = self.preview.as_ref().and_then(|w| w.wait(timeout)) else { return false };
+        self.apply_event(ctx, event);
+        true
+    }
+
+    fn apply_event(&mut self, ctx: &egui::Context, event: PreviewEvent) {
+        match event {
+            PreviewEvent::Ready { device, path } => {
+                self.device = Some(format!("{device} · {path} generation"))
+            }
+            PreviewEvent::Unavailable { message } | PreviewEvent::Failed { message, .. } => {
+                self.preview_error = Some(message);
+            }
+            PreviewEvent::Frame(frame) => {
+                self.preview_error = None;
+                let image = egui::ColorImage::from_rgba_unmultiplied(
+                    [frame.image.width as usize, frame.image.height as usize],
+                    &frame.image.pixels,
+                );
+                let options = egui::TextureOptions::LINEAR;
+                match &mut self.texture {
+                    Some(t) => t.set(image, options),
+                    None => self.texture = Some(ctx.load_texture("hair preview", image, options)),
+                }
+                // The frame answers the latest request when the ids match.
+                let current = self.last_request_id == Some(frame.id)
+                    && self.requested.as_ref().is_some_and(|(k, _)| Some(k) == self.request_key().as_ref());
+                let since = self.stats.changed_at.map(|t| t.elapsed().as_secs_f64() * 1e3);
+                if current && self.stats.first_feedback_ms.is_none() {
+                    self.stats.first_feedback_ms = since;
+                }
+                if current && !frame.draft {
+                    self.stats.refined_ms = since;
+                }
+                self.shown = Some(ShownFrame {
+                    id: frame.id,
+                    draft: frame.draft,
+                    ms: frame.ms,
+                    strands: frame.strands,
+                    vertices: frame.vertices,
+                    size: [frame.image.width, frame.image.height],
+                    current,
+                    image: Arc::new(frame.image),
+                });
+            }
+        }
+    }
+
+    /// The preview frame shown (sRGB RGBA).
+    pub fn shown_image(&self) -> Option<&gen_gpu::RgbaImage> {
+        self.shown.as_ref().map(|s| &*s.image)
+    }
+
+    /// Whether the preview shows a full-quality frame of the current state.
+    pub fn preview_is_final(&self) -> bool {
+        self.shown.as_ref().is_some_and(|s| s.current && !s.draft)
+            && self.requested.as_ref().is_some_and(|(k, _)| Some(k) == self.request_key().as_ref())
+    }
+
+    /// Draws one frame and applies its input.
+    pub fn ui(&mut self, ui: &mut egui::Ui) {
+        let ctx = ui.ctx().clone();
+        self.poll_preview(&ctx);
+        if let Some(job) = &mut self.conversion {
+            if let Some(step) = job.progress.try_iter().last() {
+                job.step = step;
+            }
+            if let Ok(result) = job.result.try_recv() {
+                self.finish_conversion(result);
+            } else {
+                ctx.request_repaint_after(std::time::Duration::from_millis(100));
+            }
+        }
+        self.interacting = false;
+        self.shortcuts(&ctx);
+        if ctx.input(|i| i.viewport().close_requested()) && !self.quit {
+            if self.doc.as_ref().is_some_and(Document::is_dirty) {
+                ctx.send_viewport_cmd(egui::ViewportCommand::CancelClose);
+                self.pending = Some(PendingAction::Quit);
+            } else {
+                self.quit = true;
+            }
+        }
+
+        egui::Panel::top("menu").show(ui, |ui| self.menu_bar(ui));
+        egui::Panel::bottom("status").show(ui, |ui| self.status_bar(ui));
+        egui::Panel::left("panels").resizable(true).default_size(300.0).show(ui, |ui| {
+            egui::ScrollArea::vertical().show(ui, |ui| self.side_panel(ui));
+        });
+        egui::CentralPanel::no_frame().show(ui, |ui| self.viewport(ui));
+
+        self.dialogs(&ctx);
+        self.update_preview();
+        self.screenshot_step(&ctx);
+        if self.quit {
+            ctx.send_viewport_cmd(egui::ViewportCommand::Close);
+        }
+    }
+
+    fn shortcuts(&mut self, ctx: &egui::Context) {
+        use egui::{Key, KeyboardShortcut, Modifiers};
+        let undo = KeyboardShortcut::new(Modifiers::COMMAND, Key::Z);
+        let redo = KeyboardShortcut::new(Modifiers::COMMAND | Modifiers::SHIFT, Key::Z);
+        let redo_y = KeyboardShortcut::new(Modifiers::COMMAND, Key::Y);
+        let save = KeyboardShortcut::new(Modifiers::COMMAND, Key::S);
+        let open = KeyboardShortcut::new(Modifiers::COMMAND, Key::O);
+        // The longer shortcut first: Ctrl+Shift+Z also matches Ctrl+Z.
+        if ctx.input_mut(|i| i.consume_shortcut(&redo) || i.consume_shortcut(&redo_y)) {
+            self.redo();
+        }
+        if ctx.input_mut(|i| i.consume_shortcut(&undo)) {
+            self.undo();
+        }
+        if ctx.input_mut(|i| i.consume_shortcut(&save)) {
+            self.save();
+        }
+        if ctx.input_mut(|i| i.consume_shortcut(&open)) {
+            self.open_dialog(DialogPurpose::Open);
+        }
+    }
+
+    fn menu_bar(&mut self, ui: &mut egui::Ui) {
+        egui::MenuBar::new().ui(ui, |ui| {
+            ui.menu_button("File", |ui| {
+                if ui.button("Open…").clicked() {
+                    self.open_dialog(DialogPurpose::Open);
+                }
+                ui.menu_button("Open recent", |ui| {
+                    if self.recent.is_empty() {
+                        ui.label("(none)");
+                    }
+                    for p in self.recent.clone() {
+                        if ui.button(p.display().to_string()).clicked() {
+                            self.open(&p);
+                        }
+                    }
+                });
+                ui.separator();
+                let has_doc = self.doc.is_some();
+                if ui.add_enabled(has_doc, egui::Button::new("Save")).clicked() {
+                    self.save();
+                }
+                if ui.add_enabled(has_doc, egui::Button::new("Save As…")).clicked() {
+                    self.open_dialog(DialogPurpose::SaveAs);
+                }
+                ui.separator();
+                if ui.add_enabled(self.shown.is_some(), egui::Button::new("Export PNG…")).clicked() {
+                    self.open_dialog(DialogPurpose::ExportPng);
+                }
+                let saved = self.doc.as_ref().is_some_and(|d| d.save_path.is_some());
+                if ui
+                    .add_enabled(saved, egui::Button::new("Export scene…"))
+                    .on_disabled_hover_text("save the asset first: the scene names its folder")
+                    .clicked()
+                {
+                    self.open_dialog(DialogPurpose::ExportScene);
+                }
+                ui.separator();
+                if ui.button("Quit").clicked() {
+                    self.request_quit();
+                }
+            });
+            ui.menu_button("Edit", |ui| {
+                let (u, r) = self.doc.as_ref().map_or((false, false), |d| (d.can_undo(), d.can_redo()));
+                if ui.add_enabled(u, egui::Button::new("Undo")).clicked() {
+                    self.undo();
+                }
+                if ui.add_enabled(r, egui::Button::new("Redo")).clicked() {
+                    self.redo();
+                }
+            });
+            ui.menu_button("View", |ui| {
+                ui.checkbox(&mut self.show_overlay, "Hair-mesh overlay");
+                if ui.button("Frame hair").clicked() {
+                    self.frame_hair();
+                }
+            });
+        });
+    }
+
+    fn frame_hair(&mut self) {
+        if let Some(doc) = &self.doc {
+            let (lo, hi) = doc.asset().bounds();
+            self.camera.frame(lo.as_vec3(), hi.as_vec3());
+        }
+    }
+
+    fn status_bar(&mut self, ui: &mut egui::Ui) {
+        ui.horizontal(|ui| {
+            ui.label(self.device.as_deref().unwrap_or("starting the preview device…"));
+            ui.separator();
+            match &self.shown {
+                Some(s) => {
+                    ui.label(format!(
+                        "{} strands · {} vertices · {}×{} {} · {:.0} ms",
+                        s.strands,
+                        s.vertices,
+                        s.size[0],
+                        s.size[1],
+                        if s.draft { "draft" } else { "full" },
+                        s.ms
+                    ));
+                }
+                None => {
+                    ui.label("no preview yet");
+                }
+            }
+            if let Some(e) = &self.preview_error {
+                ui.separator();
+                ui.colored_label(Color32::from_rgb(230, 120, 90), format!("preview: {e}"));
+            }
+            if let Some(job) = &self.conversion {
+                ui.separator();
+                ui.add(egui::Spinner::new());
+                ui.label(format!("converting {}: {}…", job.file.display(), job.step));
+            }
+            if let Some(n) = &self.note {
+                ui.separator();
+                ui.label(n);
+            }
+            if let Some(doc) = &self.doc {
+                ui.with_layout(egui::Layout::right_to_left(egui::Align::Center), |ui| {
+                    ui.label(format!("{}{}", doc.title(), if doc.is_dirty() { " •" } else { "" }));
+                });
+            }
+        });
+    }
+
+    fn side_panel(&mut self, ui: &mut egui::Ui) {
+        egui::CollapsingHeader::new("Conversion").default_open(true).show(ui, |ui| self.conversion_panel(ui));
+        egui::CollapsingHeader::new("Style").default_open(true).show(ui, |ui| self.style_panel(ui));
+        egui::CollapsingHeader::new("Scene").default_open(true).show(ui, |ui| self.scene_panel(ui));
+    }
+
+    fn conversion_panel(&mut self, ui: &mut egui::Ui) {
+        let c = &mut self.convert;
+        egui::Grid::new("conversion").num_columns(2).show(ui, |ui| {
+            let l = ui.label("Scalp faces");
+            ui.text_edit_singleline(&mut c.scalp)
+                .labelled_by(l.id)
+                .on_hover_text("all, name:NAME, above:NX,NY,NZ,OFFSET, sphere:CX,CY,CZ,R");
+            ui.end_row();
+            let l = ui.label("Layers");
+            ui.add(egui::DragValue::new(&mut c.layers).range(1..=hairmesh::hair_mesh::MAX_LAYERS))
+                .labelled_by(l.id);
+            ui.end_row();
+            let l = ui.label("Length");
+            let mut auto = c.length.is_none();
+            ui.horizontal(|ui| {
+                if ui.checkbox(&mut auto, "auto").changed() {
+                    c.length = if auto { None } else { Some(1.0) };
+                }
+                if let Some(length) = &mut c.length {
+                    ui.add(egui::DragValue::new(length).speed(0.01).range(1e-4..=1e4)).labelled_by(l.id);
+                }
+            });
+            ui.end_row();
+            ui.label("Shape");
+            ui.horizontal(|ui| {
+                let extrude = matches!(c.shape, LayerShape::Extrude { .. });
+                if ui.selectable_label(extrude, "extrude").clicked() && !extrude {
+                    c.shape = LayerShape::Extrude { droop: 0.3 };
+                }
+                let drape = matches!(c.shape, LayerShape::Drape { .. });
+                if ui.selectable_label(drape, "drape").clicked() && !drape {
+                    c.shape = LayerShape::Drape {
+                        centre: DVec3::ZERO,
+                        comb: DVec3::new(0.0, 0.0, -2.5),
+                        lift: 0.05,
+                    };
+                }
+            });
+            ui.end_row();
+            match &mut c.shape {
+                LayerShape::Extrude { droop } => {
+                    let l = ui.label("Droop");
+                    ui.add(egui::Slider::new(droop, 0.0..=1.0)).labelled_by(l.id);
+                    ui.end_row();
+                }
+                LayerShape::Drape { centre, comb, lift } => {
+                    let l = ui.label("Head centre");
+                    vec3_edit(ui, centre, l.id);
+                    ui.end_row();
+                    let l = ui.label("Comb");
+                    vec3_edit(ui, comb, l.id);
+                    ui.end_row();
+                    let l = ui.label("Lift");
+                    ui.add(egui::Slider::new(lift, 0.0..=0.5)).labelled_by(l.id);
+                    ui.end_row();
+                }
+                LayerShape::MorphTargets => {
+                    ui.label("Layers from");
+                    ui.label("the file's morph targets");
+                    ui.end_row();
+                }
+            }
+            let l = ui.label("Strands");
+            ui.add(
+                egui::DragValue::new(&mut c.strands)
+                    .range(1..=hairmesh::asset::MAX_TOTAL_STRANDS)
+                    .speed(100.0),
+            )
+            .labelled_by(l.id);
+            ui.end_row();
+            let l = ui.label("Root seed");
+            ui.add(egui::DragValue::new(&mut c.seed)).labelled_by(l.id);
+            ui.end_row();
+        });
+        let scalp = match self.doc.as_ref().map(|d| &d.source) {
+            Some(Source::Scalp { file, .. }) => Some(file.clone()),
+            Some(Source::Asset { .. }) => {
+                self.doc.as_ref().and_then(|d| d.asset().provenance.as_ref()).map(|p| PathBuf::from(&p.file))
+            }
+            None => None,
+        }
+        .filter(|f| f.is_file());
+        ui.horizontal(|ui| {
+            let busy = self.conversion.is_some();
+            let button = ui.add_enabled(!busy && scalp.is_some(), egui::Button::new("Convert again"));
+            if button.on_disabled_hover_text("open a scalp mesh first (File > Open)").clicked()
+                && let Some(f) = scalp
+            {
+                self.start_conversion(f);
+            }
+            if busy {
+                ui.add(egui::Spinner::new());
+            }
+        });
+    }
+
+    fn style_panel(&mut self, ui: &mut egui::Ui) {
+        let Some(doc) = &mut self.doc else {
+            ui.label("Open a scalp mesh or a hair asset (File > Open).");
+            return;
+        };
+        ui.horizontal_wrapped(|ui| {
+            ui.label("Presets:");
+            for p in PRESETS {
+                if ui.button(p.name).clicked() {
+                    self.pending_preset = Some(p);
+                }
+            }
+        });
+        // Slider ranges follow the hair's length, so one panel fits any head's units.
+        let h = doc.asset().bundles.iter().map(|b| b.length).fold(0.0, f64::max).max(1e-6);
+        let mut style = doc.style();
+        let mut gesture: Option<String> = None;
+        let mut released = false;
+        egui::Grid::new("style").num_columns(2).striped(true).show(ui, |ui| {
+            let mut slider = |ui: &mut egui::Ui, name: &str, value: &mut f64, max: f64| {
+                let label = ui.label(name);
+                let r = ui
+                    .add(egui::Slider::new(value, 0.0..=max).clamping(egui::SliderClamping::Never))
+                    .labelled_by(label.id);
+                if r.changed() {
+                    gesture = Some(name.to_owned());
+                }
+                released |= r.drag_stopped() || r.lost_focus();
+                ui.end_row();
+            };
+            slider(ui, "Width", &mut style.width, 0.02 * h);
+            slider(ui, "Tip width", &mut style.tip_width, 1.0);
+            slider(ui, "Root fade", &mut style.root_fade, 1.0);
+            slider(ui, "Length variation", &mut style.length_variation, 1.0);
+            slider(ui, "Curl radius", &mut style.curl.radius, 0.2 * h);
+            slider(ui, "Curl frequency", &mut style.curl.frequency, 20.0 / h);
+            slider(ui, "Curl phase", &mut style.curl.phase, 1.0);
+            slider(ui, "Wave amplitude", &mut style.wave.amplitude, 0.1 * h);
+            slider(ui, "Wave frequency", &mut style.wave.frequency, 20.0 / h);
+            slider(ui, "Frizz amplitude", &mut style.frizz.amplitude, 0.1 * h);
+            slider(ui, "Frizz frequency", &mut style.frizz.frequency, 40.0 / h);
+            slider(ui, "Frizz exponent", &mut style.frizz.exponent, 4.0);
+            slider(ui, "Clump strength", &mut style.clump.strength, 1.0);
+            slider(ui, "Clump exponent", &mut style.clump.exponent, 4.0);
+            slider(ui, "Twist", &mut style.twist, 4.0);
+            slider(ui, "Stray fraction", &mut style.stray.fraction, 1.0);
+            slider(ui, "Stray amplitude", &mut style.stray.amplitude, 0.1 * h);
+            let label = ui.label("Seed");
+            let r = ui.add(egui::DragValue::new(&mut style.seed)).labelled_by(label.id);
+            if r.changed() {
+                gesture = Some("Seed".into());
+            }
+            ui.end_row();
+        });
+        let mut color = doc.color();
+        let mut color_changed = false;
+        ui.horizontal(|ui| {
+            let label = ui.label("Colour");
+            let r = egui::color_picker::color_edit_button_rgb(ui, &mut color.rgb).labelled_by(label.id);
+            color_changed |= r.changed();
+            let label = ui.label("variation");
+            let r = ui.add(egui::Slider::new(&mut color.variation, 0.0..=1.0)).labelled_by(label.id);
+            color_changed |= r.changed();
+            released |= r.drag_stopped();
+        });
+        if let Some(name) = gesture {
+            let style = sanitized(style);
+            doc.set_style(style, Some(Gesture::Style(name)));
+            self.interacting = true;
+        }
+        if color_changed {
+            doc.set_color(color, Some(Gesture::Color));
+            self.interacting = true;
+        }
+        if released {
+            doc.end_gesture();
+        }
+        if ui.ctx().egui_is_using_pointer() && ui.ctx().dragged_id().is_some() && self.drag.is_none() {
+            // A slider is being dragged (the viewport's own drags set this themselves).
+            self.interacting |= !self.viewport_dragging;
+        }
+        if let Some(p) = self.pending_preset.take() {
+            self.apply_preset(p);
+        }
+    }
+
+    fn scene_panel(&mut self, ui: &mut egui::Ui) {
+        let e = &mut self.scene.effects;
+        ui.horizontal(|ui| {
+            ui.label("Transparency");
+            for (t, name) in [
+                (Transparency::Opaque, "opaque"),
+                (Transparency::Blended, "blended"),
+                (Transparency::Oit, "OIT"),
+            ] {
+                ui.selectable_value(&mut e.transparency, t, name);
+            }
+        });
+        ui.checkbox(&mut e.shadows, "Self-shadowing (deep opacity maps)");
+        ui.checkbox(&mut e.ao, "Ambient occlusion");
+        ui.checkbox(&mut self.show_overlay, "Hair-mesh overlay");
+        ui.checkbox(&mut self.mirror_x, "Mirror X (symmetric edits)");
+        ui.separator();
+        // LOD preview: the distance the hair is seen from, and what the generator drew there.
+        ui.horizontal(|ui| {
+            let label = ui.label("Distance");
+            let r = ui
+                .add(egui::Slider::new(&mut self.camera.distance, 0.05..=200.0).logarithmic(true))
+                .labelled_by(label.id);
+            if r.dragged() {
+                self.interacting = true;
+            }
+        });
+        if let (Some(s), Some(doc)) = (&self.shown, &self.doc) {
+            ui.label(format!(
+                "LOD: {} of {} strands, {} vertices drawn",
+                s.strands,
+                doc.asset().total_strands(),
+                s.vertices
+            ));
+        }
+    }
+
+    fn viewport(&mut self, ui: &mut egui::Ui) {
+        let rect = ui.available_rect_before_wrap();
+        self.viewport_rect = rect;
+        let ppp = ui.ctx().pixels_per_point();
+        self.viewport_size = [(rect.width() * ppp).round() as u32, (rect.height() * ppp).round() as u32];
+        let response = ui.allocate_rect(rect, Sense::click_and_drag());
+        let painter = ui.painter_at(rect);
+        painter.rect_filled(rect, 0.0, srgb(self.scene.background));
+        if let Some(t) = &self.texture {
+            painter.image(t.id(), rect, Rect::from_min_max(Pos2::ZERO, Pos2::new(1.0, 1.0)), Color32::WHITE);
+        }
+        let Some(doc) = self.doc.as_ref() else {
+            let text = match &self.conversion {
+                Some(job) => format!("converting {}…", job.file.display()),
+                None => "File > Open a scalp mesh (.glb, .gltf, .obj) or a hair asset folder".into(),
+            };
+            painter.text(
+                rect.center(),
+                egui::Align2::CENTER_CENTER,
+                text,
+                egui::FontId::proportional(16.0),
+                Color32::GRAY,
+            );
+            return;
+        };
+        let projection = Projection::new(&self.camera, glam::Vec2::new(rect.width(), rect.height()));
+        let to_screen =
+            |p: DVec3| projection.project(p.as_vec3()).map(|(px, _)| rect.min + Vec2::new(px.x, px.y));
+        let mesh = doc.asset().mesh();
+        let outer = mesh.layers.len() - 1;
+        let pointer = response.hover_pos().map(|p| p - rect.min);
+        let pick_at = |pointer: Vec2| -> Option<u32> {
+            pick(
+                &projection,
+                mesh.layers[outer].iter().map(|p| p.as_vec3()),
+                glam::Vec2::new(pointer.x, pointer.y),
+                PICK_RADIUS,
+            )
+            .map(|i| i as u32)
+        };
+        self.hovered_vertex =
+            if self.show_overlay && self.drag.is_none() { pointer.and_then(pick_at) } else { None };
+
+        // Input: drag a vertex, orbit, pan, zoom.
+        // The vertex is the one under the pointer when the button went down (a drag starts
+        // only after the pointer has moved a few pixels from there).
+        if response.hovered() && ui.input(|i| i.pointer.primary_pressed()) {
+            self.press_vertex = self.hovered_vertex;
+        }
+        let primary = response.drag_started_by(egui::PointerButton::Primary);
+        if primary
+            && self.show_overlay
+            && let Some(v) = self.press_vertex.take()
+        {
+            let mirror = if self.mirror_x { mirror_vertex(mesh, v) } else { None };
+            let start = std::iter::once(v).chain(mirror).map(|v| (v, mesh.column(v))).collect();
+            self.drag = Some(VertexDrag {
+                vertex: v,
+                mirror,
+                start,
+                pointer_start: ui
+                    .input(|i| i.pointer.press_origin())
+                    .or(response.interact_pointer_pos())
+                    .unwrap_or(rect.center()),
+            });
+        }
+        let mut moves = Vec::new();
+        self.viewport_dragging = response.dragged();
+        if let Some(drag) = &self.drag {
+            if let Some(pos) = response.interact_pointer_pos() {
+                let delta = pos - drag.pointer_start;
+                let (_, tip_start) = &drag.start[0];
+                let tip = tip_start[outer];
+                let moved =
+                    self.camera.drag_point(tip.as_vec3(), glam::Vec2::new(delta.x, delta.y), rect.height());
+                let d = moved.as_dvec3() - tip;
+                for (i, (v, column)) in drag.start.iter().enumerate() {
+                    let d = if i == 0 { d } else { DVec3::new(-d.x, d.y, d.z) };
+                    for (layer, p) in column.iter().enumerate().skip(1) {
+                        let t = layer as f64 / outer as f64;
+                        moves.push(VertexMove { layer: layer as u32, vertex: *v, position: *p + t * d });
+                    }
+                }
+            }
+            self.interacting = true;
+        } else if response.dragged_by(egui::PointerButton::Primary) {
+            let d = response.drag_delta();
+            self.camera.orbit(glam::Vec2::new(d.x, d.y));
+            self.interacting = true;
+        } else if response.dragged_by(egui::PointerButton::Secondary)
+            || response.dragged_by(egui::PointerButton::Middle)
+        {
+            let d = response.drag_delta();
+            self.camera.pan(glam::Vec2::new(d.x, d.y), rect.height());
+            self.interacting = true;
+        }
+        let mut frame_requested = false;
+        if response.hovered() {
+            let scroll = ui.ctx().input(|i| i.smooth_scroll_delta.y);
+            if scroll != 0.0 {
+                self.camera.zoom(scroll / 50.0);
+                self.interacting = true;
+            }
+            frame_requested =
+                ui.ctx().input(|i| i.key_pressed(egui::Key::F)) && !ui.ctx().egui_wants_keyboard_input();
+        }
+        let drag_ended = response.drag_stopped() && self.drag.is_some();
+
+        // Overlay: the outer layer's edges and vertices, the hovered or dragged column.
+        if self.show_overlay {
+            let edge = Stroke::new(1.0, Color32::from_rgba_unmultiplied(120, 200, 255, 90));
+            for face in &mesh.faces {
+                let vs = face.vertices();
+                for k in 0..vs.len() {
+                    let (a, b) = (vs[k], vs[(k + 1) % vs.len()]);
+                    if let (Some(a), Some(b)) =
+                        (to_screen(mesh.layers[outer][a as usize]), to_screen(mesh.layers[outer][b as usize]))
+                    {
+                        painter.line_segment([a, b], edge);
+                    }
+                }
+            }
+            let dot = Color32::from_rgba_unmultiplied(160, 220, 255, 160);
+            for p in &mesh.layers[outer] {
+                if let Some(s) = to_screen(*p) {
+                    painter.circle_filled(s, 1.5, dot);
+                }
+            }
+            let highlighted: Vec<u32> = match &self.drag {
+                Some(d) => std::iter::once(d.vertex).chain(d.mirror).collect(),
+                None => self.hovered_vertex.into_iter().collect(),
+            };
+            for v in highlighted {
+                let column: Vec<Pos2> = mesh.column(v).into_iter().filter_map(to_screen).collect();
+                painter.add(egui::Shape::line(
+                    column.clone(),
+                    Stroke::new(2.0, Color32::from_rgb(255, 200, 80)),
+                ));
+                if let Some(tip) = column.last() {
+                    painter.circle_stroke(*tip, 5.0, Stroke::new(2.0, Color32::from_rgb(255, 200, 80)));
+                }
+            }
+        }
+        if !moves.is_empty()
+            && let Some(doc) = self.doc.as_mut()
+            && let Err(e) = doc.move_vertices(&moves, Some(Gesture::Drag))
+        {
+            self.error = Some(e.to_string());
+        }
+        if drag_ended {
+            self.drag = None;
+            if let Some(doc) = self.doc.as_mut() {
+                doc.end_gesture();
+            }
+        }
+        if frame_requested {
+            self.frame_hair();
+        }
+    }
+
+    fn dialogs(&mut self, ctx: &egui::Context) {
+        if let Some((purpose, dialog)) = &mut self.dialog {
+            let purpose = *purpose;
+            dialog.show(ctx);
+            if dialog.selected() {
+                let path = dialog.path().map(Path::to_owned);
+                self.dialog = None;
+                if let Some(path) = path {
+                    match purpose {
+                        DialogPurpose::Open => self.open(&path),
+                        DialogPurpose::SaveAs => self.save_as(&path),
+                        DialogPurpose::ExportPng => self.export_png(&with_extension(&path, "png")),
+                        DialogPurpose::ExportScene => self.export_scene(&with_extension(&path, "json")),
+                    }
+                }
+            } else if !dialog.visible() {
+                self.dialog = None;
+            }
+        }
+        if let Some(message) = self.error.clone() {
+            let modal = egui::Modal::new(egui::Id::unique("error")).show(ctx, |ui| {
+                ui.heading("Error");
+                ui.label(message);
+                ui.button("OK").clicked()
+            });
+            if modal.inner || modal.should_close() {
+                self.error = None;
+            }
+        }
+        if let Some(action) = self.pending.clone() {
+            let title = self.doc.as_ref().map(Document::title).unwrap_or_default();
+            let modal = egui::Modal::new(egui::Id::unique("unsaved")).show(ctx, |ui| {
+                ui.heading("Unsaved changes");
+                ui.label(format!("{title} has changes that are not saved."));
+                ui.horizontal(|ui| {
+                    if ui.button("Save").clicked() {
+                        return Some(true);
+                    }
+                    if ui.button("Discard").clicked() {
+                        return Some(false);
+                    }
+                    if ui.button("Cancel").clicked() {
+                        self.pending = None;
+                    }
+                    None
+                })
+                .inner
+            });
+            if modal.should_close() {
+                self.pending = None;
+            }
+            if let Some(save) = modal.inner {
+                self.pending = None;
+                if save {
+                    self.save();
+                }
+                let saved = self.doc.as_ref().is_none_or(|d| !d.is_dirty());
+                if !save || saved {
+                    match action {
+                        PendingAction::Open(path) => {
+                            self.doc = None;
+                            self.open_now(&path);
+                        }
+                        PendingAction::Quit => self.quit = true,
+                    }
+                }
+            }
+        }
+    }
+
+    fn screenshot_step(&mut self, ctx: &egui::Context) {
+        let ready = self.preview_is_final() && self.conversion.is_none();
+        let Some(shot) = &mut self.screenshot else { return };
+        if shot.asked || !ready {
+            return;
+        }
+        shot.asked = true;
+        let out = shot.out.clone();
+        let result = shot.result.clone();
+        let waker = ctx.clone();
+        ctx.request_screenshot(move |image| {
+            let rgba = gen_gpu::RgbaImage {
+                width: image.size[0] as u32,
+                height: image.size[1] as u32,
+                pixels: image.pixels.iter().flat_map(|c| c.to_array()).collect(),
+            };
+            let r = render::output::write_png(&out, &rgba).map_err(|e| e.to_string());
+            *result.lock().unwrap_or_else(|e| e.into_inner()) = Some(r);
+            waker.request_repaint();
+        });
+    }
+}
+
+impl ScreenshotRequest {
+    pub fn new(out: PathBuf) -> Self {
+        Self { out, asked: false, result: Arc::default() }
+    }
+}
+
+/// NaN and negative values from typed entries are refused: the style keeps its last valid
+/// value for them.
+fn sanitized(mut s: Style) -> Style {
+    let d = Style::default();
+    for (v, fallback) in [
+        (&mut s.width, d.width),
+        (&mut s.tip_width, d.tip_width),
+        (&mut s.root_fade, d.root_fade),
+        (&mut s.length_variation, d.length_variation),
+        (&mut s.curl.radius, 0.0),
+        (&mut s.curl.frequency, d.curl.frequency),
+        (&mut s.wave.amplitude, 0.0),
+        (&mut s.wave.frequency, d.wave.frequency),
+        (&mut s.frizz.amplitude, 0.0),
+        (&mut s.frizz.frequency, d.frizz.frequency),
+        (&mut s.frizz.exponent, d.frizz.exponent),
+        (&mut s.clump.strength, 0.0),
+        (&mut s.clump.exponent, d.clump.exponent),
+        (&mut s.stray.fraction, 0.0),
+        (&mut s.stray.amplitude, 0.0),
+    ] {
+        if !v.is_finite() || *v < 0.0 {
+            *v = fallback;
+        }
+    }
+    s.tip_width = s.tip_width.min(1.0);
+    s.root_fade = s.root_fade.min(1.0);
+    s.length_variation = s.length_variation.min(1.0);
+    s.clump.strength = s.clump.strength.min(1.0);
+    s.stray.fraction = s.stray.fraction.min(1.0);
+    if !s.twist.is_finite() {
+        s.twist = 0.0;
+    }
+    s
+}
+
+/// The outer-layer vertex whose root mirrors `v`'s across x = 0 (within 1 % of the scalp's
+/// size), if it is another vertex.
+fn mirror_vertex(mesh: &hairmesh::HairMesh, v: u32) -> Option<u32> {
+    let roots = &mesh.layers[0];
+    let p = roots.get(v as usize)?;
+    let target = DVec3::new(-p.x, p.y, p.z);
+    let (lo, hi) =
+        roots.iter().fold((DVec3::INFINITY, DVec3::NEG_INFINITY), |(lo, hi), q| (lo.min(*q), hi.max(*q)));
+    let tolerance = 0.01 * lo.distance(hi);
+    let (best, d) = roots
+        .iter()
+        .enumerate()
+        .map(|(i, q)| (i as u32, q.distance(target)))
+        .min_by(|a, b| a.1.total_cmp(&b.1))?;
+    (d <= tolerance && best != v).then_some(best)
+}
+
+fn with_extension(path: &Path, ext: &str) -> PathBuf {
+    if path.extension().is_some() { path.to_owned() } else { path.with_extension(ext) }
+}
+
+fn vec3_edit(ui: &mut egui::Ui, v: &mut DVec3, label: egui::Id) {
+    ui.horizontal(|ui| {
+        for (c, axis) in [(&mut v.x, "x "), (&mut v.y, "y "), (&mut v.z, "z ")] {
+            ui.add(egui::DragValue::new(c).speed(0.01).prefix(axis)).labelled_by(label);
+        }
+    });
+}
+
+/// Linear RGB → an egui colour (sRGB).
+fn srgb(c: [f32; 3]) -> Color32 {
+    let e = |v: f32| {
+        let v = v.clamp(0.0, 1.0);
+        let s = if v <= 0.003_130_8 { 12.92 * v } else { 1.055 * v.powf(1.0 / 2.4) - 0.055 };
+        (s * 255.0).round() as u8
+    };
+    Color32::from_rgb(e(c[0]), e(c[1]), e(c[2]))
+}
+
+fn occluder_bounds(o: &render::occluder::OccluderGeometry) -> Option<(Vec3, Vec3)> {
+    let (lo, hi) = o.bounds;
+    (lo.is_finite() && hi.is_finite() && hi.cmpge(lo).all()).then_some((lo, hi))
+}

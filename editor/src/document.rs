@@ -1,0 +1,387 @@
+//! The document an artist edits: a hair asset, where it came from, its colour, and the edit
+//! history. No UI here: every edit the panels make goes through [`Document`]'s methods, which
+//! the tests call directly and through the UI.
+//!
+//! Edits are recorded as before/after pairs ([`Edit`]), so undo and redo restore values
+//! exactly. Continuous gestures (a slider drag, a vertex drag) coalesce into one edit: the
+//! caller passes the same [`Gesture`] on every frame of the gesture and calls
+//! [`Document::end_gesture`] when it ends.
+//!
+//! The asset's own revision ([`HairAsset::revision`]) goes up with every change, undo and redo
+//! included; [`Document::changes`] lists the [`AssetChange`]s since the asset was loaded, which
+//! the preview uploads incrementally.
+
+use std::path::{Path, PathBuf};
+use std::sync::Arc;
+
+use glam::DVec3;
+use hairmesh::asset::{AssetChange, HairAsset, VertexMove};
+use hairmesh::convert::ConvertSettings;
+use hairmesh::style::Style;
+use render::occluder::OccluderGeometry;
+
+use crate::EditorError;
+
+/// Where the document's asset came from.
+#[derive(Clone, Debug, PartialEq)]
+pub enum Source {
+    /// Converted from a scalp file with these settings (not saved yet unless
+    /// [`Document::save_path`] is set).
+    Scalp { file: PathBuf, settings: ConvertSettings },
+    /// Read from an asset folder.
+    Asset { path: PathBuf },
+}
+
+/// One undoable edit, as the values before and after it.
+#[derive(Clone, Debug, PartialEq)]
+pub enum Edit {
+    Style {
+        before: Style,
+        after: Style,
+    },
+    /// Hair-mesh vertices: their positions before the edit and after it (same vertices, same
+    /// order).
+    Vertices {
+        before: Vec<VertexMove>,
+        after: Vec<VertexMove>,
+    },
+    Color {
+        before: HairColor,
+        after: HairColor,
+    },
+}
+
+/// The hair's linear RGB base colour and per-strand variation.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct HairColor {
+    pub rgb: [f32; 3],
+    pub variation: f32,
+}
+
+impl Default for HairColor {
+    fn default() -> Self {
+        Self { rgb: render::scene::DEFAULT_HAIR_COLOR, variation: render::scene::DEFAULT_COLOR_VARIATION }
+    }
+}
+
+/// What a continuous interaction is editing; frames of one gesture merge into one edit.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub enum Gesture {
+    /// A style control, by name.
+    Style(String),
+    /// A drag of hair-mesh vertices.
+    Drag,
+    Color,
+}
+
+/// The most changes kept for the preview's incremental upload before it uploads the asset
+/// whole (keeps a long session's memory bounded).
+const MAX_PENDING_CHANGES: usize = 256;
+
+/// An open document.
+#[derive(Debug)]
+pub struct Document {
+    pub source: Source,
+    /// Where Save writes (an asset folder); `None` until saved or when opened from a scalp.
+    pub save_path: Option<PathBuf>,
+    asset: Arc<HairAsset>,
+    color: HairColor,
+    /// The scalp or head mesh drawn with the hair (it hides the hair behind it).
+    pub occluder: Option<Arc<OccluderGeometry>>,
+    /// Bumped whenever the asset is replaced whole (open, convert, too many changes): the
+    /// preview uploads it again.
+    pub generation: u64,
+    changes: Vec<AssetChange>,
+    undo: Vec<(u64, Edit)>,
+    redo: Vec<(u64, Edit)>,
+    /// The gesture the last edit belongs to, while it lasts.
+    open_gesture: Option<Gesture>,
+    next_edit_id: u64,
+    /// The id of the edit on top of the undo stack when the document was last saved (0: none).
+    saved_edit: u64,
+}
+
+/// A fresh generation number for each document or replaced asset, unique in the process.
+fn next_generation() -> u64 {
+    use std::sync::atomic::{AtomicU64, Ordering};
+    static NEXT: AtomicU64 = AtomicU64::new(1);
+    NEXT.fetch_add(1, Ordering::Relaxed)
+}
+
+impl Document {
+    /// A document holding `asset`.
+    pub fn new(source: Source, asset: HairAsset, occluder: Option<Arc<OccluderGeometry>>) -> Self {
+        let save_path = match &source {
+            Source::Asset { path } => Some(path.clone()),
+            Source::Scalp { .. } => None,
+        };
+        Self {
+            source,
+            save_path,
+            asset: Arc::new(asset),
+            color: HairColor::default(),
+            occluder,
+            generation: next_generation(),
+            changes: Vec::new(),
+            undo: Vec::new(),
+            redo: Vec::new(),
+            open_gesture: None,
+            next_edit_id: 1,
+            saved_edit: 0,
+        }
+    }
+
+    /// Reads an asset folder (or its `hair.json`). Its scalp file, when the provenance names
+    /// one that exists (as given, or relative to the asset), becomes the occluder.
+    pub fn open_asset(path: &Path) -> Result<Self, EditorError> {
+        let (asset, _) = hairmesh::asset_io::read_asset(path)
+            .map_err(|source| EditorError::Asset { path: path.to_owned(), source })?;
+        let dir =
+            if path.is_dir() { path.to_owned() } else { path.parent().unwrap_or(Path::new(".")).to_owned() };
+        let occluder = asset.provenance.as_ref().and_then(|p| {
+            let file = PathBuf::from(&p.file);
+            [file.clone(), dir.join(&file)]
+                .into_iter()
+                .find(|f| f.is_file())
+                .and_then(|f| load_occluder(&f).ok())
+        });
+        Ok(Self::new(Source::Asset { path: dir }, asset, occluder))
+    }
+
+    /// Converts a scalp file (runs for seconds on large scalps: call it off the UI thread).
+    pub fn convert_scalp(
+        file: &Path,
+        settings: &ConvertSettings,
+        progress: &mut dyn FnMut(&str),
+    ) -> Result<Self, EditorError> {
+        let converted = hairmesh::convert::convert_scalp(file, settings, progress)
+            .map_err(|source| EditorError::Asset { path: file.to_owned(), source })?;
+        progress("loading the head mesh");
+        let occluder = load_occluder(file).ok();
+        Ok(Self::new(
+            Source::Scalp { file: file.to_owned(), settings: settings.clone() },
+            converted.asset,
+            occluder,
+        ))
+    }
+
+    pub fn asset(&self) -> &Arc<HairAsset> {
+        &self.asset
+    }
+
+    pub fn style(&self) -> Style {
+        self.asset.style
+    }
+
+    pub fn color(&self) -> HairColor {
+        self.color
+    }
+
+    /// The changes since the asset was last replaced whole, oldest first.
+    pub fn changes(&self) -> &[AssetChange] {
+        &self.changes
+    }
+
+    /// Whether there are edits since the last save (or since opening).
+    pub fn is_dirty(&self) -> bool {
+        self.undo.last().map_or(0, |(id, _)| *id) != self.saved_edit
+            || matches!(self.source, Source::Scalp { .. }) && self.save_path.is_none()
+    }
+
+    pub fn can_undo(&self) -> bool {
+        !self.undo.is_empty()
+    }
+
+    pub fn can_redo(&self) -> bool {
+        !self.redo.is_empty()
+    }
+
+    /// A short name for title bars and prompts.
+    pub fn title(&self) -> String {
+        let path = match (&self.save_path, &self.source) {
+            (Some(p), _) => p.clone(),
+            (None, Source::Scalp { file, .. }) => file.clone(),
+            (None, Source::Asset { path }) => path.clone(),
+        };
+        path.file_name().map_or_else(|| path.display().to_string(), |n| n.to_string_lossy().into_owned())
+    }
+
+    /// Sets the style; frames of one `gesture` merge into one undo step.
+    pub fn set_style(&mut self, style: Style, gesture: Option<Gesture>) {
+        let before = self.asset.style;
+        if before == style {
+            return;
+        }
+        self.apply_style(style);
+        self.record(Edit::Style { before, after: style }, gesture);
+    }
+
+    pub fn set_color(&mut self, color: HairColor, gesture: Option<Gesture>) {
+        let before = self.color;
+        if before == color {
+            return;
+        }
+        self.color = color;
+        self.record(Edit::Color { before, after: color }, gesture);
+    }
+
+    /// Moves hair-mesh vertices to new positions; frames of one drag merge into one undo step
+    /// whose "before" is where the vertices were when the drag began.
+    pub fn move_vertices(
+        &mut self,
+        moves: &[VertexMove],
+        gesture: Option<Gesture>,
+    ) -> Result<(), EditorError> {
+        let mesh = self.asset.mesh();
+        let before: Vec<VertexMove> = moves
+            .iter()
+            .map(|m| {
+                let position = mesh
+                    .layers
+                    .get(m.layer as usize)
+                    .and_then(|l| l.get(m.vertex as usize))
+                    .copied()
+                    .unwrap_or(DVec3::NAN);
+                VertexMove { position, ..*m }
+            })
+            .collect();
+        self.apply_moves(moves)?;
+        self.record(Edit::Vertices { before, after: moves.to_vec() }, gesture);
+        Ok(())
+    }
+
+    /// Ends the current gesture: the next edit starts a new undo step.
+    pub fn end_gesture(&mut self) {
+        self.open_gesture = None;
+    }
+
+    pub fn undo(&mut self) -> Result<(), EditorError> {
+        self.end_gesture();
+        let Some((id, edit)) = self.undo.pop() else { return Ok(()) };
+        self.apply_edit(&edit, false)?;
+        self.redo.push((id, edit));
+        Ok(())
+    }
+
+    pub fn redo(&mut self) -> Result<(), EditorError> {
+        self.end_gesture();
+        let Some((id, edit)) = self.redo.pop() else { return Ok(()) };
+        self.apply_edit(&edit, true)?;
+        self.undo.push((id, edit));
+        Ok(())
+    }
+
+    /// Writes the asset to `dir` atomically (the asset writer replaces the folder in one
+    /// rename) and makes it the document's save path.
+    pub fn save_as(&mut self, dir: &Path) -> Result<(), EditorError> {
+        let source = match &self.source {
+            Source::Scalp { file, .. } => file.to_str().map(str::to_owned),
+            Source::Asset { .. } => self.asset.provenance.as_ref().map(|p| p.file.clone()),
+        };
+        let units = if source.as_deref().is_some_and(|s| s.ends_with(".glb") || s.ends_with(".gltf")) {
+            "metres"
+        } else {
+            "file units"
+        };
+        hairmesh::asset_io::write_asset(
+            dir,
+            &self.asset,
+            hairmesh::asset_io::Precision::F32,
+            units,
+            source.as_deref(),
+        )
+        .map_err(|source| EditorError::Asset { path: dir.to_owned(), source })?;
+        self.save_path = Some(dir.to_owned());
+        self.saved_edit = self.undo.last().map_or(0, |(id, _)| *id);
+        Ok(())
+    }
+
+    /// [`Self::save_as`] the current save path.
+    pub fn save(&mut self) -> Result<(), EditorError> {
+        let Some(dir) = self.save_path.clone() else { return Err(EditorError::NoSavePath) };
+        self.save_as(&dir)
+    }
+
+    fn record(&mut self, edit: Edit, gesture: Option<Gesture>) {
+        self.redo.clear();
+        if gesture.is_some()
+            && gesture == self.open_gesture
+            && let Some((_, last)) = self.undo.last_mut()
+        {
+            // A different kind of edit under the same gesture becomes a step of its own.
+            if let Some(unmerged) = merge_into(last, edit) {
+                self.push(unmerged);
+            }
+            return;
+        }
+        self.open_gesture = gesture;
+        self.push(edit);
+    }
+
+    fn push(&mut self, edit: Edit) {
+        let id = self.next_edit_id;
+        self.next_edit_id += 1;
+        self.undo.push((id, edit));
+    }
+
+    fn apply_edit(&mut self, edit: &Edit, forward: bool) -> Result<(), EditorError> {
+        match edit {
+            Edit::Style { before, after } => self.apply_style(if forward { *after } else { *before }),
+            Edit::Color { before, after } => self.color = if forward { *after } else { *before },
+            Edit::Vertices { before, after } => self.apply_moves(if forward { after } else { before })?,
+        }
+        Ok(())
+    }
+
+    fn apply_style(&mut self, style: Style) {
+        let change = Arc::make_mut(&mut self.asset).set_style(style);
+        self.push_change(change);
+    }
+
+    fn apply_moves(&mut self, moves: &[VertexMove]) -> Result<(), EditorError> {
+        let change = Arc::make_mut(&mut self.asset)
+            .move_vertices(moves)
+            .map_err(|source| EditorError::Edit { source })?;
+        self.push_change(change);
+        Ok(())
+    }
+
+    fn push_change(&mut self, change: AssetChange) {
+        if self.changes.len() >= MAX_PENDING_CHANGES {
+            self.changes.clear();
+            self.generation = next_generation();
+            return;
+        }
+        self.changes.push(change);
+    }
+}
+
+/// Merges `edit` into `last` (the same gesture's earlier frames); gives it back when the two
+/// are of different kinds.
+fn merge_into(last: &mut Edit, edit: Edit) -> Option<Edit> {
+    match (last, edit) {
+        (Edit::Style { after, .. }, Edit::Style { after: new, .. }) => *after = new,
+        (Edit::Color { after, .. }, Edit::Color { after: new, .. }) => *after = new,
+        (Edit::Vertices { before, after }, Edit::Vertices { before: new_before, after: new_after }) => {
+            // Each vertex keeps its first "before"; vertices the drag reached later are added.
+            for (b, a) in new_before.into_iter().zip(new_after) {
+                match after.iter().position(|m| m.layer == a.layer && m.vertex == a.vertex) {
+                    Some(i) => after[i] = a,
+                    None => {
+                        before.push(b);
+                        after.push(a);
+                    }
+                }
+            }
+        }
+        (_, edit) => return Some(edit),
+    }
+    None
+}
+
+/// Reads a mesh to draw with the hair, refusing what the renderer cannot use.
+pub fn load_occluder(path: &Path) -> Result<Arc<OccluderGeometry>, EditorError> {
+    OccluderGeometry::load(path)
+        .map(Arc::new)
+        .map_err(|e| EditorError::Mesh { path: path.to_owned(), message: e.to_string() })
+}

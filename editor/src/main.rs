@@ -1,0 +1,135 @@
+//! `hair-editor [PATH] [--screenshot OUT.png]`: the editor in a window (eframe on wgpu).
+//!
+//! PATH is a scalp mesh (.glb, .gltf, .obj: converted with the default settings) or a hair
+//! asset folder. With `--screenshot`, the editor opens PATH, waits for the first full-quality
+//! preview, saves a screenshot of the whole window and exits (for docs and headless checks,
+//! e.g. under `xvfb-run`).
+
+use std::path::PathBuf;
+use std::time::{Duration, Instant};
+
+use anyhow::{Context, Result, bail};
+use clap::Parser;
+use editor::app::{EditorApp, ScreenshotRequest};
+
+#[derive(Parser, Debug)]
+#[command(name = "hair-editor", version, about = "Shape hair meshes and style hair with a live preview")]
+struct Cli {
+    /// A scalp mesh (.glb, .gltf, .obj) or a hair asset folder to open.
+    path: Option<PathBuf>,
+    /// Open PATH, wait for the first full-quality preview, save a screenshot of the window to
+    /// this PNG and exit.
+    #[arg(long, value_name = "OUT.png", requires = "path")]
+    screenshot: Option<PathBuf>,
+    /// Window size in points, WIDTHxHEIGHT.
+    #[arg(long, default_value = "1280x760", value_parser = parse_size)]
+    size: (f32, f32),
+    /// `--screenshot`: give up after this many seconds.
+    #[arg(long, default_value_t = 300)]
+    timeout: u64,
+}
+
+fn parse_size(text: &str) -> Result<(f32, f32), String> {
+    let (w, h) = text.split_once('x').ok_or_else(|| format!("`{text}`: expected WIDTHxHEIGHT"))?;
+    let parse = |v: &str| v.trim().parse::<f32>().map_err(|e| format!("`{v}`: {e}"));
+    let (w, h) = (parse(w)?, parse(h)?);
+    if !(200.0..=8192.0).contains(&w) || !(150.0..=8192.0).contains(&h) {
+        return Err(format!("{w}x{h}: between 200x150 and 8192x8192"));
+    }
+    Ok((w, h))
+}
+
+struct Window {
+    app: EditorApp,
+    started: Instant,
+    timeout: Duration,
+    exit: std::sync::Arc<std::sync::Mutex<Option<Result<(), String>>>>,
+}
+
+impl eframe::App for Window {
+    fn ui(&mut self, ui: &mut egui::Ui, _frame: &mut eframe::Frame) {
+        self.app.ui(ui);
+        if let Some(shot) = &self.app.screenshot {
+            let done = shot.result.lock().unwrap_or_else(|e| e.into_inner()).take();
+            if let Some(done) = done {
+                *self.exit.lock().unwrap_or_else(|e| e.into_inner()) = Some(done);
+                ui.ctx().send_viewport_cmd(egui::ViewportCommand::Close);
+            } else if self.started.elapsed() > self.timeout {
+                let why = match (&self.app.error, &self.app.preview_error) {
+                    (Some(e), _) | (None, Some(e)) => e.clone(),
+                    (None, None) => "the preview did not finish".into(),
+                };
+                *self.exit.lock().unwrap_or_else(|e| e.into_inner()) =
+                    Some(Err(format!("timed out after {} s: {why}", self.timeout.as_secs())));
+                ui.ctx().send_viewport_cmd(egui::ViewportCommand::Close);
+            } else {
+                // Keep polling while waiting for the preview and the conversion.
+                ui.ctx().request_repaint_after(Duration::from_millis(50));
+            }
+        }
+    }
+}
+
+fn recent_file() -> Option<PathBuf> {
+    let base = std::env::var_os("XDG_CONFIG_HOME")
+        .map(PathBuf::from)
+        .or_else(|| std::env::var_os("HOME").map(|h| PathBuf::from(h).join(".config")))?;
+    let dir = base.join("hairkit");
+    std::fs::create_dir_all(&dir).ok()?;
+    Some(dir.join("recent.json"))
+}
+
+fn main() -> std::process::ExitCode {
+    env_logger::Builder::from_env(env_logger::Env::default().default_filter_or("warn")).init();
+    match run(Cli::parse()) {
+        Ok(()) => std::process::ExitCode::SUCCESS,
+        Err(e) => {
+            eprintln!("hair-editor: error: {e:#}");
+            std::process::ExitCode::FAILURE
+        }
+    }
+}
+
+fn run(cli: Cli) -> Result<()> {
+    if let Some(p) = &cli.path
+        && !p.exists()
+    {
+        bail!("{}: no such file or folder", p.display());
+    }
+    let exit = std::sync::Arc::default();
+    let window_exit = std::sync::Arc::clone(&exit);
+    let options = eframe::NativeOptions {
+        viewport: egui::ViewportBuilder::default()
+            .with_inner_size([cli.size.0, cli.size.1])
+            .with_title("hair-editor"),
+        ..Default::default()
+    };
+    let screenshot = cli.screenshot.clone();
+    let path = cli.path.clone();
+    let timeout = Duration::from_secs(cli.timeout);
+    eframe::run_native(
+        "hair-editor",
+        options,
+        Box::new(move |cc| {
+            let mut app =
+                EditorApp::new(&cc.egui_ctx, if screenshot.is_some() { None } else { recent_file() });
+            if let Some(p) = &path {
+                app.open(p);
+            }
+            app.screenshot = screenshot.map(ScreenshotRequest::new);
+            Ok(Box::new(Window { app, started: Instant::now(), timeout, exit: window_exit }))
+        }),
+    )
+    .map_err(|e| anyhow::anyhow!("{e}"))
+    .context("running the window (a display is needed: on a headless machine use xvfb-run)")?;
+    let outcome = exit.lock().unwrap_or_else(|e| e.into_inner()).take();
+    match (cli.screenshot, outcome) {
+        (Some(out), Some(Ok(()))) => {
+            println!("wrote {}", out.display());
+            Ok(())
+        }
+        (Some(_), Some(Err(e))) => bail!("{e}"),
+        (Some(_), None) => bail!("the window closed before the screenshot was taken"),
+        (None, _) => Ok(()),
+    }
+}

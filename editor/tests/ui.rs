@@ -1,0 +1,242 @@
+//! The editor driven headlessly through egui_kittest: widgets found by their labels, input
+//! simulated, the preview rendered by the real worker on lavapipe (validation on: a
+//! validation message reaches the UI as a preview error and fails the test).
+
+use std::path::{Path, PathBuf};
+use std::time::{Duration, Instant};
+
+use anyhow::{Context as _, Result, bail, ensure};
+use editor::app::EditorApp;
+use editor::camera::Projection;
+use egui::accesskit::Role;
+use egui_kittest::Harness;
+use egui_kittest::kittest::Queryable;
+use hairkit_tests::harness::{GpuTest, Requirements, run_gpu_tests};
+
+/// The repository's sample scalp (the procedural head cap).
+fn sample_scalp() -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR")).join("../assets/head_cap.gltf")
+}
+
+fn editor<'a>() -> Harness<'a, EditorApp> {
+    let ctx = egui::Context::default();
+    let mut app = EditorApp::new(&ctx, None);
+    app.convert.strands = 1500;
+    Harness::builder()
+        .with_size(egui::Vec2::new(900.0, 560.0))
+        .with_max_steps(64)
+        .build_ui_state(|ui, app: &mut EditorApp| app.ui(ui), app)
+}
+
+/// Steps the UI and feeds it preview frames until the preview shows the current state at full
+/// quality.
+fn settle(h: &mut Harness<'_, EditorApp>) -> Result<()> {
+    let deadline = Instant::now() + Duration::from_secs(240);
+    loop {
+        h.step();
+        if h.state().conversion.is_some() {
+            h.state_mut().wait_for_conversion(Duration::from_millis(200));
+            continue;
+        }
+        if let Some(e) = &h.state().preview_error {
+            bail!("preview: {e}");
+        }
+        if let Some(e) = &h.state().error {
+            bail!("error shown: {e}");
+        }
+        if h.state().preview_is_final() {
+            return Ok(());
+        }
+        ensure!(Instant::now() < deadline, "the preview did not finish");
+        let ctx = h.ctx.clone();
+        h.state_mut().wait_for_preview(&ctx, Duration::from_millis(200));
+    }
+}
+
+fn open_sample(h: &mut Harness<'_, EditorApp>) -> Result<()> {
+    h.state_mut().open(&sample_scalp());
+    settle(h)?;
+    ensure!(h.state().doc.is_some(), "no document after opening the sample scalp");
+    Ok(())
+}
+
+/// Pixels of the shown preview that differ from the background.
+fn hair_pixels(h: &Harness<'_, EditorApp>) -> usize {
+    let app = h.state();
+    let Some(image) = app.shown_image() else { return 0 };
+    let bg = image.pixels[..4].to_vec();
+    image.pixels.chunks(4).filter(|p| p.iter().zip(&bg).any(|(a, b)| a.abs_diff(*b) > 24)).count()
+}
+
+fn style_slider_changes_the_style_and_requests_a_preview(_: &gen_gpu::Context) -> Result<()> {
+    let mut h = editor();
+    open_sample(&mut h)?;
+    ensure!(hair_pixels(&h) > 500, "the first preview shows no hair ({} pixels)", hair_pixels(&h));
+    let requests = h.state().stats.requests;
+    let before = h.state().doc.as_ref().context("doc")?.style();
+    h.get_by_role_and_label(Role::Slider, "Curl radius").set_value_accesskit(0.01);
+    h.step();
+    let after = h.state().doc.as_ref().context("doc")?.style();
+    ensure!(after.curl.radius == 0.01, "curl radius {} (was {})", after.curl.radius, before.curl.radius);
+    ensure!(after.wave == before.wave && after.width == before.width, "other style fields changed");
+    ensure!(h.state().stats.requests > requests, "no new preview request");
+    settle(&mut h)?;
+    ensure!(h.state().doc.as_ref().context("doc")?.can_undo(), "the slider change is not undoable");
+    Ok(())
+}
+
+fn vertex_drag_undo_redo_restores_exactly(_: &gen_gpu::Context) -> Result<()> {
+    let mut h = editor();
+    open_sample(&mut h)?;
+    let (rect, camera) = (h.state().viewport_rect, h.state().camera);
+    let doc = h.state().doc.as_ref().context("doc")?;
+    let mesh = doc.asset().mesh().clone();
+    let outer = mesh.layers.len() - 1;
+    let projection = Projection::new(&camera, glam::Vec2::new(rect.width(), rect.height()));
+    // The outer-layer vertex nearest to the camera that projects well inside the viewport.
+    let (vertex, pixel) = mesh.layers[outer]
+        .iter()
+        .enumerate()
+        .filter_map(|(i, p)| projection.project(p.as_vec3()).map(|(px, z)| (i, px, z)))
+        .filter(|(_, px, _)| {
+            px.x > 60.0 && px.y > 60.0 && px.x < rect.width() - 60.0 && px.y < rect.height() - 60.0
+        })
+        .min_by(|a, b| a.2.total_cmp(&b.2))
+        .map(|(i, px, _)| (i, px))
+        .context("no vertex in view")?;
+    let start = rect.min + egui::vec2(pixel.x, pixel.y);
+    h.hover_at(start);
+    h.step();
+    ensure!(h.state().hovered_vertex.is_some(), "no vertex under the pointer at {start:?}");
+    let picked = h.state().hovered_vertex.context("hover")? as usize;
+    h.drag_at(start);
+    h.step();
+    for k in 1..=6 {
+        h.hover_at(start + egui::vec2(5.0 * k as f32, -3.0 * k as f32));
+        h.step();
+    }
+    h.drop_at(start + egui::vec2(30.0, -18.0));
+    h.step();
+    let dragged = h.state().doc.as_ref().context("doc")?.asset().mesh().clone();
+    ensure!(
+        dragged.layers[outer][picked] != mesh.layers[outer][picked],
+        "the drag did not move vertex {picked} (nearest {vertex})"
+    );
+    ensure!(dragged.layers[0][picked] == mesh.layers[0][picked], "the root moved");
+    // Ctrl+Z through the UI, then Ctrl+Shift+Z.
+    h.key_press_modifiers(egui::Modifiers::COMMAND, egui::Key::Z);
+    h.step();
+    let undone = h.state().doc.as_ref().context("doc")?.asset().mesh().clone();
+    ensure!(undone.layers == mesh.layers, "undo did not restore the hair mesh exactly");
+    h.key_press_modifiers(egui::Modifiers::COMMAND | egui::Modifiers::SHIFT, egui::Key::Z);
+    h.step();
+    let redone = h.state().doc.as_ref().context("doc")?.asset().mesh().clone();
+    ensure!(redone.layers == dragged.layers, "redo did not restore the drag exactly");
+    settle(&mut h)?;
+    Ok(())
+}
+
+fn saved_asset_loads_and_renders(_: &gen_gpu::Context) -> Result<()> {
+    let mut h = editor();
+    open_sample(&mut h)?;
+    h.get_by_role_and_label(Role::Slider, "Clump strength").set_value_accesskit(0.4);
+    h.step();
+    let dir = tempfile::tempdir()?;
+    let out = dir.path().join("styled");
+    h.state_mut().save_as(&out);
+    h.step();
+    ensure!(h.state().error.is_none(), "save failed: {:?}", h.state().error);
+    ensure!(!h.state().doc.as_ref().context("doc")?.is_dirty(), "saved document still dirty");
+    let saved = h.state().doc.as_ref().context("doc")?.asset().clone();
+    let (loaded, _) = hairmesh::asset_io::read_asset(&out)?;
+    ensure!(loaded.style == saved.style && loaded.style.clump.strength == 0.4, "style not saved");
+    ensure!(loaded.mesh().layers == saved.mesh().layers, "hair mesh not saved");
+    // The saved folder opens and renders in a fresh editor.
+    let mut fresh = editor();
+    fresh.state_mut().open(&out);
+    settle(&mut fresh)?;
+    ensure!(hair_pixels(&fresh) > 500, "the reopened asset renders no hair");
+    // And hair-render's scene export names it.
+    let scene = dir.path().join("view.json");
+    h.state_mut().export_scene(&scene);
+    ensure!(h.state().error.is_none(), "scene export failed: {:?}", h.state().error);
+    let loaded = render::scene::load_scene(&scene)?;
+    ensure!(
+        loaded.hair_path(&loaded.scene.characters[0]).join("hair.json").is_file(),
+        "scene names no asset"
+    );
+    Ok(())
+}
+
+fn malformed_files_show_an_error_and_keep_the_document(_: &gen_gpu::Context) -> Result<()> {
+    let mut h = editor();
+    open_sample(&mut h)?;
+    let dir = tempfile::tempdir()?;
+    // Saved, so opening asks no question.
+    h.state_mut().save_as(&dir.path().join("good"));
+    let generation = h.state().doc.as_ref().context("doc")?.generation;
+    let bad_mesh = dir.path().join("broken.glb");
+    std::fs::write(&bad_mesh, b"glTF\x02\x00\x00\x00 not really")?;
+    let bad_asset = dir.path().join("broken_asset");
+    std::fs::create_dir(&bad_asset)?;
+    std::fs::write(bad_asset.join("hair.json"), b"{ \"format\": 12 ")?;
+    for path in [&bad_mesh, &bad_asset, &dir.path().join("notes.txt")] {
+        h.state_mut().open(path);
+        h.state_mut().wait_for_conversion(Duration::from_secs(60));
+        // A window is measured on its first frame and shown on the next.
+        h.step();
+        h.step();
+        let error =
+            h.state().error.clone().with_context(|| format!("no error shown for {}", path.display()))?;
+        let name = path.file_name().context("name")?.to_string_lossy().into_owned();
+        ensure!(error.contains(&name), "the error does not name the file: {error}");
+        ensure!(
+            h.state().doc.as_ref().map(|d| d.generation) == Some(generation),
+            "the current document was replaced"
+        );
+        // The error window is shown and its OK button dismisses it.
+        h.get_by_label("OK").click();
+        h.step();
+        h.step();
+        ensure!(h.state().error.is_none(), "the error window did not close");
+    }
+    Ok(())
+}
+
+fn unsaved_changes_prompt_before_open_and_quit(_: &gen_gpu::Context) -> Result<()> {
+    let mut h = editor();
+    open_sample(&mut h)?;
+    // A converted scalp is unsaved: opening another file asks first.
+    h.state_mut().open(&sample_scalp());
+    h.step();
+    h.step();
+    ensure!(h.state().pending.is_some(), "no prompt before replacing an unsaved document");
+    h.get_by_label("Cancel").click();
+    h.step();
+    h.step();
+    ensure!(h.state().pending.is_none() && h.state().conversion.is_none(), "cancel did not cancel");
+    h.state_mut().request_quit();
+    h.step();
+    h.get_by_label("Discard").click();
+    h.step();
+    h.step();
+    ensure!(h.state().quit, "discard did not quit");
+    Ok(())
+}
+
+fn main() -> std::process::ExitCode {
+    let t = |name: &str, f: fn(&gen_gpu::Context) -> Result<()>| GpuTest::new(name, Requirements::NONE, f);
+    run_gpu_tests(vec![
+        t(
+            "style_slider_changes_the_style_and_requests_a_preview",
+            style_slider_changes_the_style_and_requests_a_preview,
+        ),
+        t("vertex_drag_undo_redo_restores_exactly", vertex_drag_undo_redo_restores_exactly),
+        t("saved_asset_loads_and_renders", saved_asset_loads_and_renders),
+        t(
+            "malformed_files_show_an_error_and_keep_the_document",
+            malformed_files_show_an_error_and_keep_the_document,
+        ),
+        t("unsaved_changes_prompt_before_open_and_quit", unsaved_changes_prompt_before_open_and_quit),
+    ])
+}

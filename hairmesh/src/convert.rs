@@ -1,0 +1,164 @@
+//! Scalp file → hair asset in one call: import, hair mesh, textures and root sets, provenance.
+//!
+//! What `hairmesh convert` and the editor's conversion panel both run; `progress` hears each
+//! step's name before it starts, so a caller can print it or show it in a progress bar.
+//!
+//! ```no_run
+//! use hairmesh::convert::{ConvertSettings, convert_scalp};
+//! let settings = ConvertSettings { strands: 5_000, ..ConvertSettings::default() };
+//! let converted = convert_scalp(std::path::Path::new("scalp.glb"), &settings, &mut |step| eprintln!("{step}…"))?;
+//! println!("{} strands", converted.asset.total_strands());
+//! # Ok::<(), hairmesh::HairMeshError>(())
+//! ```
+
+use std::path::Path;
+
+use glam::DVec3;
+use serde::{Deserialize, Serialize};
+
+use crate::asset::{AssetParams, HairAsset, LayerSource, ScalpProvenance, StrandCount};
+use crate::hair_mesh::{DrapeParams, ExtrudeParams, HairMesh};
+use crate::import::load_scalp;
+use crate::style::Style;
+use crate::texture::SliceLayout;
+use crate::{HairMeshError, Result, ScalpMesh, ScalpSelector};
+
+/// How the layers above the scalp are made.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum LayerShape {
+    /// Along the smoothed vertex normals, pulled down by `droop` (a fraction of the length).
+    Extrude { droop: f64 },
+    /// Laid over the head around `centre`, flowing toward gravity + `comb`, lifted by `lift` per
+    /// unit of length ([`HairMesh::drape`]).
+    Drape { centre: DVec3, comb: DVec3, lift: f64 },
+    /// One morph target of the scalp file per layer.
+    MorphTargets,
+}
+
+/// Everything a conversion needs besides the scalp file.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct ConvertSettings {
+    /// Which faces are scalp: `all`, `name:NAME`, `above:NX,NY,NZ,OFFSET`, `sphere:CX,CY,CZ,R`.
+    pub scalp: String,
+    /// Layers above the scalp (1..=64; ignored for morph targets).
+    pub layers: u32,
+    /// Hair length in the file's units; `None` = 0.6 × the scalp's bounding-box diagonal.
+    pub length: Option<f64>,
+    pub shape: LayerShape,
+    /// Total strands, shared by area (ignored when `density` is set).
+    pub strands: u64,
+    /// Strands per unit² of scalp area instead of a total.
+    pub density: Option<f64>,
+    /// Seed of the root sample sets.
+    pub seed: u64,
+    pub sample_sets: u32,
+    pub layout: SliceLayout,
+    pub style: Style,
+}
+
+impl Default for ConvertSettings {
+    fn default() -> Self {
+        Self {
+            scalp: "all".into(),
+            layers: 4,
+            length: None,
+            shape: LayerShape::Extrude { droop: 0.3 },
+            strands: 20_000,
+            density: None,
+            seed: 1,
+            sample_sets: 1,
+            layout: SliceLayout::Lattice,
+            style: Style::default(),
+        }
+    }
+}
+
+impl ConvertSettings {
+    /// The settings an asset was converted with, as far as its provenance records them (the
+    /// strand count is the asset's total; the style is the asset's).
+    pub fn from_asset(asset: &HairAsset) -> Option<Self> {
+        let p = asset.provenance.as_ref()?;
+        let (layers, length, shape) = match p.layers {
+            LayerSource::Extruded(e) => (e.layers, Some(e.length), LayerShape::Extrude { droop: e.droop }),
+            LayerSource::Draped(d) => {
+                (d.layers, Some(d.length), LayerShape::Drape { centre: d.centre, comb: d.comb, lift: d.lift })
+            }
+            LayerSource::MorphTargets => (asset.mesh().layer_count() as u32, None, LayerShape::MorphTargets),
+        };
+        Some(Self {
+            scalp: p.selector.clone(),
+            layers,
+            length,
+            shape,
+            strands: asset.total_strands(),
+            style: asset.style,
+            ..Self::default()
+        })
+    }
+}
+
+/// A converted scalp: the asset, the imported scalp (for reports and previews) and the length
+/// used.
+#[derive(Clone, Debug)]
+pub struct Converted {
+    pub asset: HairAsset,
+    pub scalp: ScalpMesh,
+    pub length: f64,
+}
+
+/// Imports `input`, builds its hair mesh, textures and root sets, and records the provenance.
+/// Errors name the file.
+pub fn convert_scalp(
+    input: &Path,
+    settings: &ConvertSettings,
+    progress: &mut dyn FnMut(&str),
+) -> Result<Converted> {
+    let selector = ScalpSelector::parse(&settings.scalp)?;
+    progress(&format!("importing {}", input.display()));
+    let scalp = load_scalp(input, &selector)?;
+    let Some((lo, hi)) = scalp.bounds() else {
+        return Err(HairMeshError::InvalidParameter {
+            what: "scalp",
+            message: format!("{}: the selector `{}` keeps no face", input.display(), settings.scalp),
+        });
+    };
+    let length = settings.length.unwrap_or(0.6 * lo.distance(hi));
+    let layers = match settings.shape {
+        LayerShape::Extrude { droop } => LayerSource::Extruded(ExtrudeParams {
+            layers: settings.layers,
+            length,
+            droop,
+            ..ExtrudeParams::default()
+        }),
+        LayerShape::Drape { centre, comb, lift } => LayerSource::Draped(DrapeParams {
+            layers: settings.layers,
+            length,
+            centre,
+            lift,
+            gravity: DVec3::NEG_Y,
+            comb,
+        }),
+        LayerShape::MorphTargets => LayerSource::MorphTargets,
+    };
+    progress("building the hair mesh");
+    let hm = match layers {
+        LayerSource::Extruded(e) => HairMesh::extrude(&scalp, &e)?,
+        LayerSource::Draped(d) => HairMesh::drape(&scalp, &d)?,
+        LayerSource::MorphTargets => HairMesh::from_morph_targets(&scalp)?,
+    };
+    let params = AssetParams {
+        strands: match settings.density {
+            Some(d) => StrandCount::Density(d),
+            None => StrandCount::Total(settings.strands),
+        },
+        sample_sets: settings.sample_sets,
+        seed: settings.seed,
+        layout: settings.layout,
+    };
+    progress("textures and blue-noise root sets");
+    let mut asset = HairAsset::build(&hm, &params, settings.style)?;
+    asset.provenance =
+        Some(ScalpProvenance { file: input.display().to_string(), selector: settings.scalp.clone(), layers });
+    Ok(Converted { asset, scalp, length })
+}
