@@ -100,7 +100,10 @@ struct VertexDrag {
 #[derive(Debug)]
 pub struct ScreenshotRequest {
     pub out: PathBuf,
+    title: String,
     asked: bool,
+    /// Frames drawn since the final preview was first shown.
+    ready_frames: u32,
     /// Set by the screenshot callback.
     pub result: Arc<Mutex<Option<Result<(), String>>>>,
 }
@@ -173,7 +176,12 @@ impl EditorApp {
     /// `recent_file` keeps the recent-file list across sessions.
     pub fn new(ctx: &egui::Context, recent_file: Option<PathBuf>) -> Self {
         let waker = ctx.clone();
-        let preview = PreviewWorker::start(move || waker.request_repaint());
+        Self::with_worker(PreviewWorker::start(move || waker.request_repaint()), recent_file)
+    }
+
+    /// An editor drawing its previews with `preview` (started before the window, see
+    /// `src/main.rs`).
+    pub fn with_worker(preview: PreviewWorker, recent_file: Option<PathBuf>) -> Self {
         let recent = recent_file
             .as_deref()
             .and_then(|f| std::fs::read_to_string(f).ok())
@@ -267,7 +275,7 @@ impl EditorApp {
                     started: Instant::now(),
                     progress,
                     result,
-                })
+                });
             }
             Err(e) => self.error = Some(format!("cannot start the conversion: {e}")),
         }
@@ -341,7 +349,7 @@ impl EditorApp {
         match doc.save() {
             Ok(()) => {
                 self.note =
-                    Some(format!("saved {}", doc.save_path.as_deref().unwrap_or(Path::new("")).display()))
+                    Some(format!("saved {}", doc.save_path.as_deref().unwrap_or(Path::new("")).display()));
             }
             Err(e) => self.error = Some(e.to_string()),
         }
@@ -376,7 +384,7 @@ impl EditorApp {
         match self.scene_file(path) {
             Ok(text) => match hairmesh::atomic::write_file_atomic(path, |w| w.write_all(text.as_bytes())) {
                 Ok(()) => {
-                    self.note = Some(format!("exported {} (render it with hair-render)", path.display()))
+                    self.note = Some(format!("exported {} (render it with hair-render)", path.display()));
                 }
                 Err(e) => self.error = Some(format!("{}: {e}", path.display())),
             },
@@ -557,7 +565,7 @@ impl EditorApp {
     fn poll_preview(&mut self, ctx: &egui::Context) {
         let events = self.preview.as_ref().map(PreviewWorker::poll).unwrap_or_default();
         for event in events {
-            self.apply_event(ctx, event);
+            self.apply_preview_event(ctx, event);
         }
     }
 
@@ -565,14 +573,15 @@ impl EditorApp {
     /// `--screenshot`); `false` on timeout.
     pub fn wait_for_preview(&mut self, ctx: &egui::Context, timeout: std::time::Duration) -> bool {
         let Some(event) = self.preview.as_ref().and_then(|w| w.wait(timeout)) else { return false };
-        self.apply_event(ctx, event);
+        self.apply_preview_event(ctx, event);
         true
     }
 
-    fn apply_event(&mut self, ctx: &egui::Context, event: PreviewEvent) {
+    /// Applies one event of the preview worker (frames become the viewport texture).
+    pub fn apply_preview_event(&mut self, ctx: &egui::Context, event: PreviewEvent) {
         match event {
             PreviewEvent::Ready { device, path } => {
-                self.device = Some(format!("{device} · {path} generation"))
+                self.device = Some(format!("{device} · {path} generation"));
             }
             PreviewEvent::Unavailable { message } | PreviewEvent::Failed { message, .. } => {
                 self.preview_error = Some(message);
@@ -1247,23 +1256,26 @@ impl EditorApp {
         }
     }
 
+    /// `--screenshot`: once the final preview has been shown for a frame, capture the window
+    /// from outside ([`crate::xwd`]) in a thread and report through [`ScreenshotRequest::result`].
     fn screenshot_step(&mut self, ctx: &egui::Context) {
         let ready = self.preview_is_final() && self.conversion.is_none();
         let Some(shot) = &mut self.screenshot else { return };
         if shot.asked || !ready {
+            shot.ready_frames = 0;
+            return;
+        }
+        // This frame draws the final preview; capture after it has been presented.
+        shot.ready_frames += 1;
+        if shot.ready_frames < 3 {
+            ctx.request_repaint_after(std::time::Duration::from_millis(300));
             return;
         }
         shot.asked = true;
-        let out = shot.out.clone();
-        let result = shot.result.clone();
-        let waker = ctx.clone();
-        ctx.request_screenshot(move |image| {
-            let rgba = gen_gpu::RgbaImage {
-                width: image.size[0] as u32,
-                height: image.size[1] as u32,
-                pixels: image.pixels.iter().flat_map(|c| c.to_array()).collect(),
-            };
-            let r = render::output::write_png(&out, &rgba).map_err(|e| e.to_string());
+        let (out, result, title, waker) =
+            (shot.out.clone(), shot.result.clone(), shot.title.clone(), ctx.clone());
+        std::thread::spawn(move || {
+            let r = crate::xwd::screenshot(&title, &out);
             *result.lock().unwrap_or_else(|e| e.into_inner()) = Some(r);
             waker.request_repaint();
         });
@@ -1271,8 +1283,9 @@ impl EditorApp {
 }
 
 impl ScreenshotRequest {
-    pub fn new(out: PathBuf) -> Self {
-        Self { out, asked: false, result: Arc::default() }
+    /// A screenshot of the window titled `title`, to `out`.
+    pub fn new(out: PathBuf, title: &str) -> Self {
+        Self { out, title: title.to_owned(), asked: false, ready_frames: 0, result: Arc::default() }
     }
 }
 

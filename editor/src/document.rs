@@ -24,6 +24,7 @@ use crate::EditorError;
 
 /// Where the document's asset came from.
 #[derive(Clone, Debug, PartialEq)]
+#[expect(clippy::large_enum_variant, reason = "one per document")]
 pub enum Source {
     /// Converted from a scalp file with these settings (not saved yet unless
     /// [`Document::save_path`] is set).
@@ -34,6 +35,7 @@ pub enum Source {
 
 /// One undoable edit, as the values before and after it.
 #[derive(Clone, Debug, PartialEq)]
+#[expect(clippy::large_enum_variant, reason = "a few hundred bytes per undo step; boxing buys nothing")]
 pub enum Edit {
     Style {
         before: Style,

@@ -3,7 +3,7 @@
 //! PATH is a scalp mesh (.glb, .gltf, .obj: converted with the default settings) or a hair
 //! asset folder. With `--screenshot`, the editor opens PATH, waits for the first full-quality
 //! preview, saves a screenshot of the whole window and exits (for docs and headless checks,
-//! e.g. under `xvfb-run`).
+//! e.g. under `xvfb-run`); the screenshot is taken with `xwd` (X11).
 
 use std::path::PathBuf;
 use std::time::{Duration, Instant};
@@ -39,32 +39,63 @@ fn parse_size(text: &str) -> Result<(f32, f32), String> {
     Ok((w, h))
 }
 
+/// The window's title, by which `--screenshot` finds it.
+const WINDOW_TITLE: &str = "hair-editor";
+
 struct Window {
     app: EditorApp,
     started: Instant,
     timeout: Duration,
-    exit: std::sync::Arc<std::sync::Mutex<Option<Result<(), String>>>>,
 }
 
 impl eframe::App for Window {
+    fn on_exit(&mut self) {
+        // The window's teardown (its wgpu surface) blocks forever on lavapipe under Xvfb
+        // (measured here); everything is saved by now, so end the process.
+        std::process::exit(0);
+    }
+
     fn ui(&mut self, ui: &mut egui::Ui, _frame: &mut eframe::Frame) {
         self.app.ui(ui);
         if let Some(shot) = &self.app.screenshot {
             let done = shot.result.lock().unwrap_or_else(|e| e.into_inner()).take();
-            if let Some(done) = done {
-                *self.exit.lock().unwrap_or_else(|e| e.into_inner()) = Some(done);
-                ui.ctx().send_viewport_cmd(egui::ViewportCommand::Close);
-            } else if self.started.elapsed() > self.timeout {
-                let why = match (&self.app.error, &self.app.preview_error) {
-                    (Some(e), _) | (None, Some(e)) => e.clone(),
-                    (None, None) => "the preview did not finish".into(),
+            let outcome = match done {
+                Some(done) => Some(done.map(|()| shot.out.clone())),
+                // A failed preview (a validation message included) fails the run at once.
+                None if self.app.preview_error.is_some() || self.app.error.is_some() => Some(Err(self
+                    .app
+                    .error
+                    .as_ref()
+                    .or(self.app.preview_error.as_ref())
+                    .map_or("", String::as_str)
+                    .to_string())),
+                None if self.started.elapsed() > self.timeout => {
+                    let why = match (&self.app.error, &self.app.preview_error) {
+                        (Some(e), _) | (None, Some(e)) => e.clone(),
+                        (None, None) => "the preview did not finish".into(),
+                    };
+                    Some(Err(format!("timed out after {} s: {why}", self.timeout.as_secs())))
+                }
+                None => None,
+            };
+            if let Some(outcome) = outcome {
+                // Exit here rather than through the window's teardown: on lavapipe under Xvfb,
+                // destroying the window's surface blocks forever (measured here), and a
+                // screenshot run has nothing to save.
+                let code = match outcome {
+                    Ok(out) => {
+                        println!("wrote {}", out.display());
+                        0
+                    }
+                    Err(e) => {
+                        eprintln!("hair-editor: error: {e}");
+                        1
+                    }
                 };
-                *self.exit.lock().unwrap_or_else(|e| e.into_inner()) =
-                    Some(Err(format!("timed out after {} s: {why}", self.timeout.as_secs())));
-                ui.ctx().send_viewport_cmd(egui::ViewportCommand::Close);
+                std::process::exit(code);
             } else {
                 // Keep polling while waiting for the preview and the conversion.
-                ui.ctx().request_repaint_after(Duration::from_millis(50));
+                ui.ctx().request_repaint_after(Duration::from_millis(500));
             }
         }
     }
@@ -96,14 +127,26 @@ fn run(cli: Cli) -> Result<()> {
     {
         bail!("{}: no such file or folder", p.display());
     }
-    let exit = std::sync::Arc::default();
-    let window_exit = std::sync::Arc::clone(&exit);
-    let options = eframe::NativeOptions {
+    let mut options = eframe::NativeOptions {
         viewport: egui::ViewportBuilder::default()
             .with_inner_size([cli.size.0, cli.size.1])
-            .with_title("hair-editor"),
+            .with_title(WINDOW_TITLE),
         ..Default::default()
     };
+    // Presenting with vsync blocks forever on lavapipe under Xvfb (measured here: the first
+    // present never returns). egui repaints only when something changed, so without vsync it
+    // does not spin either.
+    options.wgpu_options.surface.present_mode = eframe::wgpu::PresentMode::AutoNoVsync;
+    // The preview's device is created before the window's: on lavapipe under Xvfb, creating
+    // it while the window presents its first frames hung the window's queue (measured here).
+    let ui_ctx: std::sync::Arc<std::sync::OnceLock<egui::Context>> = std::sync::Arc::default();
+    let waker_ctx = ui_ctx.clone();
+    let worker = editor::preview::PreviewWorker::start(move || {
+        if let Some(ctx) = waker_ctx.get() {
+            ctx.request_repaint();
+        }
+    });
+    let ready = worker.wait(Duration::from_secs(120));
     let screenshot = cli.screenshot.clone();
     let path = cli.path.clone();
     let timeout = Duration::from_secs(cli.timeout);
@@ -111,25 +154,23 @@ fn run(cli: Cli) -> Result<()> {
         "hair-editor",
         options,
         Box::new(move |cc| {
+            let _ = ui_ctx.set(cc.egui_ctx.clone());
             let mut app =
-                EditorApp::new(&cc.egui_ctx, if screenshot.is_some() { None } else { recent_file() });
+                EditorApp::with_worker(worker, if screenshot.is_some() { None } else { recent_file() });
+            if let Some(event) = ready {
+                app.apply_preview_event(&cc.egui_ctx, event);
+            }
             if let Some(p) = &path {
                 app.open(p);
             }
-            app.screenshot = screenshot.map(ScreenshotRequest::new);
-            Ok(Box::new(Window { app, started: Instant::now(), timeout, exit: window_exit }))
+            app.screenshot = screenshot.map(|out| ScreenshotRequest::new(out, WINDOW_TITLE));
+            Ok(Box::new(Window { app, started: Instant::now(), timeout }))
         }),
     )
     .map_err(|e| anyhow::anyhow!("{e}"))
     .context("running the window (a display is needed: on a headless machine use xvfb-run)")?;
-    let outcome = exit.lock().unwrap_or_else(|e| e.into_inner()).take();
-    match (cli.screenshot, outcome) {
-        (Some(out), Some(Ok(()))) => {
-            println!("wrote {}", out.display());
-            Ok(())
-        }
-        (Some(_), Some(Err(e))) => bail!("{e}"),
-        (Some(_), None) => bail!("the window closed before the screenshot was taken"),
-        (None, _) => Ok(()),
+    if cli.screenshot.is_some() {
+        bail!("the window closed before the screenshot was taken");
     }
+    Ok(())
 }

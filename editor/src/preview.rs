@@ -240,7 +240,7 @@ fn run(slot: &(Mutex<Slot>, Condvar), events: &Sender<PreviewEvent>, wake: &dyn 
         match result {
             Ok(frame) if validation.is_empty() => send(PreviewEvent::Frame(frame)),
             Ok(_) => {
-                send(PreviewEvent::Failed { id, message: format!("validation: {}", validation.join("; ")) })
+                send(PreviewEvent::Failed { id, message: format!("validation: {}", validation.join("; ")) });
             }
             Err(message) => {
                 // A failed renderer may hold a half-applied update: build it again next time.

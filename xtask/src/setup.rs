@@ -11,9 +11,24 @@ use std::process::Command;
 use anyhow::{Context, Result, bail};
 
 /// Packages installed from the release's default suite.
-/// `fonts-dejavu-core`: the font of the benchmark plots.
-const BASE_PACKAGES: &[&str] =
-    &["libvulkan1", "vulkan-validationlayers", "glslang-tools", "spirv-tools", "fonts-dejavu-core"];
+/// `fonts-dejavu-core`: the font of the benchmark plots. The editor's window test: `xvfb`
+/// and `xauth` (a virtual X display, `xvfb-run`), `x11-apps` (`xwd`, a screenshot taken from
+/// outside the app), and the X libraries winit loads at run time.
+const BASE_PACKAGES: &[&str] = &[
+    "libvulkan1",
+    "vulkan-validationlayers",
+    "glslang-tools",
+    "spirv-tools",
+    "fonts-dejavu-core",
+    "xvfb",
+    "xauth",
+    "x11-apps",
+    "libxkbcommon-x11-0",
+    "libxcursor1",
+    "libxrandr2",
+    "libxi6",
+    "libx11-xcb1",
+];
 /// The driver: lavapipe, with VK_EXT_mesh_shader from this Mesa major version on.
 const DRIVER_PACKAGE: &str = "mesa-vulkan-drivers";
 const MIN_MESA_MAJOR: u32 = 24;
