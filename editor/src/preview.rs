@@ -49,7 +49,7 @@ pub struct PreviewScene {
 impl Default for PreviewScene {
     fn default() -> Self {
         Self {
-            effects: Effects { shadows: true, ..Effects::default() },
+            effects: Effects::default(),
             lights: vec![
                 Light::Directional { direction: [0.5, 0.8, 0.6], color: [2.2, 2.1, 2.0], cast_shadows: true },
                 Light::Directional {
