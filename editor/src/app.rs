@@ -138,6 +138,8 @@ pub struct EditorApp {
     pub show_overlay: bool,
     pub mirror_x: bool,
     pub hovered_vertex: Option<u32>,
+    /// The outer-layer vertex last clicked or dragged (F frames it; Escape clears it).
+    pub selected_vertex: Option<u32>,
     drag: Option<VertexDrag>,
     /// The vertex under the pointer when the primary button went down.
     press_vertex: Option<u32>,
@@ -210,6 +212,7 @@ impl EditorApp {
             show_overlay: true,
             mirror_x: false,
             hovered_vertex: None,
+            selected_vertex: None,
             drag: None,
             press_vertex: None,
             viewport_dragging: false,
@@ -324,6 +327,7 @@ impl EditorApp {
         self.doc = Some(doc);
         self.drag = None;
         self.hovered_vertex = None;
+        self.selected_vertex = None;
     }
 
     fn remember(&mut self, path: &Path) {
@@ -497,9 +501,13 @@ impl EditorApp {
             .and_then(|p| p.parent().map(Path::to_owned))
             .unwrap_or_else(|| PathBuf::from("."));
         let mut dialog = match purpose {
-            DialogPurpose::Open => {
-                egui_file::FileDialog::open_file().title("Open a scalp mesh or a hair asset")
-            }
+            DialogPurpose::Open => egui_file::FileDialog::open_file()
+                .title("Open a scalp mesh or a hair asset (its hair.json)")
+                .show_files_filter(Box::new(|p: &Path| {
+                    let ext = p.extension().and_then(|e| e.to_str()).unwrap_or_default().to_ascii_lowercase();
+                    matches!(ext.as_str(), "glb" | "gltf" | "obj")
+                        || p.file_name().is_some_and(|n| n == "hair.json")
+                })),
             DialogPurpose::SaveAs => {
                 egui_file::FileDialog::select_folder().title("Save the asset as a folder")
             }
@@ -746,18 +754,32 @@ impl EditorApp {
             });
             ui.menu_button("View", |ui| {
                 ui.checkbox(&mut self.show_overlay, "Hair-mesh overlay");
-                if ui.button("Frame hair").clicked() {
+                if ui.button("Frame selected (F)").clicked() {
                     self.frame_hair();
                 }
             });
         });
     }
 
+    /// Frames the selected hair-mesh column (the last vertex clicked or dragged), or the whole
+    /// hair without a selection.
     fn frame_hair(&mut self) {
-        if let Some(doc) = &self.doc {
-            let (lo, hi) = doc.asset().bounds();
-            self.camera.frame(lo.as_vec3(), hi.as_vec3());
-        }
+        let Some(doc) = &self.doc else { return };
+        let mesh = doc.asset().mesh();
+        let (lo, hi) = match self.selected_vertex.filter(|&v| (v as usize) < mesh.vertex_count()) {
+            Some(v) => {
+                let column = mesh.column(v);
+                let (lo, hi) = column
+                    .iter()
+                    .fold((DVec3::INFINITY, DVec3::NEG_INFINITY), |(lo, hi), p| (lo.min(*p), hi.max(*p)));
+                // A column is thin: frame at least a tenth of the hair around it.
+                let (alo, ahi) = doc.asset().bounds();
+                let pad = DVec3::splat(0.05 * alo.distance(ahi));
+                (lo - pad, hi + pad)
+            }
+            None => doc.asset().bounds(),
+        };
+        self.camera.frame(lo.as_vec3(), hi.as_vec3());
     }
 
     fn status_bar(&mut self, ui: &mut egui::Ui) {
@@ -870,12 +892,27 @@ impl EditorApp {
                 }
             }
             let l = ui.label("Strands");
-            ui.add(
-                egui::DragValue::new(&mut c.strands)
-                    .range(1..=hairmesh::asset::MAX_TOTAL_STRANDS)
-                    .speed(100.0),
-            )
-            .labelled_by(l.id);
+            ui.horizontal(|ui| {
+                let mut by_density = c.density.is_some();
+                let toggle = ui
+                    .checkbox(&mut by_density, "by density")
+                    .on_hover_text("strands per unit of scalp area instead of a total");
+                if toggle.changed() {
+                    c.density = by_density.then_some(1000.0);
+                }
+                match &mut c.density {
+                    Some(d) => {
+                        ui.add(egui::DragValue::new(d).range(1e-3..=1e9).speed(10.0)).labelled_by(l.id)
+                    }
+                    None => ui
+                        .add(
+                            egui::DragValue::new(&mut c.strands)
+                                .range(1..=hairmesh::asset::MAX_TOTAL_STRANDS)
+                                .speed(100.0),
+                        )
+                        .labelled_by(l.id),
+                };
+            });
             ui.end_row();
             let l = ui.label("Root seed");
             ui.add(egui::DragValue::new(&mut c.seed)).labelled_by(l.id);
@@ -1082,6 +1119,7 @@ impl EditorApp {
         {
             let mirror = if self.mirror_x { mirror_vertex(mesh, v) } else { None };
             let start = std::iter::once(v).chain(mirror).map(|v| (v, mesh.column(v))).collect();
+            self.selected_vertex = Some(v);
             self.drag = Some(VertexDrag {
                 vertex: v,
                 mirror,
@@ -1122,17 +1160,23 @@ impl EditorApp {
             self.camera.pan(glam::Vec2::new(d.x, d.y), rect.height());
             self.interacting = true;
         }
-        let mut frame_requested = false;
+        // F frames the selection (unless a text field has the keyboard).
+        let frame_requested =
+            ui.ctx().input(|i| i.key_pressed(egui::Key::F)) && !ui.ctx().egui_wants_keyboard_input();
         if response.hovered() {
             let scroll = ui.ctx().input(|i| i.smooth_scroll_delta.y);
             if scroll != 0.0 {
                 self.camera.zoom(scroll / 50.0);
                 self.interacting = true;
             }
-            frame_requested =
-                ui.ctx().input(|i| i.key_pressed(egui::Key::F)) && !ui.ctx().egui_wants_keyboard_input();
         }
         let drag_ended = response.drag_stopped() && self.drag.is_some();
+        if response.clicked() {
+            self.selected_vertex = self.hovered_vertex;
+        }
+        if ui.input(|i| i.key_pressed(egui::Key::Escape)) {
+            self.selected_vertex = None;
+        }
 
         // Overlay: the outer layer's edges and vertices, the hovered or dragged column.
         if self.show_overlay {
@@ -1156,7 +1200,7 @@ impl EditorApp {
             }
             let highlighted: Vec<u32> = match &self.drag {
                 Some(d) => std::iter::once(d.vertex).chain(d.mirror).collect(),
-                None => self.hovered_vertex.into_iter().collect(),
+                None => self.hovered_vertex.into_iter().chain(self.selected_vertex).collect(),
             };
             for v in highlighted {
                 let column: Vec<Pos2> = mesh.column(v).into_iter().filter_map(to_screen).collect();

@@ -163,6 +163,17 @@ fn vertex_drag_undo_redo_restores_exactly(_: &gen_gpu::Context) -> Result<()> {
     h.step();
     let redone = h.state().doc.as_ref().context("doc")?.asset().mesh().clone();
     ensure!(redone.layers == dragged.layers, "redo did not restore the drag exactly");
+    // The dragged vertex is selected; F frames its column.
+    ensure!(h.state().selected_vertex == Some(picked as u32), "the dragged vertex is not selected");
+    h.key_press(egui::Key::F);
+    h.step();
+    let column = redone.column(picked as u32);
+    let centre = column.iter().fold(glam::DVec3::ZERO, |a, p| a + *p) / column.len() as f64;
+    let target = h.state().camera.target.as_dvec3();
+    ensure!(
+        target.distance(centre) < 0.5 * column[0].distance(column[outer]) + 1e-6,
+        "F framed {target}, not the selected column around {centre}"
+    );
     settle(&mut h)?;
     Ok(())
 }
