@@ -255,6 +255,17 @@ impl EditorApp {
         }
     }
 
+    /// Opens the repository's sample head (found under `root`) with its scalp selection and
+    /// the drape settings of its skull.
+    pub fn open_sample_head(&mut self, root: &Path) {
+        use hairmesh::convert::sample_head;
+        self.convert.scalp = sample_head::SCALP.into();
+        if let LayerShape::Drape { centre, .. } = &mut self.convert.shape {
+            *centre = DVec3::from_array(sample_head::SKULL_CENTRE);
+        }
+        self.open(&root.join(sample_head::PATH));
+    }
+
     /// Converts `file` with the panel's settings (and the open document's style) in a thread.
     pub fn start_conversion(&mut self, file: PathBuf) {
         let mut settings = self.convert.clone();
@@ -453,7 +464,15 @@ impl EditorApp {
         let roots = &mesh.layers[0];
         let (lo, hi) =
             roots.iter().fold((DVec3::INFINITY, DVec3::NEG_INFINITY), |(lo, hi), p| (lo.min(*p), hi.max(*p)));
-        let (length, shape) = preset.layers_for(lo, hi);
+        let (length, mut shape) = preset.layers_for(lo, hi);
+        // A head centre already set in the panel (the sample head's skull, or the artist's) is
+        // better than the estimate from the scalp's bounds.
+        if let (LayerShape::Drape { centre, .. }, LayerShape::Drape { centre: set, .. }) =
+            (&mut shape, &self.convert.shape)
+            && *set != DVec3::ZERO
+        {
+            *centre = *set;
+        }
         let rescale = if let Source::Scalp { file, .. } = &doc.source { Some(file.clone()) } else { None };
         let current_length = doc.asset().bundles.iter().map(|b| b.length).fold(0.0, f64::max);
         let style_length = if rescale.is_some() { length } else { current_length };
@@ -636,7 +655,8 @@ impl EditorApp {
 
     /// Whether the preview shows a full-quality frame of the current state.
     pub fn preview_is_final(&self) -> bool {
-        self.shown.as_ref().is_some_and(|s| s.current && !s.draft)
+        // The frame answers the latest request, which was for the current state.
+        self.shown.as_ref().is_some_and(|s| s.current && !s.draft && Some(s.id) == self.last_request_id)
             && self.requested.as_ref().is_some_and(|(k, _)| Some(k) == self.request_key().as_ref())
     }
 
@@ -707,6 +727,10 @@ impl EditorApp {
             ui.menu_button("File", |ui| {
                 if ui.button("Open…").clicked() {
                     self.open_dialog(DialogPurpose::Open);
+                }
+                if ui.button("Open sample head").on_hover_text(hairmesh::convert::sample_head::PATH).clicked()
+                {
+                    self.open_sample_head(Path::new("."));
                 }
                 ui.menu_button("Open recent", |ui| {
                     if self.recent.is_empty() {

@@ -51,7 +51,11 @@ impl Default for PreviewScene {
         Self {
             effects: Effects::default(),
             lights: vec![
-                Light::Directional { direction: [0.5, 0.8, 0.6], color: [2.2, 2.1, 2.0], cast_shadows: true },
+                Light::Directional {
+                    direction: [0.5, 0.8, 0.6],
+                    color: [1.6, 1.55, 1.5],
+                    cast_shadows: true,
+                },
                 Light::Directional {
                     direction: [-0.6, 0.2, -0.5],
                     color: [0.5, 0.55, 0.7],

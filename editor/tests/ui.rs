@@ -312,9 +312,51 @@ fn real_window_under_xvfb_shows_hair(_: &gen_gpu::Context) -> Result<()> {
     Ok(())
 }
 
+/// Every preset re-converts the sample scalp with its layers and style and renders hair; the
+/// window with each is kept in the test target folder (`editor-preset-*.png`) to look at.
+fn presets_convert_and_render(_: &gen_gpu::Context) -> Result<()> {
+    let mut h = builder().wgpu().build_ui_state(|ui, app: &mut EditorApp| app.ui(ui), app());
+    // HAIRKIT_EDITOR_SAMPLE_HEAD=1: on the LeePerrySmith scan (slower; for looking at the presets).
+    if std::env::var("HAIRKIT_EDITOR_SAMPLE_HEAD").is_ok_and(|v| v == "1") {
+        h.state_mut().convert.strands = 20_000;
+        h.state_mut().open_sample_head(&Path::new(env!("CARGO_MANIFEST_DIR")).join(".."));
+        settle(&mut h)?;
+    } else {
+        open_sample(&mut h)?;
+    }
+    // The hair itself, without the hair-mesh overlay.
+    h.state_mut().show_overlay = false;
+    for preset in editor::presets::PRESETS {
+        h.get_by_label(preset.name).click();
+        h.step();
+        settle(&mut h)?;
+        let style = h.state().doc.as_ref().context("doc")?.style();
+        let length = h
+            .state()
+            .doc
+            .as_ref()
+            .context("doc")?
+            .asset()
+            .bundles
+            .iter()
+            .map(|b| b.length)
+            .fold(0.0, f64::max);
+        let expected = preset.style_for(h.state().convert.length.context("the preset sets a length")?);
+        ensure!(style == expected, "{}: the style is not the preset's", preset.name);
+        ensure!(length > 0.0, "{}: no hair", preset.name);
+        ensure!(hair_pixels(&h) > 500, "{}: the preview shows no hair", preset.name);
+        h.step();
+        let image = h.render().map_err(|e| anyhow::anyhow!("{e}"))?;
+        let name = preset.name.to_lowercase().replace(' ', "-");
+        image.save(Path::new(env!("CARGO_TARGET_TMPDIR")).join(format!("editor-preset-{name}.png")))?;
+    }
+    Ok(())
+}
+
 fn main() -> std::process::ExitCode {
     let t = |name: &str, f: fn(&gen_gpu::Context) -> Result<()>| GpuTest::new(name, Requirements::NONE, f);
     run_gpu_tests(vec![
+        t("presets_convert_and_render", presets_convert_and_render),
         t("real_window_under_xvfb_shows_hair", real_window_under_xvfb_shows_hair),
         t("window_snapshot_shows_the_preview", window_snapshot_shows_the_preview),
         t(

@@ -23,6 +23,19 @@ use crate::style::Style;
 use crate::texture::SliceLayout;
 use crate::{HairMeshError, Result, ScalpMesh, ScalpSelector};
 
+/// The repository's sample head, the LeePerrySmith scan (`tests/data/heads/LeePerrySmith/`),
+/// and how its scalp is selected: faces whose centroid has `y − 0.7 z > 1.64` (file units: face
+/// towards +Z, top of the head at y = 3.97), i.e. the hairline at y ≈ 2.9 over the forehead,
+/// above the ears at the sides and at y ≈ 0.3 at the nape.
+pub mod sample_head {
+    /// The head, relative to the repository root.
+    pub const PATH: &str = "tests/data/heads/LeePerrySmith/LeePerrySmith.glb";
+    /// Its scalp selector.
+    pub const SCALP: &str = "above:0,0.8192,-0.5735,1.3435";
+    /// The centre of its skull, which draped hair flows around.
+    pub const SKULL_CENTRE: [f64; 3] = [0.0, 1.9, -0.2];
+}
+
 /// How the layers above the scalp are made.
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(rename_all = "snake_case")]

@@ -219,12 +219,7 @@ fn timed<T>(what: &str, f: impl FnOnce() -> Result<T>) -> Result<T> {
     Ok(value)
 }
 
-/// The LeePerrySmith scan's hairline (file units: face towards +Z, top of the head at y = 3.97):
-/// faces whose centroid has `y − 0.7 z > 1.64`, i.e. the hairline at y ≈ 2.9 over the forehead,
-/// above the ears at the sides and at y ≈ 0.3 at the nape.
-pub const LEE_PERRY_SMITH_SCALP: &str = "above:0,0.8192,-0.5735,1.3435";
-/// The centre of its skull, which draped hair flows around.
-const LEE_PERRY_SMITH_SKULL: [f64; 3] = [0.0, 1.9, -0.2];
+use hairmesh::convert::sample_head::{SCALP as LEE_PERRY_SMITH_SCALP, SKULL_CENTRE as LEE_PERRY_SMITH_SKULL};
 
 fn demo(o: &DemoOptions, device: &DeviceArgs) -> Result<()> {
     use hairmesh::asset::{AssetParams, HairAsset, StrandCount};
