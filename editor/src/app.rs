@@ -79,6 +79,7 @@ pub struct ShownFrame {
     pub ms: f64,
     pub strands: u64,
     pub vertices: u64,
+    pub raster: String,
     pub size: [u32; 2],
     /// The frame answers the current request key (not an older state).
     pub current: bool,
@@ -640,6 +641,7 @@ impl EditorApp {
                     ms: frame.ms,
                     strands: frame.strands,
                     vertices: frame.vertices,
+                    raster: frame.raster,
                     size: [frame.image.width, frame.image.height],
                     current,
                     image: Arc::new(frame.image),
@@ -813,7 +815,8 @@ impl EditorApp {
             match &self.shown {
                 Some(s) => {
                     ui.label(format!(
-                        "{} strands · {} vertices · {}×{} {} · {:.0} ms",
+                        "{} raster · {} strands · {} vertices · {}×{} {} · {:.0} ms",
+                        s.raster,
                         s.strands,
                         s.vertices,
                         s.size[0],

@@ -102,6 +102,8 @@ pub struct PreviewFrame {
     pub vertices: u64,
     /// The renderer was built for this frame (pays for pipeline creation).
     pub rebuilt: bool,
+    /// The rasterizer that drew the hair (`compute` or `triangles`).
+    pub raster: String,
 }
 
 /// What the worker reports.
@@ -319,6 +321,7 @@ fn render_request(
         strands: frame.stats.strands,
         vertices: frame.stats.vertices,
         rebuilt,
+        raster: b.renderer.raster().to_string(),
     })
 }
 

@@ -103,6 +103,13 @@ fn style_slider_changes_the_style_and_requests_a_preview(_: &gen_gpu::Context) -
     let mut h = editor();
     open_sample(&mut h)?;
     ensure!(hair_pixels(&h) > 500, "the first preview shows no hair ({} pixels)", hair_pixels(&h));
+    // The status bar's facts: device and generation path, rasterizer.
+    ensure!(
+        h.state().device.as_deref().is_some_and(|d| d.contains("generation")),
+        "no device in the status bar"
+    );
+    let raster = h.state().shown.as_ref().map(|s| s.raster.clone()).unwrap_or_default();
+    ensure!(raster == "compute" || raster == "triangles", "raster path {raster:?}");
     let requests = h.state().stats.requests;
     let before = h.state().doc.as_ref().context("doc")?.style();
     h.get_by_role_and_label(Role::Slider, "Curl radius").set_value_accesskit(0.01);
@@ -198,6 +205,16 @@ fn saved_asset_loads_and_renders(_: &gen_gpu::Context) -> Result<()> {
     fresh.state_mut().open(&out);
     settle(&mut fresh)?;
     ensure!(hair_pixels(&fresh) > 500, "the reopened asset renders no hair");
+    // The viewport exports as PNG at the preview's size.
+    let png_path = dir.path().join("view.png");
+    h.state_mut().export_png(&png_path);
+    ensure!(h.state().error.is_none(), "PNG export failed: {:?}", h.state().error);
+    let info = png::Decoder::new(std::io::BufReader::new(std::fs::File::open(&png_path)?))
+        .read_info()?
+        .info()
+        .clone();
+    let shown = h.state().shown.as_ref().context("frame")?.size;
+    ensure!([info.width, info.height] == shown, "exported {}×{}, shown {shown:?}", info.width, info.height);
     // And hair-render's scene export names it.
     let scene = dir.path().join("view.json");
     h.state_mut().export_scene(&scene);
