@@ -1121,10 +1121,19 @@ impl EditorApp {
         let mesh = doc.asset().mesh();
         let outer = mesh.layers.len() - 1;
         let pointer = response.hover_pos().map(|p| p - rect.min);
+        // A column whose root-to-tip direction points away from the camera is on the far side
+        // of the head: drawn faint and not pickable (the overlay has no depth buffer).
+        let eye = self.camera.eye().as_dvec3();
+        let facing: Vec<bool> = (0..mesh.vertex_count())
+            .map(|v| {
+                let (root, tip) = (mesh.layers[0][v], mesh.layers[outer][v]);
+                (tip - root).dot(eye - tip) >= 0.0
+            })
+            .collect();
         let pick_at = |pointer: Vec2| -> Option<u32> {
             pick(
                 &projection,
-                mesh.layers[outer].iter().map(|p| p.as_vec3()),
+                mesh.layers[outer].iter().zip(&facing).map(|(p, &f)| if f { p.as_vec3() } else { Vec3::NAN }),
                 glam::Vec2::new(pointer.x, pointer.y),
                 PICK_RADIUS,
             )
@@ -1208,20 +1217,21 @@ impl EditorApp {
         // Overlay: the outer layer's edges and vertices, the hovered or dragged column.
         if self.show_overlay {
             let edge = Stroke::new(1.0, Color32::from_rgba_unmultiplied(120, 200, 255, 90));
+            let far_edge = Stroke::new(1.0, Color32::from_rgba_unmultiplied(120, 200, 255, 22));
             for face in &mesh.faces {
                 let vs = face.vertices();
                 for k in 0..vs.len() {
-                    let (a, b) = (vs[k], vs[(k + 1) % vs.len()]);
-                    if let (Some(a), Some(b)) =
-                        (to_screen(mesh.layers[outer][a as usize]), to_screen(mesh.layers[outer][b as usize]))
+                    let (a, b) = (vs[k] as usize, vs[(k + 1) % vs.len()] as usize);
+                    if let (Some(pa), Some(pb)) =
+                        (to_screen(mesh.layers[outer][a]), to_screen(mesh.layers[outer][b]))
                     {
-                        painter.line_segment([a, b], edge);
+                        painter.line_segment([pa, pb], if facing[a] && facing[b] { edge } else { far_edge });
                     }
                 }
             }
             let dot = Color32::from_rgba_unmultiplied(160, 220, 255, 160);
-            for p in &mesh.layers[outer] {
-                if let Some(s) = to_screen(*p) {
+            for (p, &f) in mesh.layers[outer].iter().zip(&facing) {
+                if let (Some(s), true) = (to_screen(*p), f) {
                     painter.circle_filled(s, 1.5, dot);
                 }
             }

@@ -109,7 +109,8 @@ impl Projection {
     /// camera.
     pub fn project(&self, p: Vec3) -> Option<(Vec2, f32)> {
         let clip = self.view_proj * p.extend(1.0);
-        if clip.w <= 1e-6 {
+        // Behind the camera, or not a point (NaN marks points to leave out).
+        if !(clip.w > 1e-6 && clip.is_finite()) {
             return None;
         }
         let ndc = clip.xy() / clip.w;
@@ -158,6 +159,7 @@ mod tests {
         let points = [cam.target + Vec3::X, cam.target];
         assert_eq!(pick(&proj, points.into_iter(), Vec2::new(322.0, 181.0), 8.0), Some(1));
         assert_eq!(pick(&proj, points.into_iter(), Vec2::new(10.0, 10.0), 8.0), None);
+        assert_eq!(pick(&proj, [Vec3::NAN, cam.target].into_iter(), Vec2::new(320.0, 180.0), 8.0), Some(1));
     }
 
     #[test]
