@@ -25,18 +25,7 @@ fn frame(
     draft: bool,
 ) -> Result<f64> {
     let start = Instant::now();
-    let id = worker.request(PreviewRequest {
-        id: 0,
-        generation: doc.generation,
-        asset: doc.asset().clone(),
-        changes: doc.changes().to_vec(),
-        occluder: doc.occluder.clone(),
-        scene: scene.clone(),
-        camera,
-        width: 640,
-        height: 360,
-        draft,
-    });
+    let id = worker.request(PreviewRequest::for_document(doc, scene.clone(), camera, [640, 360], draft));
     loop {
         match worker.wait(Duration::from_secs(300)).context("no preview frame within 300 s")? {
             PreviewEvent::Frame(f) if f.id == id => return Ok(start.elapsed().as_secs_f64() * 1e3),

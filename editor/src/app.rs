@@ -81,8 +81,6 @@ pub struct ShownFrame {
     pub vertices: u64,
     pub raster: String,
     pub size: [u32; 2],
-    /// The frame answers the current request key (not an older state).
-    pub current: bool,
     image: Arc<gen_gpu::RgbaImage>,
 }
 
@@ -105,7 +103,7 @@ pub struct ScreenshotRequest {
     asked: bool,
     /// Frames drawn since the final preview was first shown.
     ready_frames: u32,
-    /// Set by the screenshot callback.
+    /// Set by the capture thread.
     pub result: Arc<Mutex<Option<Result<(), String>>>>,
 }
 
@@ -144,8 +142,6 @@ pub struct EditorApp {
     drag: Option<VertexDrag>,
     /// The vertex under the pointer when the primary button went down.
     press_vertex: Option<u32>,
-    /// The viewport has the pointer (orbit, pan or a vertex drag).
-    viewport_dragging: bool,
     /// A slider or a drag is active this frame: previews are drafts.
     interacting: bool,
     viewport_size: [u32; 2],
@@ -154,18 +150,8 @@ pub struct EditorApp {
     pub screenshot: Option<ScreenshotRequest>,
     /// The window should close (eframe's glue acts on it).
     pub quit: bool,
-    /// Requests sent to the preview, and when the current state's first and full frames came.
-    pub stats: PreviewStats,
-}
-
-/// Preview latency as the UI sees it.
-#[derive(Clone, Debug, Default)]
-pub struct PreviewStats {
-    pub requests: u64,
-    /// Since the last change of the request key: the first frame shown, and the full one.
-    pub changed_at: Option<Instant>,
-    pub first_feedback_ms: Option<f64>,
-    pub refined_ms: Option<f64>,
+    /// Requests sent to the preview.
+    pub preview_requests: u64,
 }
 
 impl std::fmt::Debug for EditorApp {
@@ -179,12 +165,7 @@ impl EditorApp {
     /// `recent_file` keeps the recent-file list across sessions.
     pub fn new(ctx: &egui::Context, recent_file: Option<PathBuf>) -> Self {
         let waker = ctx.clone();
-        Self::with_worker(PreviewWorker::start(move || waker.request_repaint()), recent_file)
-    }
-
-    /// An editor drawing its previews with `preview` (started before the window, see
-    /// `src/main.rs`).
-    pub fn with_worker(preview: PreviewWorker, recent_file: Option<PathBuf>) -> Self {
+        let preview = PreviewWorker::start(move || waker.request_repaint());
         let recent = recent_file
             .as_deref()
             .and_then(|f| std::fs::read_to_string(f).ok())
@@ -216,13 +197,12 @@ impl EditorApp {
             selected_vertex: None,
             drag: None,
             press_vertex: None,
-            viewport_dragging: false,
             interacting: false,
             viewport_size: [0, 0],
             viewport_rect: Rect::NOTHING,
             screenshot: None,
             quit: false,
-            stats: PreviewStats::default(),
+            preview_requests: 0,
         }
     }
 
@@ -335,7 +315,6 @@ impl EditorApp {
             hi = hi.max(ohi);
         }
         self.camera.frame(lo, hi);
-        self.scene.color = doc.color();
         self.doc = Some(doc);
         self.drag = None;
         self.hovered_vertex = None;
@@ -414,45 +393,30 @@ impl EditorApp {
         let Some(doc) = &self.doc else { return Err(EditorError::NoSavePath) };
         let Some(asset_dir) = &doc.save_path else { return Err(EditorError::NoSavePath) };
         let base = scene_path.parent().unwrap_or(Path::new("."));
+        let base = base.canonicalize().unwrap_or_else(|_| base.to_owned());
         let relative = |p: &Path| -> PathBuf {
             let abs = p.canonicalize().unwrap_or_else(|_| p.to_owned());
-            let base = base.canonicalize().unwrap_or_else(|_| base.to_owned());
             abs.strip_prefix(&base).map(Path::to_owned).unwrap_or(abs)
         };
-        let occluder = match &doc.source {
-            Source::Scalp { file, .. } => Some(file.clone()),
-            Source::Asset { .. } => doc.asset().provenance.as_ref().map(|p| PathBuf::from(&p.file)),
-        }
-        .filter(|f| doc.occluder.is_some() && f.is_file())
-        .map(|f| render::scene::OccluderDesc {
-            mesh: relative(&f),
-            transform: Default::default(),
-            color: self.scene.occluder_color,
+        let occluder = doc.scalp_file().filter(|f| doc.occluder.is_some() && f.is_file()).map(|f| {
+            render::scene::OccluderDesc {
+                mesh: relative(&f),
+                transform: Default::default(),
+                color: self.scene.occluder_color,
+            }
         });
         let color = doc.color();
-        let cam = self.camera.camera();
         let [w, h] = self.shown.as_ref().map_or([960, 540], |s| s.size);
-        let scene = render::scene::Scene {
-            output: render::scene::Output { width: w, height: h, background: self.scene.background },
-            camera: render::scene::CameraDesc {
-                eye: cam.eye.to_array(),
-                target: cam.target.to_array(),
-                fov_y_degrees: self.camera.fov_y_degrees,
-            },
-            camera_path: Vec::new(),
-            lights: self.scene.lights.clone(),
-            characters: vec![render::scene::CharacterDesc {
-                hair: relative(asset_dir),
-                transform: Default::default(),
-                color: color.rgb,
-                color_variation: color.variation,
-                style: None,
-                strand_width: None,
-                occluder,
-            }],
-            effects: self.scene.effects,
-            lod: Default::default(),
-        };
+        let mut scene = self.scene.scene(&self.camera, w, h);
+        scene.characters.push(render::scene::CharacterDesc {
+            hair: relative(asset_dir),
+            transform: Default::default(),
+            color: color.rgb,
+            color_variation: color.variation,
+            style: None,
+            strand_width: None,
+            occluder,
+        });
         serde_json::to_string_pretty(&scene)
             .map_err(|e| EditorError::Io { path: scene_path.to_owned(), message: e.to_string() })
     }
@@ -461,10 +425,7 @@ impl EditorApp {
     /// again in the background).
     pub fn apply_preset(&mut self, preset: &Preset) {
         let Some(doc) = &mut self.doc else { return };
-        let mesh = doc.asset().mesh();
-        let roots = &mesh.layers[0];
-        let (lo, hi) =
-            roots.iter().fold((DVec3::INFINITY, DVec3::NEG_INFINITY), |(lo, hi), p| (lo.min(*p), hi.max(*p)));
+        let (lo, hi) = point_bounds(&doc.asset().mesh().layers[0]);
         let (length, mut shape) = preset.layers_for(lo, hi);
         // A head centre already set in the panel (the sample head's skull, or the artist's) is
         // better than the estimate from the scalp's bounds.
@@ -475,8 +436,7 @@ impl EditorApp {
             *centre = *set;
         }
         let rescale = if let Source::Scalp { file, .. } = &doc.source { Some(file.clone()) } else { None };
-        let current_length = doc.asset().bundles.iter().map(|b| b.length).fold(0.0, f64::max);
-        let style_length = if rescale.is_some() { length } else { current_length };
+        let style_length = if rescale.is_some() { length } else { doc.hair_length() };
         doc.set_style(preset.style_for(style_length), None);
         if let Some(file) = rescale {
             self.convert.length = Some(length);
@@ -567,25 +527,10 @@ impl EditorApp {
         if !(key_changed || refine) {
             return;
         }
-        if key_changed {
-            self.stats.changed_at = Some(Instant::now());
-            self.stats.first_feedback_ms = None;
-            self.stats.refined_ms = None;
-        }
         let Some(worker) = self.preview.as_mut() else { return };
-        let id = worker.request(PreviewRequest {
-            id: 0,
-            generation: key.generation,
-            asset: doc.asset().clone(),
-            changes: doc.changes().to_vec(),
-            occluder: doc.occluder.clone(),
-            scene: key.scene.clone(),
-            camera: key.camera,
-            width: key.size[0],
-            height: key.size[1],
-            draft,
-        });
-        self.stats.requests += 1;
+        let id =
+            worker.request(PreviewRequest::for_document(doc, key.scene.clone(), key.camera, key.size, draft));
+        self.preview_requests += 1;
         self.last_request_id = Some(id);
         self.requested = Some((key, draft));
     }
@@ -606,7 +551,7 @@ impl EditorApp {
     }
 
     /// Applies one event of the preview worker (frames become the viewport texture).
-    pub fn apply_preview_event(&mut self, ctx: &egui::Context, event: PreviewEvent) {
+    fn apply_preview_event(&mut self, ctx: &egui::Context, event: PreviewEvent) {
         match event {
             PreviewEvent::Ready { device, path } => {
                 self.device = Some(format!("{device} · {path} generation"));
@@ -625,16 +570,6 @@ impl EditorApp {
                     Some(t) => t.set(image, options),
                     None => self.texture = Some(ctx.load_texture("hair preview", image, options)),
                 }
-                // The frame answers the latest request when the ids match.
-                let current = self.last_request_id == Some(frame.id)
-                    && self.requested.as_ref().is_some_and(|(k, _)| Some(k) == self.request_key().as_ref());
-                let since = self.stats.changed_at.map(|t| t.elapsed().as_secs_f64() * 1e3);
-                if current && self.stats.first_feedback_ms.is_none() {
-                    self.stats.first_feedback_ms = since;
-                }
-                if current && !frame.draft {
-                    self.stats.refined_ms = since;
-                }
                 self.shown = Some(ShownFrame {
                     id: frame.id,
                     draft: frame.draft,
@@ -643,7 +578,6 @@ impl EditorApp {
                     vertices: frame.vertices,
                     raster: frame.raster,
                     size: [frame.image.width, frame.image.height],
-                    current,
                     image: Arc::new(frame.image),
                 });
             }
@@ -658,7 +592,7 @@ impl EditorApp {
     /// Whether the preview shows a full-quality frame of the current state.
     pub fn preview_is_final(&self) -> bool {
         // The frame answers the latest request, which was for the current state.
-        self.shown.as_ref().is_some_and(|s| s.current && !s.draft && Some(s.id) == self.last_request_id)
+        self.shown.as_ref().is_some_and(|s| !s.draft && Some(s.id) == self.last_request_id)
             && self.requested.as_ref().is_some_and(|(k, _)| Some(k) == self.request_key().as_ref())
     }
 
@@ -679,11 +613,9 @@ impl EditorApp {
         self.interacting = false;
         self.shortcuts(&ctx);
         if ctx.input(|i| i.viewport().close_requested()) && !self.quit {
-            if self.doc.as_ref().is_some_and(Document::is_dirty) {
+            self.request_quit();
+            if !self.quit {
                 ctx.send_viewport_cmd(egui::ViewportCommand::CancelClose);
-                self.pending = Some(PendingAction::Quit);
-            } else {
-                self.quit = true;
             }
         }
 
@@ -794,10 +726,7 @@ impl EditorApp {
         let mesh = doc.asset().mesh();
         let (lo, hi) = match self.selected_vertex.filter(|&v| (v as usize) < mesh.vertex_count()) {
             Some(v) => {
-                let column = mesh.column(v);
-                let (lo, hi) = column
-                    .iter()
-                    .fold((DVec3::INFINITY, DVec3::NEG_INFINITY), |(lo, hi), p| (lo.min(*p), hi.max(*p)));
+                let (lo, hi) = point_bounds(&mesh.column(v));
                 // A column is thin: frame at least a tenth of the hair around it.
                 let (alo, ahi) = doc.asset().bounds();
                 let pad = DVec3::splat(0.05 * alo.distance(ahi));
@@ -945,14 +874,7 @@ impl EditorApp {
             ui.add(egui::DragValue::new(&mut c.seed)).labelled_by(l.id);
             ui.end_row();
         });
-        let scalp = match self.doc.as_ref().map(|d| &d.source) {
-            Some(Source::Scalp { file, .. }) => Some(file.clone()),
-            Some(Source::Asset { .. }) => {
-                self.doc.as_ref().and_then(|d| d.asset().provenance.as_ref()).map(|p| PathBuf::from(&p.file))
-            }
-            None => None,
-        }
-        .filter(|f| f.is_file());
+        let scalp = self.doc.as_ref().and_then(Document::scalp_file).filter(|f| f.is_file());
         ui.horizontal(|ui| {
             let busy = self.conversion.is_some();
             let button = ui.add_enabled(!busy && scalp.is_some(), egui::Button::new("Convert again"));
@@ -981,7 +903,7 @@ impl EditorApp {
             }
         });
         // Slider ranges follow the hair's length, so one panel fits any head's units.
-        let h = doc.asset().bundles.iter().map(|b| b.length).fold(0.0, f64::max).max(1e-6);
+        let h = doc.hair_length().max(1e-6);
         let mut style = doc.style();
         let mut gesture: Option<String> = None;
         let mut released = false;
@@ -1044,10 +966,8 @@ impl EditorApp {
         if released {
             doc.end_gesture();
         }
-        if ui.ctx().egui_is_using_pointer() && ui.ctx().dragged_id().is_some() && self.drag.is_none() {
-            // A slider is being dragged (the viewport's own drags set this themselves).
-            self.interacting |= !self.viewport_dragging;
-        }
+        // A slider is being dragged (the viewport's drags set this themselves).
+        self.interacting |= ui.ctx().dragged_id().is_some();
         if let Some(p) = self.pending_preset.take() {
             self.apply_preset(p);
         }
@@ -1167,7 +1087,6 @@ impl EditorApp {
             });
         }
         let mut moves = Vec::new();
-        self.viewport_dragging = response.dragged();
         if let Some(drag) = &self.drag {
             if let Some(pos) = response.interact_pointer_pos() {
                 let delta = pos - drag.pointer_start;
@@ -1412,8 +1331,7 @@ fn mirror_vertex(mesh: &hairmesh::HairMesh, v: u32) -> Option<u32> {
     let roots = &mesh.layers[0];
     let p = roots.get(v as usize)?;
     let target = DVec3::new(-p.x, p.y, p.z);
-    let (lo, hi) =
-        roots.iter().fold((DVec3::INFINITY, DVec3::NEG_INFINITY), |(lo, hi), q| (lo.min(*q), hi.max(*q)));
+    let (lo, hi) = point_bounds(roots);
     let tolerance = 0.01 * lo.distance(hi);
     let (best, d) = roots
         .iter()
@@ -1421,6 +1339,11 @@ fn mirror_vertex(mesh: &hairmesh::HairMesh, v: u32) -> Option<u32> {
         .map(|(i, q)| (i as u32, q.distance(target)))
         .min_by(|a, b| a.1.total_cmp(&b.1))?;
     (d <= tolerance && best != v).then_some(best)
+}
+
+/// The axis-aligned bounds of `points` (inverted, infinite ones for none).
+fn point_bounds(points: &[DVec3]) -> (DVec3, DVec3) {
+    points.iter().fold((DVec3::INFINITY, DVec3::NEG_INFINITY), |(lo, hi), p| (lo.min(*p), hi.max(*p)))
 }
 
 fn with_extension(path: &Path, ext: &str) -> PathBuf {

@@ -171,6 +171,20 @@ impl Document {
         &self.asset
     }
 
+    /// The scalp file the hair was converted from, as recorded (it may not exist here).
+    pub fn scalp_file(&self) -> Option<PathBuf> {
+        match &self.source {
+            Source::Scalp { file, .. } => Some(file.clone()),
+            Source::Asset { .. } => self.asset.provenance.as_ref().map(|p| PathBuf::from(&p.file)),
+        }
+    }
+
+    /// The longest hair-mesh column (object units): what the style panel's ranges and the
+    /// presets scale with.
+    pub fn hair_length(&self) -> f64 {
+        self.asset.bundles.iter().map(|b| b.length).fold(0.0, f64::max)
+    }
+
     pub fn style(&self) -> Style {
         self.asset.style
     }
@@ -276,21 +290,14 @@ impl Document {
     /// Writes the asset to `dir` atomically (the asset writer replaces the folder in one
     /// rename) and makes it the document's save path.
     pub fn save_as(&mut self, dir: &Path) -> Result<(), EditorError> {
-        let source = match &self.source {
-            Source::Scalp { file, .. } => file.to_str().map(str::to_owned),
-            Source::Asset { .. } => self.asset.provenance.as_ref().map(|p| p.file.clone()),
-        };
-        let units = if source.as_deref().is_some_and(|s| s.ends_with(".glb") || s.ends_with(".gltf")) {
-            "metres"
-        } else {
-            "file units"
-        };
+        let source = self.scalp_file();
+        let units = source.as_deref().map_or("file units", hairmesh::convert::file_units);
         hairmesh::asset_io::write_asset(
             dir,
             &self.asset,
             hairmesh::asset_io::Precision::F32,
             units,
-            source.as_deref(),
+            source.as_deref().and_then(Path::to_str),
         )
         .map_err(|source| EditorError::Asset { path: dir.to_owned(), source })?;
         self.save_path = Some(dir.to_owned());

@@ -137,16 +137,6 @@ fn run(cli: Cli) -> Result<()> {
     // present never returns). egui repaints only when something changed, so without vsync it
     // does not spin either.
     options.wgpu_options.surface.present_mode = eframe::wgpu::PresentMode::AutoNoVsync;
-    // The preview's device is created before the window's: on lavapipe under Xvfb, creating
-    // it while the window presents its first frames hung the window's queue (measured here).
-    let ui_ctx: std::sync::Arc<std::sync::OnceLock<egui::Context>> = std::sync::Arc::default();
-    let waker_ctx = ui_ctx.clone();
-    let worker = editor::preview::PreviewWorker::start(move || {
-        if let Some(ctx) = waker_ctx.get() {
-            ctx.request_repaint();
-        }
-    });
-    let ready = worker.wait(Duration::from_secs(120));
     let screenshot = cli.screenshot.clone();
     let path = cli.path.clone();
     let timeout = Duration::from_secs(cli.timeout);
@@ -154,12 +144,8 @@ fn run(cli: Cli) -> Result<()> {
         "hair-editor",
         options,
         Box::new(move |cc| {
-            let _ = ui_ctx.set(cc.egui_ctx.clone());
             let mut app =
-                EditorApp::with_worker(worker, if screenshot.is_some() { None } else { recent_file() });
-            if let Some(event) = ready {
-                app.apply_preview_event(&cc.egui_ctx, event);
-            }
+                EditorApp::new(&cc.egui_ctx, if screenshot.is_some() { None } else { recent_file() });
             if let Some(p) = &path {
                 app.open(p);
             }

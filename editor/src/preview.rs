@@ -69,6 +69,27 @@ impl Default for PreviewScene {
     }
 }
 
+impl PreviewScene {
+    /// These settings as a scene seen through `camera` into a `width`×`height` output, without
+    /// characters: what the preview renders, and what the editor's scene export writes.
+    pub fn scene(&self, camera: &OrbitCamera, width: u32, height: u32) -> Scene {
+        let c = camera.camera();
+        Scene {
+            output: Output { width, height, background: self.background },
+            camera: CameraDesc {
+                eye: c.eye.to_array(),
+                target: c.target.to_array(),
+                fov_y_degrees: camera.fov_y_degrees,
+            },
+            camera_path: Vec::new(),
+            lights: self.lights.clone(),
+            characters: Vec::new(),
+            effects: self.effects,
+            lod: LodDesc::default(),
+        }
+    }
+}
+
 /// One frame to render.
 #[derive(Clone, Debug)]
 pub struct PreviewRequest {
@@ -87,6 +108,30 @@ pub struct PreviewRequest {
     pub width: u32,
     pub height: u32,
     pub draft: bool,
+}
+
+impl PreviewRequest {
+    /// A request for `doc` as it is now (the worker sets the id).
+    pub fn for_document(
+        doc: &crate::document::Document,
+        scene: PreviewScene,
+        camera: OrbitCamera,
+        [width, height]: [u32; 2],
+        draft: bool,
+    ) -> Self {
+        Self {
+            id: 0,
+            generation: doc.generation,
+            asset: doc.asset().clone(),
+            changes: doc.changes().to_vec(),
+            occluder: doc.occluder.clone(),
+            scene,
+            camera,
+            width,
+            height,
+            draft,
+        }
+    }
 }
 
 /// A rendered preview frame.
@@ -347,23 +392,8 @@ fn build(
     r: &PreviewRequest,
     output: (u32, u32),
 ) -> Result<Built, String> {
-    let camera = r.camera.camera();
-    let settings = LoadedScene {
-        path: "editor preview".into(),
-        scene: Scene {
-            output: Output { width: output.0, height: output.1, background: r.scene.background },
-            camera: CameraDesc {
-                eye: camera.eye.to_array(),
-                target: camera.target.to_array(),
-                fov_y_degrees: r.camera.fov_y_degrees,
-            },
-            camera_path: Vec::new(),
-            lights: r.scene.lights.clone(),
-            characters: Vec::new(),
-            effects: r.scene.effects,
-            lod: LodDesc::default(),
-        },
-    };
+    let settings =
+        LoadedScene { path: "editor preview".into(), scene: r.scene.scene(&r.camera, output.0, output.1) };
     settings.validate_settings().map_err(|e| e.to_string())?;
     let mut instance = SceneInstance::new(settings);
     instance.characters.push(CharacterInstance {

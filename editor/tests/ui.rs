@@ -110,14 +110,14 @@ fn style_slider_changes_the_style_and_requests_a_preview(_: &gen_gpu::Context) -
     );
     let raster = h.state().shown.as_ref().map(|s| s.raster.clone()).unwrap_or_default();
     ensure!(raster == "compute" || raster == "triangles", "raster path {raster:?}");
-    let requests = h.state().stats.requests;
+    let requests = h.state().preview_requests;
     let before = h.state().doc.as_ref().context("doc")?.style();
     h.get_by_role_and_label(Role::Slider, "Curl radius").set_value_accesskit(0.01);
     h.step();
     let after = h.state().doc.as_ref().context("doc")?.style();
     ensure!(after.curl.radius == 0.01, "curl radius {} (was {})", after.curl.radius, before.curl.radius);
     ensure!(after.wave == before.wave && after.width == before.width, "other style fields changed");
-    ensure!(h.state().stats.requests > requests, "no new preview request");
+    ensure!(h.state().preview_requests > requests, "no new preview request");
     settle(&mut h)?;
     ensure!(h.state().doc.as_ref().context("doc")?.can_undo(), "the slider change is not undoable");
     Ok(())
@@ -348,16 +348,7 @@ fn presets_convert_and_render(_: &gen_gpu::Context) -> Result<()> {
         h.step();
         settle(&mut h)?;
         let style = h.state().doc.as_ref().context("doc")?.style();
-        let length = h
-            .state()
-            .doc
-            .as_ref()
-            .context("doc")?
-            .asset()
-            .bundles
-            .iter()
-            .map(|b| b.length)
-            .fold(0.0, f64::max);
+        let length = h.state().doc.as_ref().context("doc")?.hair_length();
         let expected = preset.style_for(h.state().convert.length.context("the preset sets a length")?);
         ensure!(style == expected, "{}: the style is not the preset's", preset.name);
         ensure!(length > 0.0, "{}: no hair", preset.name);

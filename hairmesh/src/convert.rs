@@ -111,6 +111,15 @@ impl ConvertSettings {
     }
 }
 
+/// The units a scalp file's coordinates are in, for an asset's manifest: glTF is in metres by
+/// its specification; OBJ says nothing.
+pub fn file_units(path: &Path) -> &'static str {
+    match path.extension().and_then(|e| e.to_str()) {
+        Some("gltf" | "glb") => "metres",
+        _ => "file units",
+    }
+}
+
 /// A converted scalp: the asset, the imported scalp (for reports and previews) and the length
 /// used.
 #[derive(Clone, Debug)]

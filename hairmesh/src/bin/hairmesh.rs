@@ -15,7 +15,7 @@ use anyhow::{Context, Result, bail};
 use clap::{Parser, Subcommand};
 use hairmesh::asset::LayerSource;
 use hairmesh::asset_io::{Precision, read_asset, write_asset};
-use hairmesh::convert::{ConvertSettings, Converted, LayerShape, convert_scalp};
+use hairmesh::convert::{ConvertSettings, Converted, LayerShape, convert_scalp, file_units};
 use hairmesh::hair_mesh::BundleFace;
 use hairmesh::style::Style;
 use hairmesh::texture::SliceLayout;
@@ -198,11 +198,7 @@ fn convert(o: &ConvertArgs) -> Result<()> {
         eprintln!("warning: {w}");
     }
     let hm = asset.mesh();
-    let units = if matches!(input.extension().and_then(|e| e.to_str()), Some("gltf" | "glb")) {
-        "metres"
-    } else {
-        "file units"
-    };
+    let units = file_units(input);
     let precision = if o.f16 { Precision::F16 } else { Precision::F32 };
     step(&format!("writing {}", out.display()), || {
         Ok(write_asset(out, &asset, precision, units, input.to_str())?)
