@@ -8,6 +8,7 @@ pub mod asset_io;
 pub mod atomic;
 pub mod convert;
 pub mod curve;
+pub mod dynamics;
 mod error;
 pub mod hair_mesh;
 pub mod import;
