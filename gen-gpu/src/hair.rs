@@ -5,7 +5,7 @@ use hairmesh::asset::{AssetChange, HairAsset};
 use hairmesh::roots::SampleDomain;
 use hairmesh::texture::Texture3;
 
-use crate::{Buffer, BufferDesc, Context, GpuError, Image, ImageDesc, ImageRegion, Result, Sampler};
+use crate::{Buffer, BufferDesc, Context, GpuError, Image, ImageDesc, Result, Sampler};
 
 /// Texel precision of the uploaded textures.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash)]
@@ -108,6 +108,20 @@ fn gpu_bundle(asset: &HairAsset, b: usize) -> GpuBundle {
         bounds_max: [hi.x, hi.y, hi.z, info.length as f32],
         info: [info.strands, domain | (symmetry << 1), set, cell],
     }
+}
+
+/// An update of a [`GpuHair`] packed for the GPU ([`GpuHair::stage_update`]): its staging
+/// buffer lives until the submission recording it has completed (submissions wait for their
+/// fence, so until the frame returns).
+#[derive(Debug)]
+pub struct StagedHairUpdate {
+    staging: Buffer,
+    /// Copies into the hair-mesh, w, u and v textures.
+    image_copies: [Vec<vk::BufferImageCopy>; 4],
+    bundle_copies: Vec<vk::BufferCopy>,
+    pub report: HairUpdate,
+    /// The asset revision the GPU copy holds once the update has run.
+    pub revision: u64,
 }
 
 /// What [`GpuHair::update`] sent to the GPU.
@@ -216,12 +230,30 @@ impl GpuHair {
     }
 
     /// Brings the GPU copy up to date with an edit of its asset ([`HairAsset::move_vertices`]):
-    /// uploads only the texel columns and bundle-table entries `change` names. The change must
-    /// start at the revision this copy holds and end at `asset`'s (merge several with
-    /// [`AssetChange::then`]); an asset whose layout, normalization, bundles or sample sets
-    /// differ from the uploaded one needs [`Self::upload`] instead. Both are refused with
-    /// [`GpuError::Mismatch`], leaving the copy as it was.
+    /// uploads only the texel columns and bundle-table entries `change` names, in a submission
+    /// of its own. The change must start at the revision this copy holds and end at `asset`'s
+    /// (merge several with [`AssetChange::then`]); an asset whose layout, normalization, bundles
+    /// or sample sets differ from the uploaded one needs [`Self::upload`] instead. Both are
+    /// refused with [`GpuError::Mismatch`], leaving the copy as it was.
     pub fn update(&mut self, ctx: &Context, asset: &HairAsset, change: &AssetChange) -> Result<HairUpdate> {
+        let staged = self.stage_update(ctx, asset, change)?;
+        ctx.submit("update hair", |rec| {
+            self.record_update(rec, &staged);
+            Ok(())
+        })?;
+        Ok(staged.report)
+    }
+
+    /// [`Self::update`]'s first half, for a frame graph's upload pass: checks `change`, packs
+    /// its texels and bundle entries into a staging buffer and takes `asset` as the copy's
+    /// description (its revision is the one caches are keyed by from now on). The GPU copy is
+    /// current once [`Self::record_update`]'s commands have run; until then nothing may read it.
+    pub fn stage_update(
+        &mut self,
+        ctx: &Context,
+        asset: &HairAsset,
+        change: &AssetChange,
+    ) -> Result<StagedHairUpdate> {
         let (old, new) = (&self.asset, asset);
         if change.since != old.revision() || change.revision != new.revision() {
             return Err(GpuError::Mismatch(format!(
@@ -270,38 +302,61 @@ impl GpuHair {
             regions: runs.len() as u64,
             ..Default::default()
         };
+        // One staging buffer: each texture's regions, then the bundle entries.
+        let mut data = Vec::new();
+        let mut image_copies: [Vec<vk::BufferImageCopy>; 4] = Default::default();
         // The uv texture holds the rest pose's root uvs, which edits keep.
-        for (image, tex, channels) in [
-            (&self.hair_mesh, &nt.hair_mesh, 4),
-            (&self.w, &nt.w, 1),
-            (&self.u, &nt.u, 4),
-            (&self.v, &nt.v, 4),
-        ] {
-            let mut data = Vec::new();
-            let regions: Vec<ImageRegion> = runs
-                .iter()
-                .map(|&(x0, y, n)| {
-                    for z in 0..tex.depth {
-                        for x in x0..x0 + n {
-                            push_texel(&mut data, tex.texel(x, y, z), channels, half);
-                        }
+        let textures = [(&nt.hair_mesh, 4u32), (&nt.w, 1), (&nt.u, 4), (&nt.v, 4)];
+        for ((tex, channels), copies) in textures.into_iter().zip(&mut image_copies) {
+            for &(x0, y, n) in &runs {
+                // Copy offsets must be multiples of the texel size (and of 4).
+                while data.len() % 16 != 0 {
+                    data.push(0);
+                }
+                copies.push(
+                    vk::BufferImageCopy::default()
+                        .buffer_offset(data.len() as u64)
+                        .image_subresource(self.hair_mesh.layers())
+                        .image_offset(vk::Offset3D { x: x0 as i32, y: y as i32, z: 0 })
+                        .image_extent(vk::Extent3D { width: n, height: 1, depth: tex.depth }),
+                );
+                for z in 0..tex.depth {
+                    for x in x0..x0 + n {
+                        push_texel(&mut data, tex.texel(x, y, z), channels, half);
                     }
-                    ImageRegion { offset: [x0, y, 0], extent: [n, 1, tex.depth] }
-                })
-                .collect();
-            let texel_bytes = u64::from(channels) * if half { 2 } else { 4 };
-            ctx.write_image_regions(image, &regions, texel_bytes, &data)?;
-            report.bytes += data.len() as u64;
+                }
+            }
         }
+        report.bytes += data.len() as u64;
+        let mut bundle_copies = Vec::new();
         for &b in &change.bundles {
+            while data.len() % 16 != 0 {
+                data.push(0);
+            }
             let entry = gpu_bundle(new, b as usize);
-            let at = u64::from(b) * size_of::<GpuBundle>() as u64;
-            ctx.write_buffer(&mut self.bundles, at, bytemuck::bytes_of(&entry))?;
+            bundle_copies.push(vk::BufferCopy {
+                src_offset: data.len() as u64,
+                dst_offset: u64::from(b) * size_of::<GpuBundle>() as u64,
+                size: size_of::<GpuBundle>() as u64,
+            });
+            data.extend_from_slice(bytemuck::bytes_of(&entry));
             report.bundles += 1;
             report.bytes += size_of::<GpuBundle>() as u64;
         }
+        let staging = ctx.upload_staging("hair update", &data)?;
         self.asset = asset.clone();
-        Ok(report)
+        Ok(StagedHairUpdate { staging, image_copies, bundle_copies, report, revision: asset.revision() })
+    }
+
+    /// Records a staged update's copies ([`Self::stage_update`]): each texture goes to
+    /// TRANSFER_DST and back to SHADER_READ_ONLY around its copies, the bundle table gets its
+    /// entries; everything recorded after sees the new values.
+    pub fn record_update(&self, rec: &crate::Recorder<'_>, staged: &StagedHairUpdate) {
+        let images = [&self.hair_mesh, &self.w, &self.u, &self.v];
+        for (image, copies) in images.into_iter().zip(&staged.image_copies) {
+            rec.update_sampled_image(&staged.staging, image, copies);
+        }
+        rec.copy_buffer_regions(&staged.staging, &self.bundles, &staged.bundle_copies);
     }
 
     /// The revision of the asset this copy holds ([`HairAsset::revision`]): what caches built

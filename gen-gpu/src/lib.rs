@@ -35,7 +35,7 @@ pub use generator::{
     VERTEX_BYTES, strand_bindings,
 };
 pub use gpu_allocator::MemoryLocation;
-pub use hair::{GpuHair, HairUpdate, TextureBytes, TexturePrecision};
+pub use hair::{GpuHair, HairUpdate, StagedHairUpdate, TextureBytes, TexturePrecision};
 pub use path::{GenerationPath, PathChoice};
 pub use stored::StoredStrands;
 

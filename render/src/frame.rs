@@ -204,6 +204,23 @@ pub struct SceneRenderer {
     volumes_everywhere: bool,
     /// See [`BATCH_BYTES`].
     batch_bytes: u64,
+    /// Hair updates staged since the last frame, in order: (hair, update). The next frame's
+    /// first passes copy them ([`crate::passes::upload`]).
+    staged: Mutex<Vec<(usize, gen_gpu::StagedHairUpdate)>>,
+    /// Per scene character: where it lives (generated or stored, its index) and its occluder's
+    /// index with the occluder's own placement under the character.
+    slots: Vec<CharacterSlot>,
+    /// Bumped by every [`Self::set_character_transform`]: placements are part of what shadow
+    /// maps are made from.
+    placements: u64,
+}
+
+/// Where a scene character's parts live in a [`SceneRenderer`].
+#[derive(Clone, Copy, Debug)]
+struct CharacterSlot {
+    stored: bool,
+    index: usize,
+    occluder: Option<(usize, Mat4)>,
 }
 
 impl std::fmt::Debug for SceneRenderer {
@@ -483,7 +500,10 @@ impl SceneRenderer {
         let mut meshes = Vec::new();
         let mut occluders = Vec::new();
         let mut occluder_sources = Vec::new();
+        let mut slots = Vec::new();
         for c in &instance.characters {
+            let occluder_slot =
+                c.occluder.as_ref().map(|o| (occluders.len(), c.transform.inverse() * o.transform));
             if let Some(o) = &c.occluder {
                 let mesh = match mesh_keys.get(o.key.as_str()) {
                     Some(&m) => m,
@@ -541,6 +561,8 @@ impl SceneRenderer {
             if c.occluder.is_some() {
                 occluder_sources.push(source);
             }
+            let index = if source.0 { stored_characters.len() - 1 } else { characters.len() - 1 };
+            slots.push(CharacterSlot { stored: source.0, index, occluder: occluder_slot });
         }
         // Volume sources: the uploaded hairs, then the stored strands.
         for (o, (is_stored, index)) in occluders.iter_mut().zip(occluder_sources) {
@@ -583,6 +605,9 @@ impl SceneRenderer {
             volumes: None,
             volumes_everywhere: false,
             batch_bytes: BATCH_BYTES,
+            staged: Mutex::new(Vec::new()),
+            slots,
+            placements: 0,
         };
         renderer.set_up_raster(ctx)?;
         Ok(renderer)
@@ -740,7 +765,7 @@ impl SceneRenderer {
     /// What every cache of this scene is derived from: the revision of each uploaded hair
     /// (lights, placements and occluders are fixed for a renderer's life).
     pub fn content_version(&self) -> ContentVersion {
-        ContentVersion(self.hairs.iter().map(GpuHair::revision).collect())
+        ContentVersion(self.hairs.iter().map(GpuHair::revision).chain([self.placements]).collect())
     }
 
     fn shadows_cached(&self) -> bool {
@@ -748,10 +773,65 @@ impl SceneRenderer {
         cache.as_ref().is_some_and(|(version, _)| *version == self.content_version())
     }
 
+    /// Moves scene character `index` (in the scene's order): its hair and its occluder (which
+    /// keeps its own placement under the character) are drawn at `transform` (object → world)
+    /// from the next frame on. Shadow maps are rendered again; hair volumes, made in the hair's
+    /// object space, stay cached.
+    pub fn set_character_transform(&mut self, index: usize, transform: Mat4) -> Result<(), RenderError> {
+        let Some(slot) = self.slots.get(index).copied() else {
+            return Err(RenderError::InvalidView {
+                why: format!("character {index} does not exist ({} characters)", self.slots.len()),
+            });
+        };
+        if !transform.is_finite() || transform.determinant().abs() <= f32::EPSILON {
+            return Err(RenderError::InvalidView {
+                why: format!("character {index}: the transform is not finite and invertible"),
+            });
+        }
+        let list = if slot.stored { &mut self.stored_characters } else { &mut self.characters };
+        if list[slot.index].transform == transform {
+            return Ok(());
+        }
+        list[slot.index].transform = transform;
+        if let Some((o, local)) = slot.occluder {
+            self.occluders[o].transform = transform * local;
+            self.occluders[o].hair_transform = transform;
+        }
+        self.placements += 1;
+        Ok(())
+    }
+
+    /// The upload key of scene character `index`'s generated hair
+    /// ([`crate::instance::CharacterInstance::key`]), `None` for stored strands.
+    pub fn hair_key(&self, index: usize) -> Option<&str> {
+        let slot = self.slots.get(index)?;
+        if slot.stored {
+            return None;
+        }
+        let hair = self.characters[slot.index].hair;
+        self.hair_keys.iter().find(|(_, h)| **h == hair).map(|(k, _)| k.as_str())
+    }
+
+    /// The staged hair updates the next frame uploads first: (hair, revision it brings).
+    pub(crate) fn staged_hair_updates(&self) -> Vec<(usize, u64)> {
+        let staged = self.staged.lock().unwrap_or_else(|e| e.into_inner());
+        staged.iter().map(|(h, u)| (*h, u.revision)).collect()
+    }
+
+    /// Records the `k`-th staged update's copies (the upload pass).
+    pub(crate) fn record_hair_update(&self, rec: &gen_gpu::Recorder<'_>, k: usize) {
+        let staged = self.staged.lock().unwrap_or_else(|e| e.into_inner());
+        if let Some((h, update)) = staged.get(k) {
+            self.hairs[*h].record_update(rec, update);
+        }
+    }
+
     /// Brings the hair of the characters with `key` up to date with an edit of its asset
     /// ([`hairmesh::asset::HairAsset::move_vertices`]): only the changed texels and bundle
-    /// entries are uploaded, and the next frame renders new shadow maps. The asset is the
-    /// edited one (its style merged as the scene's instance holds it).
+    /// entries are staged, and the next frame copies them in its first passes (`update hair
+    /// …`, in the graph) and renders new shadow maps and volumes for that hair alone. The
+    /// asset is the edited one (its style merged as the scene's instance holds it); the report
+    /// says what will be sent.
     pub fn update_hair(
         &mut self,
         ctx: &Context,
@@ -762,7 +842,10 @@ impl SceneRenderer {
         let Some(&h) = self.hair_keys.get(key) else {
             return Err(RenderError::UnknownHair { key: key.to_owned() });
         };
-        Ok(self.hairs[h].update(ctx, asset, change)?)
+        let update = self.hairs[h].stage_update(ctx, asset, change)?;
+        let report = update.report;
+        self.staged.lock().unwrap_or_else(|e| e.into_inner()).push((h, update));
+        Ok(report)
     }
 
     /// Plans a frame seen through `view`: the passes the scene's effects ask for, in order,
@@ -819,6 +902,7 @@ impl SceneRenderer {
             hair_uploads: hair,
             volumes,
         };
+        crate::passes::upload::plan(self, &mut g, &ids);
         if let Some(s) = &ids.shadow {
             crate::passes::shadow::plan(self, &mut g, &ids, s, shadow_cached);
         }
@@ -1168,7 +1252,10 @@ impl SceneRenderer {
             let images = shadow.images(ids);
             let ((), t) = ctx.submit("shadow maps", |rec| {
                 run.record_submission(rec, 0, &|r| images.get(&r).copied(), |rec, pass, run| {
-                    crate::passes::shadow::record(self, rec, pass, &shadow, run)
+                    match pass.payload {
+                        ScenePass::UpdateHair(k) => crate::passes::upload::record(self, rec, k),
+                        _ => crate::passes::shadow::record(self, rec, pass, &shadow, run),
+                    }
                 })
             })?;
             shadow_ms = t.pass_ms("shadow maps");
@@ -1329,6 +1416,8 @@ impl SceneRenderer {
                 stats += self.generator.stats(ctx, &self.hairs[self.characters[*i].hair], frame)?;
             }
         }
+        // Every submission has completed: the staged updates are in the textures.
+        self.staged.lock().unwrap_or_else(|e| e.into_inner()).clear();
         let (oit_overflow, oit_pool) = match &oit_buffers {
             Some(b) => {
                 let c: Vec<u32> = bytemuck::pod_collect_to_vec(&ctx.read_buffer(&b.counters, 16)?);

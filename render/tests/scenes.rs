@@ -446,6 +446,12 @@ fn main() -> ExitCode {
                 ensure!(renderer.content_version() != version, "an edit changes the content version");
                 let after = renderer.render(ctx)?;
                 ensure!(!after.shadow_cached, "an edit renews the shadow maps");
+                ensure!(
+                    after.passes.first().is_some_and(|p| p.starts_with("update hair 0")),
+                    "the staged upload is the frame's first pass: {:?}",
+                    after.passes
+                );
+                ensure!(!cached.passes.iter().any(|p| p.starts_with("update hair")), "{:?}", cached.passes);
                 ensure!(after.passes.iter().any(|p| p.starts_with("shadow")), "{:?}", after.passes);
                 ensure!(after.image != cached.image, "the edit shows");
                 instance.characters[0].hair = CharacterHair::Generated(std::sync::Arc::new(edited.clone()));

@@ -469,6 +469,82 @@ impl<'a> Recorder<'a> {
         Ok(())
     }
 
+    /// Copies `copies` from a staging buffer into `image`, which is in `from.0` before (its
+    /// earlier use `from.1`) and in SHADER_READ_ONLY_OPTIMAL after, visible to every later read.
+    pub(crate) fn copy_into_image(
+        &self,
+        staging: &Buffer,
+        image: &Image,
+        from: (vk::ImageLayout, (vk::PipelineStageFlags2, vk::AccessFlags2)),
+        copies: &[vk::BufferImageCopy],
+    ) {
+        let copy = (vk::PipelineStageFlags2::COPY, vk::AccessFlags2::TRANSFER_WRITE);
+        self.image_barrier(image, (from.0, vk::ImageLayout::TRANSFER_DST_OPTIMAL), from.1, copy);
+        // SAFETY: the copies lie inside the image and the staging buffer (the callers'
+        // contract: write_image_regions and GpuHair::stage_update check the regions against the
+        // image and build the staging data from them, create_image_with_data copies the whole
+        // image from its tightly packed data), and the barrier above put the image in
+        // TRANSFER_DST_OPTIMAL.
+        unsafe {
+            self.device().cmd_copy_buffer_to_image(
+                self.cmd,
+                staging.raw,
+                image.raw,
+                vk::ImageLayout::TRANSFER_DST_OPTIMAL,
+                copies,
+            );
+        }
+        self.image_barrier(
+            image,
+            (vk::ImageLayout::TRANSFER_DST_OPTIMAL, vk::ImageLayout::SHADER_READ_ONLY_OPTIMAL),
+            copy,
+            (vk::PipelineStageFlags2::ALL_COMMANDS, vk::AccessFlags2::SHADER_SAMPLED_READ),
+        );
+    }
+
+    /// [`Self::copy_into_image`] for a sampled image between reads (SHADER_READ_ONLY before and
+    /// after); nothing is recorded without copies.
+    pub(crate) fn update_sampled_image(
+        &self,
+        staging: &Buffer,
+        image: &Image,
+        copies: &[vk::BufferImageCopy],
+    ) {
+        if copies.is_empty() {
+            return;
+        }
+        let reads = (vk::PipelineStageFlags2::ALL_COMMANDS, vk::AccessFlags2::SHADER_SAMPLED_READ);
+        self.copy_into_image(staging, image, (vk::ImageLayout::SHADER_READ_ONLY_OPTIMAL, reads), copies);
+    }
+
+    /// Copies byte ranges between buffers, then makes them visible to later shader reads.
+    pub(crate) fn copy_buffer_regions(&self, src: &Buffer, dst: &Buffer, regions: &[vk::BufferCopy]) {
+        if regions.is_empty() {
+            return;
+        }
+        let inside = |r: &vk::BufferCopy, size: u64, offset: u64| {
+            offset.checked_add(r.size).is_some_and(|e| e <= size)
+        };
+        if !regions.iter().all(|r| inside(r, src.size(), r.src_offset) && inside(r, dst.size(), r.dst_offset))
+        {
+            log::error!(
+                "copy_buffer_regions: a region lies outside {} or {}; nothing copied",
+                src.name(),
+                dst.name()
+            );
+            return;
+        }
+        let before = (vk::PipelineStageFlags2::ALL_COMMANDS, vk::AccessFlags2::SHADER_STORAGE_READ);
+        let copy = (vk::PipelineStageFlags2::COPY, vk::AccessFlags2::TRANSFER_WRITE);
+        self.memory_barrier(before, copy);
+        // SAFETY: every region was checked to lie inside both buffers just above.
+        unsafe { self.device().cmd_copy_buffer(self.cmd, src.raw, dst.raw, regions) };
+        self.memory_barrier(
+            copy,
+            (vk::PipelineStageFlags2::ALL_COMMANDS, vk::AccessFlags2::SHADER_STORAGE_READ),
+        );
+    }
+
     pub fn copy_buffer(&self, src: &Buffer, dst: &Buffer, size: u64) {
         let region = vk::BufferCopy { src_offset: 0, dst_offset: 0, size };
         // SAFETY: recording; both buffers are live and at least `size` bytes.
@@ -641,7 +717,7 @@ impl Context {
     }
 
     /// A host-visible transfer source holding `data`.
-    fn upload_staging(&self, name: &str, data: &[u8]) -> Result<Buffer> {
+    pub(crate) fn upload_staging(&self, name: &str, data: &[u8]) -> Result<Buffer> {
         let mut staging = Buffer::new(
             self,
             &format!("{name} (upload)"),
@@ -702,28 +778,8 @@ impl Context {
         copies: &[vk::BufferImageCopy],
     ) -> Result<()> {
         let staging = self.upload_staging(image.name(), data)?;
-        let copy = (vk::PipelineStageFlags2::COPY, vk::AccessFlags2::TRANSFER_WRITE);
         self.submit(label, |rec| {
-            rec.image_barrier(image, (from.0, vk::ImageLayout::TRANSFER_DST_OPTIMAL), from.1, copy);
-            // SAFETY: recording; the copies lie inside the image and the staging buffer (the
-            // callers' contract: write_image_regions checks it, create_image_with_data copies
-            // the whole image from its tightly packed data), and the image is in
-            // TRANSFER_DST_OPTIMAL.
-            unsafe {
-                self.device().cmd_copy_buffer_to_image(
-                    rec.cmd,
-                    staging.raw,
-                    image.raw,
-                    vk::ImageLayout::TRANSFER_DST_OPTIMAL,
-                    copies,
-                );
-            }
-            rec.image_barrier(
-                image,
-                (vk::ImageLayout::TRANSFER_DST_OPTIMAL, vk::ImageLayout::SHADER_READ_ONLY_OPTIMAL),
-                copy,
-                (vk::PipelineStageFlags2::ALL_COMMANDS, vk::AccessFlags2::SHADER_SAMPLED_READ),
-            );
+            rec.copy_into_image(&staging, image, from, copies);
             Ok(())
         })?;
         Ok(())

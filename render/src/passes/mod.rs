@@ -5,6 +5,7 @@
 //!
 //! | module | passes |
 //! |---|---|
+//! | [`upload`] | per hair changed since the last frame (an edit, a simulation step): its re-baked texels and bundle entries |
 //! | [`shadow`] | per shadow-casting light: generate in the light's view, occluder depth, hair depth, opacity, and the copies into the map atlases (cached after the first frame) |
 //! | [`generate`] | per character: LOD + cull (both paths), generate (compute path) |
 //! | [`occluders`] | the occluder meshes, shaded and lit, into the scene target |
@@ -21,6 +22,7 @@ pub mod hair;
 pub mod occluders;
 pub mod oit;
 pub mod shadow;
+pub mod upload;
 pub mod volume;
 
 use gen_gpu::Recorder;
@@ -61,6 +63,8 @@ pub enum ScenePass {
     /// Raymarch of character `i`'s volume into the visibility buffer.
     March(usize),
     CopyOut,
+    /// The `k`-th staged hair update of the frame ([`upload`]).
+    UpdateHair(usize),
 }
 
 /// Plans the passes of one batch of characters (one submission): generation, then (first
@@ -155,6 +159,7 @@ pub(crate) fn record(
         ScenePass::Volume(h, step) => volume::record_hair(r, rec, state, h, step),
         ScenePass::March(i) => volume::record_march(r, rec, state, i),
         ScenePass::CopyOut => copy_out::record(rec, state),
+        ScenePass::UpdateHair(k) => upload::record(r, rec, k),
     }
 }
 
