@@ -416,6 +416,8 @@ impl EditorApp {
             style: None,
             strand_width: None,
             occluder,
+            motion: None,
+            dynamics: None,
         });
         serde_json::to_string_pretty(&scene)
             .map_err(|e| EditorError::Io { path: scene_path.to_owned(), message: e.to_string() })

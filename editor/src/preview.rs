@@ -86,6 +86,7 @@ impl PreviewScene {
             characters: Vec::new(),
             effects: self.effects,
             lod: LodDesc::default(),
+            animation: None,
         }
     }
 }

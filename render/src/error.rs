@@ -23,6 +23,8 @@ pub enum RenderError {
     RasterUnavailable { why: String },
     #[error("cannot render this view: {why}")]
     InvalidView { why: String },
+    #[error("{path}: {message}")]
+    Animation { path: std::path::PathBuf, message: String },
     #[error("{path}: lights[{light}]: {message}")]
     Light { path: std::path::PathBuf, light: usize, message: String },
 }

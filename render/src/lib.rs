@@ -6,6 +6,7 @@
 //! library only: the `hairkit`, `hair-render` and `hair-bench` commands, crowd-scene writing
 //! and plots live in the `hairkit-cli` crate (`cli/`).
 
+pub mod animation;
 pub mod camera;
 pub mod contract;
 pub mod error;

@@ -1,7 +1,8 @@
 //! `hair-render SCENE -o frame.png`: renders a scene file (see `render::scene`).
 //!
 //! ```text
-//! hair-render SCENE -o OUT.png|OUT.exr [--depth] [--coverage] [--frames N]
+//! hair-render SCENE -o OUT.png|OUT.exr [--depth] [--coverage] [--frames N|START..END]
+//!             [--simulate] [--sim-cache FILE]
 //!             [--path auto|mesh|compute] [--raster auto|triangles|compute]
 //!             [--device SEL] [--print-graph]
 //!             [--stats] [--stats-json FILE] [--validation]
@@ -9,6 +10,12 @@
 //!
 //! `.png` output is 8-bit sRGB; `.exr` output is linear half-float RGB with an optional `A`
 //! (coverage) and `Z` (view-space distance) channel.
+//!
+//! Animations (`render::animation`): `--frames START..END` renders frames START to END − 1 of
+//! the scene's animation, numbered by their absolute index, exactly as one full run would; with
+//! dynamics, `--simulate` writes the simulation cache (`SCENE.sim` unless `--sim-cache`) that
+//! every process rendering a range then reads (without it, a process simulates from frame 0 in
+//! memory, with the same result).
 
 use std::path::PathBuf;
 
@@ -53,10 +60,49 @@ struct Cli {
     /// Enable the Khronos validation layer (also HAIRKIT_VALIDATION=1).
     #[arg(long)]
     validation: bool,
-    /// Render N frames along the scene's `camera_path`, or orbiting the camera once around its
-    /// target when it has none; files are numbered (`out.png` → `out-0000.png`, …).
-    #[arg(long, default_value_t = 1, value_parser = clap::value_parser!(u32).range(1..=10000))]
-    frames: u32,
+    /// Frames to render: `N` (frames 0..N) or a half-open range `START..END` of the scene's
+    /// animation. Without an `animation` block, N frames orbit the camera once around its
+    /// target (or follow its `camera_path`). Files are numbered by absolute frame
+    /// (`out.png` → `out-0007.png`) whenever the animation has more than one frame.
+    #[arg(long, default_value = "1")]
+    frames: FrameRange,
+    /// Simulate the scene's dynamics for its whole animation into the simulation cache, then
+    /// render what -o asks for (nothing without -o).
+    #[arg(long)]
+    simulate: bool,
+    /// The simulation cache [default: the scene file with the extension `.sim`].
+    #[arg(long)]
+    sim_cache: Option<PathBuf>,
+}
+
+/// `N` or `START..END` (half-open).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+struct FrameRange {
+    start: u32,
+    end: u32,
+    /// Written as a range (`START..END`) rather than a count.
+    range: bool,
+}
+
+impl std::str::FromStr for FrameRange {
+    type Err = String;
+
+    fn from_str(s: &str) -> Result<Self, String> {
+        let number = |x: &str| {
+            x.trim().parse::<u32>().map_err(|e| format!("{x:?} is not a frame number ({e})"))
+        };
+        let (start, end, range) = match s.split_once("..") {
+            Some((a, b)) => (number(a)?, number(b)?, true),
+            None => (0, number(s)?, false),
+        };
+        if start >= end {
+            return Err(format!("{s:?} holds no frame (expected N ≥ 1 or START..END with START < END)"));
+        }
+        if end > render::scene::MAX_FRAMES {
+            return Err(format!("{s:?} ends past frame {}", render::scene::MAX_FRAMES));
+        }
+        Ok(Self { start, end, range })
+    }
 }
 
 /// `dir/name.png` → `dir/name-0007.png`.
@@ -84,7 +130,59 @@ fn run(cli: &Cli) -> Result<()> {
         scene.scene.effects.raster = raster;
         scene.validate()?;
     }
+    // The animation's length decides the camera of every frame, so a range renders the frames
+    // a full run would.
+    let length = match scene.scene.animation {
+        Some(a) => {
+            if cli.frames.end > a.frames {
+                anyhow::bail!(
+                    "--frames {}..{}: the scene's animation has {} frames (0..{})",
+                    cli.frames.start,
+                    cli.frames.end,
+                    a.frames,
+                    a.frames
+                );
+            }
+            a.frames
+        }
+        None if cli.frames.start > 0 || cli.frames.range && cli.frames.end > 1 => anyhow::bail!(
+            "--frames {}..{}: a frame range needs the scene's animation length; add \"animation\": {{\"frames\": N}} to {}",
+            cli.frames.start,
+            cli.frames.end,
+            cli.scene.display()
+        ),
+        None => cli.frames.end,
+    };
+    let mut instance = render::instance::SceneInstance::load(&scene)?;
+    let animation = render::animation::Animation::new(&mut instance)?;
+    let cache_path = cli.sim_cache.clone().unwrap_or_else(|| cli.scene.with_extension("sim"));
+    if cli.simulate {
+        if animation.dynamic_characters() == 0 {
+            anyhow::bail!("--simulate: {} has no character with dynamics", cli.scene.display());
+        }
+        let started = std::time::Instant::now();
+        let bar = indicatif::ProgressBar::new(u64::from(animation.frames())).with_style(
+            indicatif::ProgressStyle::with_template("simulating [{bar:30}] {pos}/{len} frames {elapsed}")
+                .unwrap_or_else(|_| indicatif::ProgressStyle::default_bar()),
+        );
+        let cache = render::animation::SimCache::simulate(&animation, animation.frames(), &|f| {
+            bar.set_position(u64::from(f));
+        });
+        bar.finish_and_clear();
+        cache.write(&cache_path)?;
+        println!(
+            "{} ({} frames of {} character{}, {:.0} ms)",
+            cache_path.display(),
+            cache.frames(),
+            animation.dynamic_characters(),
+            if animation.dynamic_characters() == 1 { "" } else { "s" },
+            started.elapsed().as_secs_f64() * 1e3
+        );
+    }
     if cli.out.is_none() && !cli.print_graph {
+        if cli.simulate {
+            return Ok(());
+        }
         anyhow::bail!("nothing to do: give -o OUT.png and/or --print-graph");
     }
     let ctx = Context::new(&ContextDesc {
@@ -92,7 +190,7 @@ fn run(cli: &Cli) -> Result<()> {
         device: cli.device.clone(),
     })?;
     let path = cli.path.resolve_with_env(ctx.capabilities())?;
-    let renderer = SceneRenderer::new(&ctx, &scene, path)?;
+    let mut renderer = SceneRenderer::from_instance(&ctx, &instance, path)?;
     if cli.print_graph {
         print!("{}", renderer.graph());
     }
@@ -105,18 +203,52 @@ fn run(cli: &Cli) -> Result<()> {
     if !exr && (cli.depth || cli.coverage) {
         anyhow::bail!("--depth and --coverage need an .exr output (PNG is 8-bit sRGB colour)");
     }
-    let camera = scene.scene.camera;
-    let (eye, target) = (glam::Vec3::from_array(camera.eye), glam::Vec3::from_array(camera.target));
+    // Hair-mesh positions per frame: from the cache when it holds the range, else simulated here.
+    let cache = if animation.dynamic_characters() == 0 {
+        None
+    } else {
+        match render::animation::SimCache::read(&cache_path, &animation) {
+            Ok(c) if c.frames() >= cli.frames.end => Some(c),
+            Ok(c) => {
+                eprintln!(
+                    "hair-render: {} holds frames 0..{}, not ..{}: simulating in memory",
+                    cache_path.display(),
+                    c.frames(),
+                    cli.frames.end
+                );
+                None
+            }
+            Err(e) => {
+                eprintln!(
+                    "hair-render: no usable simulation cache ({e}): simulating frames 0..{} in memory (hair-render {} --simulate writes one for every process to share)",
+                    cli.frames.end,
+                    cli.scene.display()
+                );
+                None
+            }
+        }
+    };
+    let mut live = animation.start();
+    let mut player = render::animation::Player::new(&animation);
     let mut last = None;
-    for i in 0..cli.frames {
-        let (frame_eye, frame_target) = if scene.scene.camera_path.is_empty() {
-            let angle = std::f32::consts::TAU * i as f32 / cli.frames as f32;
-            (target + glam::Quat::from_rotation_y(angle) * (eye - target), target)
+    for i in cli.frames.start..cli.frames.end {
+        let (frame_eye, frame_target) = scene.frame_camera(i, length);
+        let update = if animation.moves() {
+            let positions = match &cache {
+                Some(c) => c.positions(i).map(<[_]>::to_vec).unwrap_or_default(),
+                None => {
+                    while live.frame() < i {
+                        live.advance();
+                    }
+                    live.positions()
+                }
+            };
+            Some(player.show(&animation, &mut renderer, &ctx, i, &positions)?)
         } else {
-            scene.camera_at(i as f32 / (cli.frames - 1).max(1) as f32)
+            None
         };
         let frame = renderer.render_camera(&ctx, frame_eye, frame_target)?;
-        let file = if cli.frames > 1 { numbered(out, i) } else { out.clone() };
+        let file = if length > 1 { numbered(out, i) } else { out.clone() };
         if exr {
             let channels = render::output::ExrChannels { coverage: cli.coverage, depth: cli.depth };
             let planes = (render::camera::NEAR, render::camera::FAR);
@@ -128,8 +260,12 @@ fn run(cli: &Cli) -> Result<()> {
             0 => String::new(),
             n => format!(", {n} character{} as volumes", if n == 1 { "" } else { "s" }),
         };
+        let dynamics = match update {
+            Some(u) if u.rebaked > 0 => format!(", {} re-baked in {:.1} ms", u.rebaked, u.rebake_ms),
+            _ => String::new(),
+        };
         println!(
-            "{} ({}x{}, {} path, {} raster{volumes}, {:.0} ms)",
+            "{} ({}x{}, {} path, {} raster{volumes}{dynamics}, {:.0} ms)",
             file.display(),
             frame.image.width,
             frame.image.height,

@@ -1,0 +1,482 @@
+//! Animated scenes: head motion, hair-mesh dynamics and simulation caches.
+//!
+//! A scene with `"animation": {"frames": N, "fps": R}` has frames `0..N` at times `f / R`.
+//! Characters with a `motion` move their head (hair, roots and occluder together); characters
+//! with a `dynamics` block have their hair mesh simulated ([`hairmesh::dynamics`]), its
+//! textures re-baked and the changed texels uploaded every frame
+//! ([`crate::frame::SceneRenderer::update_hair`], the graph's `update hair` passes). Everything
+//! else costs nothing: a character without motion is never touched, a scene without dynamics
+//! simulates nothing and uploads nothing, so its shadow maps and volumes stay cached.
+//!
+//! **Frame ranges.** A frame depends only on the scene, its assets and the simulated hair-mesh
+//! positions of that frame. Simulation is sequential (frame `f` needs `0..f`), so it runs once
+//! into a [`SimCache`] — every dynamic character's object-space hair-mesh positions per frame,
+//! f32, keyed on everything the simulation reads — and any process rendering any range reads
+//! the positions of its frames from it. A process without a cache simulates from frame 0 in
+//! memory; positions come out bit for bit the same either way (same f32 operations in the same
+//! order), so its images are identical too.
+//!
+//! ```no_run
+//! # fn main() -> Result<(), Box<dyn std::error::Error>> {
+//! use render::animation::{Animation, SimCache};
+//! let scene = render::scene::load_scene(std::path::Path::new("scene.json"))?;
+//! let mut instance = render::instance::SceneInstance::load(&scene)?;
+//! let animation = Animation::new(&mut instance)?; // before the renderer: dynamic hair gets its own upload
+//! let cache = SimCache::simulate(&animation, animation.frames(), &|_| {});
+//! cache.write(std::path::Path::new("scene.sim"))?;
+//! # Ok(()) }
+//! ```
+
+use std::path::Path;
+use std::sync::Arc;
+use std::time::Instant;
+
+use glam::{Affine3A, Mat4, Vec3};
+use hairmesh::asset::{HairAsset, VertexMove};
+use hairmesh::dynamics::{Collider, HairSim, fit_sphere};
+use rayon::prelude::*;
+
+use crate::RenderError;
+use crate::frame::SceneRenderer;
+use crate::instance::{CharacterHair, SceneInstance};
+use crate::scene::MotionDesc;
+
+/// A scene's animation: its characters' motion and the simulations of its dynamic characters.
+#[derive(Debug)]
+pub struct Animation {
+    path: std::path::PathBuf,
+    fps: f32,
+    frames: u32,
+    characters: Vec<AnimatedCharacter>,
+    dynamic: Vec<DynamicCharacter>,
+    key: u64,
+}
+
+#[derive(Debug)]
+struct AnimatedCharacter {
+    /// The scene's transform (object → world) without motion.
+    base: Mat4,
+    motion: Option<MotionDesc>,
+}
+
+#[derive(Debug)]
+struct DynamicCharacter {
+    /// Index among the scene's characters.
+    character: usize,
+    /// The upload key the renderer knows this character's hair by (unique to it).
+    key: String,
+    rest: Arc<HairAsset>,
+    /// The simulation at frame 0.
+    start: HairSim,
+}
+
+/// Object → world of a character at time `t`.
+fn placement(c: &AnimatedCharacter, t: f64) -> Mat4 {
+    match &c.motion {
+        Some(m) => c.base * m.at(t),
+        None => c.base,
+    }
+}
+
+/// FNV-1a (64 bit): a stable hash for cache keys (std's hasher may change between releases).
+#[derive(Clone, Copy, Debug)]
+struct Fnv(u64);
+
+impl Fnv {
+    fn new() -> Self {
+        Self(0xcbf2_9ce4_8422_2325)
+    }
+
+    fn bytes(mut self, data: &[u8]) -> Self {
+        for &b in data {
+            self.0 = (self.0 ^ u64::from(b)).wrapping_mul(0x0100_0000_01b3);
+        }
+        self
+    }
+}
+
+impl Animation {
+    /// The animation of a loaded scene instance (its characters in the scene file's order).
+    /// Dynamic characters get upload keys of their own in `instance` (each is simulated
+    /// independently), so call this before setting up the renderer.
+    pub fn new(instance: &mut SceneInstance) -> Result<Self, RenderError> {
+        let settings = instance.settings.clone();
+        let scene = &settings.scene;
+        let path = settings.path.clone();
+        let error = |message: String| RenderError::Animation { path: path.clone(), message };
+        let (fps, frames) = scene.animation.map_or((24.0, 1), |a| (a.fps, a.frames));
+        if instance.characters.len() != scene.characters.len() {
+            return Err(error(format!(
+                "the instance has {} characters and the scene {}: an animation needs the scene's own",
+                instance.characters.len(),
+                scene.characters.len()
+            )));
+        }
+        let mut characters = Vec::new();
+        let mut dynamic = Vec::new();
+        let mut key = Fnv::new().bytes(b"hairkit-sim 1").bytes(&fps.to_le_bytes());
+        for (i, (desc, c)) in scene.characters.iter().zip(&mut instance.characters).enumerate() {
+            let animated = AnimatedCharacter { base: c.transform, motion: desc.motion.clone() };
+            let Some(params) = &desc.dynamics else {
+                characters.push(animated);
+                continue;
+            };
+            let CharacterHair::Generated(asset) = &c.hair else {
+                return Err(error(format!("characters[{i}].dynamics: the hair is explicit strands")));
+            };
+            let mut extra: Vec<Collider> = Vec::new();
+            if params.collide_with_occluder {
+                let Some(o) = &c.occluder else {
+                    return Err(error(format!(
+                        "characters[{i}].dynamics.collide_with_occluder: the character has no occluder"
+                    )));
+                };
+                let to_object = c.transform.inverse() * o.transform;
+                let points: Vec<Vec3> = o
+                    .geometry
+                    .positions
+                    .iter()
+                    .map(|p| to_object.transform_point3(Vec3::new(p[0], p[1], p[2])))
+                    .collect();
+                extra.push(fit_sphere(&points).ok_or_else(|| {
+                    error(format!("characters[{i}].dynamics: no sphere fits the occluder mesh (too few or coplanar points)"))
+                })?);
+            }
+            let at = |t: f64| Affine3A::from_mat4(placement(&animated, t));
+            let start = HairSim::new(asset.mesh(), params, &extra, &at)
+                .map_err(|e| error(format!("characters[{i}].dynamics: {e}")))?;
+            // Everything the simulation reads goes into the cache key.
+            let json = serde_json::to_string(&(params, &desc.motion, &extra)).unwrap_or_default();
+            key = key.bytes(&(i as u64).to_le_bytes()).bytes(json.as_bytes());
+            key = key.bytes(bytemuck::cast_slice(&c.transform.to_cols_array()));
+            for layer in &asset.mesh().layers {
+                for p in layer {
+                    key = key.bytes(bytemuck::cast_slice(&p.to_array()));
+                }
+            }
+            c.key = format!("{} #dynamics {i}", c.key);
+            dynamic.push(DynamicCharacter { character: i, key: c.key.clone(), rest: asset.clone(), start });
+            characters.push(animated);
+        }
+        Ok(Self { path, fps, frames, characters, dynamic, key: key.0 })
+    }
+
+    /// Frames of the animation (1 without an `animation` block).
+    pub fn frames(&self) -> u32 {
+        self.frames
+    }
+
+    pub fn fps(&self) -> f32 {
+        self.fps
+    }
+
+    /// Characters whose hair is simulated.
+    pub fn dynamic_characters(&self) -> usize {
+        self.dynamic.len()
+    }
+
+    /// Hair-mesh vertices of each dynamic character.
+    pub fn vertex_counts(&self) -> Vec<u32> {
+        self.dynamic.iter().map(|d| d.start.vertex_count() as u32).collect()
+    }
+
+    /// Whether any character moves (motion or dynamics).
+    pub fn moves(&self) -> bool {
+        !self.dynamic.is_empty() || self.characters.iter().any(|c| c.motion.is_some())
+    }
+
+    /// What a [`SimCache`] of this animation must have been made from.
+    pub fn cache_key(&self) -> u64 {
+        self.key
+    }
+
+    /// Time of frame `frame` (seconds).
+    pub fn time(&self, frame: u32) -> f64 {
+        f64::from(frame) / f64::from(self.fps)
+    }
+
+    /// Object → world of scene character `character` at frame `frame`.
+    pub fn placement(&self, character: usize, frame: u32) -> Mat4 {
+        placement(&self.characters[character], self.time(frame))
+    }
+
+    /// The simulations at frame 0, stepped in memory ([`Simulation::advance`]).
+    pub fn start(&self) -> Simulation<'_> {
+        Simulation { animation: self, sims: self.dynamic.iter().map(|d| d.start.clone()).collect(), frame: 0 }
+    }
+}
+
+/// The dynamic characters' simulations at one frame.
+#[derive(Debug)]
+pub struct Simulation<'a> {
+    animation: &'a Animation,
+    sims: Vec<HairSim>,
+    frame: u32,
+}
+
+impl Simulation<'_> {
+    /// The frame the simulations are at.
+    pub fn frame(&self) -> u32 {
+        self.frame
+    }
+
+    /// Steps every dynamic character one frame (in parallel across characters; each one's
+    /// result does not depend on the others or on the thread count).
+    pub fn advance(&mut self) {
+        let a = self.animation;
+        let dt = 1.0 / a.fps;
+        self.sims.par_iter_mut().zip(&a.dynamic).for_each(|(sim, d)| {
+            let c = &a.characters[d.character];
+            sim.step(dt, &|t: f64| Affine3A::from_mat4(placement(c, t)));
+        });
+        self.frame += 1;
+    }
+
+    /// Each dynamic character's hair-mesh positions in object space at this frame, layer-major
+    /// (what [`SimCache`] stores).
+    pub fn positions(&self) -> Vec<Vec<Vec3>> {
+        let a = self.animation;
+        self.sims
+            .par_iter()
+            .zip(&a.dynamic)
+            .map(|(sim, d)| sim.object_positions(Affine3A::from_mat4(a.placement(d.character, self.frame))))
+            .collect()
+    }
+}
+
+const CACHE_MAGIC: &[u8; 16] = b"hairkit-sim\0v001";
+/// Largest cache file read (positions of every dynamic character for every frame).
+pub const MAX_CACHE_BYTES: u64 = 16 << 30;
+
+/// Simulated hair-mesh positions per frame for every dynamic character of an animation: the
+/// file that lets any process render any frame range ([module docs](self)).
+///
+/// File layout (little endian): the 16-byte magic `hairkit-sim\0v001`, the key (u64), fps
+/// (f32), frames (u32), characters (u32), each character's vertex count (u32), then per frame
+/// per character its positions (3 × f32 per vertex, layer-major, object space).
+#[derive(Clone, Debug, PartialEq)]
+pub struct SimCache {
+    key: u64,
+    fps: f32,
+    vertex_counts: Vec<u32>,
+    /// Per frame, per character.
+    frames: Vec<Vec<Vec<Vec3>>>,
+}
+
+impl SimCache {
+    /// Simulates `frames` frames (from 0) of `animation`, characters in parallel; `progress`
+    /// hears about each frame the first dynamic character finished.
+    pub fn simulate(animation: &Animation, frames: u32, progress: &(dyn Fn(u32) + Sync)) -> Self {
+        let per_character: Vec<Vec<Vec<Vec3>>> = animation
+            .dynamic
+            .par_iter()
+            .map(|d| {
+                let c = &animation.characters[d.character];
+                let at = |t: f64| Affine3A::from_mat4(placement(c, t));
+                let mut sim = d.start.clone();
+                let mut out = Vec::with_capacity(frames as usize);
+                for f in 0..frames {
+                    if f > 0 {
+                        sim.step(1.0 / animation.fps, &at);
+                    }
+                    out.push(sim.object_positions(at(animation.time(f))));
+                    if d.character == animation.dynamic[0].character {
+                        progress(f + 1);
+                    }
+                }
+                out
+            })
+            .collect();
+        let frames = (0..frames as usize).map(|f| per_character.iter().map(|c| c[f].clone()).collect()).collect();
+        Self { key: animation.key, fps: animation.fps, vertex_counts: animation.vertex_counts(), frames }
+    }
+
+    /// Frames held (from frame 0).
+    pub fn frames(&self) -> u32 {
+        self.frames.len() as u32
+    }
+
+    /// Positions of every dynamic character at `frame`, if the cache holds it.
+    pub fn positions(&self, frame: u32) -> Option<&[Vec<Vec3>]> {
+        self.frames.get(frame as usize).map(Vec::as_slice)
+    }
+
+    /// Writes the cache atomically (a reader never sees half a file).
+    pub fn write(&self, path: &Path) -> Result<(), RenderError> {
+        let mut header = Vec::new();
+        header.extend_from_slice(CACHE_MAGIC);
+        header.extend_from_slice(&self.key.to_le_bytes());
+        header.extend_from_slice(&self.fps.to_le_bytes());
+        header.extend_from_slice(&(self.frames.len() as u32).to_le_bytes());
+        header.extend_from_slice(&(self.vertex_counts.len() as u32).to_le_bytes());
+        for n in &self.vertex_counts {
+            header.extend_from_slice(&n.to_le_bytes());
+        }
+        hairmesh::atomic::write_file_atomic(path, |w| {
+            w.write_all(&header)?;
+            for frame in &self.frames {
+                for positions in frame {
+                    let floats: Vec<f32> = positions.iter().flat_map(|p| p.to_array()).collect();
+                    let bytes: Vec<u8> = floats.iter().flat_map(|x| x.to_le_bytes()).collect();
+                    w.write_all(&bytes)?;
+                }
+            }
+            Ok(())
+        })
+        .map_err(|e| RenderError::Animation { path: path.to_owned(), message: format!("writing: {e}") })
+    }
+
+    /// Reads a cache and checks it belongs to `animation` (same key, fps and characters); a
+    /// cache of another scene or an older version of it is refused, naming what differs.
+    pub fn read(path: &Path, animation: &Animation) -> Result<Self, RenderError> {
+        let error = |message: String| RenderError::Animation { path: path.to_owned(), message };
+        let len = std::fs::metadata(path).map_err(|e| error(e.to_string()))?.len();
+        if len > MAX_CACHE_BYTES {
+            return Err(error(format!("{len} bytes is larger than a simulation cache may be ({MAX_CACHE_BYTES})")));
+        }
+        let data = std::fs::read(path).map_err(|e| error(e.to_string()))?;
+        let truncated = || error("truncated: not a hairkit simulation cache".into());
+        let word = |at: usize| -> Result<[u8; 4], RenderError> {
+            data.get(at..at + 4).and_then(|s| s.try_into().ok()).ok_or_else(truncated)
+        };
+        if data.get(..16) != Some(&CACHE_MAGIC[..]) {
+            return Err(error("not a hairkit simulation cache (or one of another version)".into()));
+        }
+        let key = u64::from_le_bytes(data.get(16..24).and_then(|s| s.try_into().ok()).ok_or_else(truncated)?);
+        let fps = f32::from_le_bytes(word(24)?);
+        let frames = u32::from_le_bytes(word(28)?);
+        let characters = u32::from_le_bytes(word(32)?) as usize;
+        if key != animation.key || fps != animation.fps {
+            return Err(error(
+                "was simulated from another scene, other assets or other dynamics settings: simulate again".into(),
+            ));
+        }
+        let expected = animation.vertex_counts();
+        if characters != expected.len() {
+            return Err(error(format!("holds {characters} characters, the scene simulates {}", expected.len())));
+        }
+        let mut vertex_counts = Vec::with_capacity(characters);
+        for c in 0..characters {
+            vertex_counts.push(u32::from_le_bytes(word(36 + 4 * c)?));
+        }
+        if vertex_counts != expected {
+            return Err(error(format!("vertex counts {vertex_counts:?}, the scene's hair meshes have {expected:?}")));
+        }
+        let body = 36 + 4 * characters;
+        let per_frame: u64 = vertex_counts.iter().map(|&n| u64::from(n) * 12).sum();
+        let want = body as u64 + per_frame * u64::from(frames);
+        if want != data.len() as u64 {
+            return Err(error(format!(
+                "{} bytes, but its header describes {want} ({frames} frames): the file is damaged",
+                data.len()
+            )));
+        }
+        let mut at = body;
+        let mut all = Vec::with_capacity(frames as usize);
+        for _ in 0..frames {
+            let mut frame = Vec::with_capacity(characters);
+            for &n in &vertex_counts {
+                let bytes = &data[at..at + n as usize * 12];
+                let positions: Vec<Vec3> = bytes
+                    .chunks_exact(12)
+                    .map(|c| {
+                        let f = |i: usize| f32::from_le_bytes([c[i], c[i + 1], c[i + 2], c[i + 3]]);
+                        Vec3::new(f(0), f(4), f(8))
+                    })
+                    .collect();
+                if positions.iter().any(|p| !p.is_finite()) {
+                    return Err(error("holds a position that is not finite: the file is damaged".into()));
+                }
+                frame.push(positions);
+                at += n as usize * 12;
+            }
+            all.push(frame);
+        }
+        Ok(Self { key, fps, vertex_counts, frames: all })
+    }
+}
+
+/// What bringing a renderer to a frame did.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct FrameUpdate {
+    /// Characters moved (motion).
+    pub moved: usize,
+    /// Characters whose hair was re-baked (dynamics).
+    pub rebaked: usize,
+    /// CPU time re-baking the textures.
+    pub rebake_ms: f64,
+    /// Bytes staged for upload.
+    pub upload_bytes: u64,
+}
+
+/// Brings a [`SceneRenderer`] to the frames of an [`Animation`]: sets the moving characters'
+/// placements and re-bakes the dynamic characters' textures from their simulated positions.
+#[derive(Debug)]
+pub struct Player {
+    /// Per dynamic character: its asset as the renderer holds it.
+    assets: Vec<HairAsset>,
+}
+
+impl Player {
+    pub fn new(animation: &Animation) -> Self {
+        Self { assets: animation.dynamic.iter().map(|d| (*d.rest).clone()).collect() }
+    }
+
+    /// Puts frame `frame` into `renderer`: `positions` are the dynamic characters' (from a
+    /// [`SimCache`] or a [`Simulation`] at that frame). Every simulated vertex is re-baked, so
+    /// the textures depend on this frame's positions only, not on the frames shown before.
+    pub fn show(
+        &mut self,
+        animation: &Animation,
+        renderer: &mut SceneRenderer,
+        ctx: &gen_gpu::Context,
+        frame: u32,
+        positions: &[Vec<Vec3>],
+    ) -> Result<FrameUpdate, RenderError> {
+        let error = |message: String| RenderError::Animation { path: animation.path.clone(), message };
+        if positions.len() != animation.dynamic.len() {
+            return Err(error(format!(
+                "{} characters' positions for {} dynamic characters",
+                positions.len(),
+                animation.dynamic.len()
+            )));
+        }
+        let mut update = FrameUpdate::default();
+        for (i, c) in animation.characters.iter().enumerate() {
+            if c.motion.is_some() {
+                renderer.set_character_transform(i, animation.placement(i, frame))?;
+                update.moved += 1;
+            }
+        }
+        let started = Instant::now();
+        for ((d, asset), p) in animation.dynamic.iter().zip(&mut self.assets).zip(positions) {
+            let per_layer = asset.mesh().vertex_count();
+            if p.len() != asset.mesh().layers.len() * per_layer {
+                return Err(error(format!(
+                    "characters[{}]: {} positions for a hair mesh of {} vertices",
+                    d.character,
+                    p.len(),
+                    asset.mesh().layers.len() * per_layer
+                )));
+            }
+            let moves: Vec<VertexMove> = p
+                .iter()
+                .enumerate()
+                .skip(per_layer)
+                .map(|(i, q)| VertexMove {
+                    layer: (i / per_layer) as u32,
+                    vertex: (i % per_layer) as u32,
+                    position: q.as_dvec3(),
+                })
+                .collect();
+            let change = asset
+                .move_vertices(&moves)
+                .map_err(|e| error(format!("characters[{}]: re-baking: {e}", d.character)))?;
+            let sent = renderer.update_hair(ctx, &d.key, asset, &change)?;
+            update.rebaked += 1;
+            update.upload_bytes += sent.bytes;
+        }
+        update.rebake_ms = started.elapsed().as_secs_f64() * 1e3;
+        Ok(update)
+    }
+}
