@@ -91,7 +91,52 @@ fn main() -> ExitCode {
                     }),
                     "effects.shadow_layers",
                 ),
-                ("dynamics.json", Box::new(|v| v["effects"]["dynamics"] = true.into()), "not supported yet"),
+                ("dynamics.json", Box::new(|v| v["effects"]["dynamics"] = true.into()), "no character has a"),
+                (
+                    "dynamics_off.json",
+                    Box::new(|v| v["characters"][0]["dynamics"] = serde_json::json!({})),
+                    "characters[0].dynamics: needs \"effects\": {\"dynamics\": true}",
+                ),
+                (
+                    "no_animation.json",
+                    Box::new(|v| {
+                        v["characters"][0]["dynamics"] = serde_json::json!({});
+                        v["effects"]["dynamics"] = true.into();
+                    }),
+                    "needs the scene's \"animation\"",
+                ),
+                (
+                    "substeps.json",
+                    Box::new(|v| {
+                        v["animation"] = serde_json::json!({ "frames": 4 });
+                        v["characters"][0]["dynamics"] = serde_json::json!({ "substeps": 0 });
+                        v["effects"]["dynamics"] = true.into();
+                    }),
+                    "characters[0].dynamics: substeps: 0",
+                ),
+                (
+                    "wind.json",
+                    Box::new(|v| {
+                        v["animation"] = serde_json::json!({ "frames": 4 });
+                        v["characters"][0]["dynamics"] = serde_json::json!({ "wind": { "gust_period": -1 } });
+                        v["effects"]["dynamics"] = true.into();
+                    }),
+                    "wind.gust_period",
+                ),
+                (
+                    "motion.json",
+                    Box::new(|v| {
+                        v["animation"] = serde_json::json!({ "frames": 4 });
+                        v["characters"][0]["motion"] =
+                            serde_json::json!({ "pivot": [0, 1.4, 0], "keys": [{"time": 1}, {"time": 0.5}] });
+                    }),
+                    "characters[0].motion.keys[1].time",
+                ),
+                (
+                    "fps.json",
+                    Box::new(|v| v["animation"] = serde_json::json!({ "frames": 4, "fps": 0 })),
+                    "animation.fps",
+                ),
                 (
                     "volume_triangles.json",
                     Box::new(|v| {
@@ -135,6 +180,82 @@ fn main() -> ExitCode {
                 "{stderr}"
             );
             ensure!(!out.exists());
+            Ok(())
+        }),
+        GpuTest::new("frame_ranges_in_separate_processes_equal_one_run", Requirements::NONE, |_| {
+            // `--frames 0..10` in one process equals `0..5` and `5..10` in two, byte for byte:
+            // with dynamics (one half reading the simulation cache, the other simulating in
+            // memory) and without (the head moves rigidly).
+            let dir = tempfile::tempdir()?;
+            for dynamics in [true, false] {
+                let effects = serde_json::json!({ "transparency": "opaque", "dynamics": dynamics });
+                let path = hairkit_tests::scenes::scene_with(dir.path(), "dynamics", 96, 72, effects)?;
+                if !dynamics {
+                    let mut v: serde_json::Value = serde_json::from_slice(&std::fs::read(&path)?)?;
+                    v["characters"][0].as_object_mut().map(|c| c.remove("dynamics"));
+                    std::fs::write(&path, serde_json::to_vec_pretty(&v)?)?;
+                }
+                let scene = path.to_str().context("utf-8")?;
+                let run = |frames: &str, out: &Path, cache: &Path| {
+                    let out = out.join("f.png");
+                    let (ok, stdout, stderr) = hair_render_output(&[
+                        scene,
+                        "--frames",
+                        frames,
+                        "--sim-cache",
+                        cache.to_str().unwrap_or_default(),
+                        "-o",
+                        out.to_str().unwrap_or_default(),
+                    ]);
+                    ensure!(ok, "--frames {frames}: {stderr}");
+                    Ok::<_, anyhow::Error>((stdout, stderr))
+                };
+                let (full, split) = (dir.path().join("full"), dir.path().join("split"));
+                std::fs::create_dir_all(&full)?;
+                std::fs::create_dir_all(&split)?;
+                let cache = dir.path().join("scene.sim");
+                let none = dir.path().join("none.sim");
+                let (stdout, _) = run("0..10", &full, &none)?;
+                ensure!(stdout.contains("re-baked") == dynamics, "{stdout}");
+                if dynamics {
+                    let (ok, stdout, stderr) = hair_render_output(&[
+                        scene,
+                        "--simulate",
+                        "--sim-cache",
+                        cache.to_str().context("utf-8")?,
+                    ]);
+                    ensure!(ok && stdout.contains("48 frames"), "--simulate: {stdout} {stderr}");
+                    let (_, stderr) = run("0..5", &split, &cache)?;
+                    ensure!(!stderr.contains("simulating"), "the first half reads the cache: {stderr}");
+                } else {
+                    run("0..5", &split, &none)?;
+                }
+                let (_, stderr) = run("5..10", &split, &none)?;
+                ensure!(stderr.contains("simulating") == dynamics, "{stderr}");
+                for f in 0..10 {
+                    let name = format!("f-{f:04}.png");
+                    let (a, b) = (std::fs::read(full.join(&name))?, std::fs::read(split.join(&name))?);
+                    ensure!(a == b, "dynamics {dynamics}: {name} differs between one run and two");
+                }
+                ensure!(
+                    std::fs::read(full.join("f-0000.png"))? != std::fs::read(full.join("f-0009.png"))?,
+                    "the frames differ (the test would pass on a still scene)"
+                );
+                std::fs::remove_dir_all(&full)?;
+                std::fs::remove_dir_all(&split)?;
+            }
+            let (ok, stderr) = hair_render(&["x.json", "--frames", "5..3", "-o", "x.png"]);
+            ensure!(!ok && stderr.contains("holds no frame"), "{stderr}");
+            let path = hairkit_tests::scenes::scene_with(
+                dir.path(),
+                "dynamics",
+                96,
+                72,
+                serde_json::json!({"dynamics": true}),
+            )?;
+            let (ok, stderr) =
+                hair_render(&[path.to_str().context("utf-8")?, "--frames", "40..60", "-o", "x.png"]);
+            ensure!(!ok && stderr.contains("48 frames"), "{stderr}");
             Ok(())
         }),
         GpuTest::new("hair_render_writes_linear_exr_with_depth_and_coverage", Requirements::NONE, |_| {

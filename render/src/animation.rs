@@ -287,7 +287,8 @@ impl SimCache {
                 out
             })
             .collect();
-        let frames = (0..frames as usize).map(|f| per_character.iter().map(|c| c[f].clone()).collect()).collect();
+        let frames =
+            (0..frames as usize).map(|f| per_character.iter().map(|c| c[f].clone()).collect()).collect();
         Self { key: animation.key, fps: animation.fps, vertex_counts: animation.vertex_counts(), frames }
     }
 
@@ -332,7 +333,9 @@ impl SimCache {
         let error = |message: String| RenderError::Animation { path: path.to_owned(), message };
         let len = std::fs::metadata(path).map_err(|e| error(e.to_string()))?.len();
         if len > MAX_CACHE_BYTES {
-            return Err(error(format!("{len} bytes is larger than a simulation cache may be ({MAX_CACHE_BYTES})")));
+            return Err(error(format!(
+                "{len} bytes is larger than a simulation cache may be ({MAX_CACHE_BYTES})"
+            )));
         }
         let data = std::fs::read(path).map_err(|e| error(e.to_string()))?;
         let truncated = || error("truncated: not a hairkit simulation cache".into());
@@ -348,19 +351,25 @@ impl SimCache {
         let characters = u32::from_le_bytes(word(32)?) as usize;
         if key != animation.key || fps != animation.fps {
             return Err(error(
-                "was simulated from another scene, other assets or other dynamics settings: simulate again".into(),
+                "was simulated from another scene, other assets or other dynamics settings: simulate again"
+                    .into(),
             ));
         }
         let expected = animation.vertex_counts();
         if characters != expected.len() {
-            return Err(error(format!("holds {characters} characters, the scene simulates {}", expected.len())));
+            return Err(error(format!(
+                "holds {characters} characters, the scene simulates {}",
+                expected.len()
+            )));
         }
         let mut vertex_counts = Vec::with_capacity(characters);
         for c in 0..characters {
             vertex_counts.push(u32::from_le_bytes(word(36 + 4 * c)?));
         }
         if vertex_counts != expected {
-            return Err(error(format!("vertex counts {vertex_counts:?}, the scene's hair meshes have {expected:?}")));
+            return Err(error(format!(
+                "vertex counts {vertex_counts:?}, the scene's hair meshes have {expected:?}"
+            )));
         }
         let body = 36 + 4 * characters;
         let per_frame: u64 = vertex_counts.iter().map(|&n| u64::from(n) * 12).sum();

@@ -870,7 +870,10 @@ fn validate_with(loaded: &LoadedScene, characters: bool) -> Result<(), SceneErro
             return Err(invalid("animation.frames", format!("{} (expected 1..={MAX_FRAMES})", a.frames)));
         }
         if !(a.fps.is_finite() && a.fps > 0.0 && a.fps <= 1000.0) {
-            return Err(invalid("animation.fps", format!("{} (expected frames per second, 0 < fps ≤ 1000)", a.fps)));
+            return Err(invalid(
+                "animation.fps",
+                format!("{} (expected frames per second, 0 < fps ≤ 1000)", a.fps),
+            ));
         }
     }
     let mut dynamic = 0;
@@ -881,7 +884,8 @@ fn validate_with(loaded: &LoadedScene, characters: bool) -> Result<(), SceneErro
             if s.animation.is_none() {
                 return Err(invalid(
                     &format!("{field}.motion"),
-                    "needs the scene's \"animation\": {\"frames\": N, \"fps\": R} (time is frame / fps)".into(),
+                    "needs the scene's \"animation\": {\"frames\": N, \"fps\": R} (time is frame / fps)"
+                        .into(),
                 ));
             }
         }
@@ -903,14 +907,18 @@ fn validate_with(loaded: &LoadedScene, characters: bool) -> Result<(), SceneErro
         if matches!(hair.extension().and_then(|e| e.to_str()), Some("tfx" | "hair")) {
             return Err(invalid(
                 &dyn_field,
-                format!("{} holds explicit strands: dynamics simulate hair meshes (hair assets)", hair.display()),
+                format!(
+                    "{} holds explicit strands: dynamics simulate hair meshes (hair assets)",
+                    hair.display()
+                ),
             ));
         }
     }
     if characters && e.dynamics && dynamic == 0 {
         return Err(invalid(
             "effects.dynamics",
-            "no character has a \"dynamics\" block (add \"dynamics\": {} to the characters to simulate)".into(),
+            "no character has a \"dynamics\" block (add \"dynamics\": {} to the characters to simulate)"
+                .into(),
         ));
     }
     Ok(())

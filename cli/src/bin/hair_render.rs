@@ -88,9 +88,8 @@ impl std::str::FromStr for FrameRange {
     type Err = String;
 
     fn from_str(s: &str) -> Result<Self, String> {
-        let number = |x: &str| {
-            x.trim().parse::<u32>().map_err(|e| format!("{x:?} is not a frame number ({e})"))
-        };
+        let number =
+            |x: &str| x.trim().parse::<u32>().map_err(|e| format!("{x:?} is not a frame number ({e})"));
         let (start, end, range) = match s.split_once("..") {
             Some((a, b)) => (number(a)?, number(b)?, true),
             None => (0, number(s)?, false),
