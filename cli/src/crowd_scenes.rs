@@ -26,6 +26,9 @@ pub struct CrowdOptions {
     pub teapot_variants: u32,
     pub size: (u32, u32),
     pub seed: u64,
+    /// Also write `heads_animated.json`: every head turning and nodding with its own phase and
+    /// its hair simulated in its own wind.
+    pub animated: bool,
 }
 
 impl Default for CrowdOptions {
@@ -39,6 +42,7 @@ impl Default for CrowdOptions {
             teapot_variants: 8,
             size: (1280, 720),
             seed: 1,
+            animated: false,
         }
     }
 }
@@ -48,6 +52,8 @@ impl Default for CrowdOptions {
 pub struct CrowdScenes {
     pub heads: PathBuf,
     pub teapots: PathBuf,
+    /// With [`CrowdOptions::animated`].
+    pub heads_animated: Option<PathBuf>,
 }
 
 #[derive(Debug, thiserror::Error)]
@@ -235,7 +241,15 @@ pub fn write_crowds(
     }
     let heads_path = out.join("heads.json");
     let path = camera_path(0.5 * columns as f32 * spacing, rows as f32 * spacing, 1.6);
-    write_scene(&heads_path, &crowd_scene(options.size, &path, &characters))?;
+    let heads_scene = crowd_scene(options.size, &path, &characters);
+    write_scene(&heads_path, &heads_scene)?;
+    let heads_animated = if options.animated {
+        let animated_path = out.join("heads_animated.json");
+        write_scene(&animated_path, &animated_crowd(heads_scene, &mut rng))?;
+        Some(animated_path)
+    } else {
+        None
+    };
 
     // Teapots: a hairy teapot is 0.1 × the original (31.5 cm tall).
     let scale = 0.1;
@@ -285,5 +299,32 @@ pub fn write_crowds(
     let teapots_path = out.join("teapots.json");
     let path = camera_path(0.5 * columns as f32 * spacing, rows as f32 * spacing, 0.2);
     write_scene(&teapots_path, &crowd_scene(options.size, &path, &teapots))?;
-    Ok(CrowdScenes { heads: heads_path, teapots: teapots_path })
+    Ok(CrowdScenes { heads: heads_path, teapots: teapots_path, heads_animated })
+}
+
+/// The heads crowd animated: 5 s at 24 fps, each head turning and nodding with its own period
+/// and phase about its neck, its hair simulated (colliding with its head cap) in a wind of its
+/// own direction and gusts.
+fn animated_crowd(mut scene: serde_json::Value, rng: &mut SplitMix64) -> serde_json::Value {
+    scene["animation"] = serde_json::json!({ "frames": 120, "fps": 24 });
+    scene["effects"]["dynamics"] = true.into();
+    if let Some(characters) = scene["characters"].as_array_mut() {
+        for c in characters {
+            let wind = uniform(rng, 0.0, std::f64::consts::TAU);
+            c["motion"] = serde_json::json!({
+                "pivot": [0.0, 1.45, 0.0],
+                "turn": { "degrees": uniform(rng, 15.0, 45.0), "period": uniform(rng, 1.5, 3.0), "phase": rng.next_f64() },
+                "nod": { "degrees": uniform(rng, 4.0, 12.0), "period": uniform(rng, 0.8, 1.6), "phase": rng.next_f64() }
+            });
+            c["dynamics"] = serde_json::json!({
+                "collide_with_occluder": true,
+                "seed": rng.next_u64() >> 11,
+                "wind": {
+                    "velocity": [wind.cos() * uniform(rng, 0.3, 1.2), 0.0, wind.sin() * uniform(rng, 0.3, 1.2)],
+                    "turbulence": uniform(rng, 0.3, 0.8)
+                }
+            });
+        }
+    }
+    scene
 }

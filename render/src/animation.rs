@@ -458,30 +458,39 @@ impl Player {
             }
         }
         let started = Instant::now();
-        for ((d, asset), p) in animation.dynamic.iter().zip(&mut self.assets).zip(positions) {
-            let per_layer = asset.mesh().vertex_count();
-            if p.len() != asset.mesh().layers.len() * per_layer {
-                return Err(error(format!(
-                    "characters[{}]: {} positions for a hair mesh of {} vertices",
-                    d.character,
-                    p.len(),
-                    asset.mesh().layers.len() * per_layer
-                )));
-            }
-            let moves: Vec<VertexMove> = p
-                .iter()
-                .enumerate()
-                .skip(per_layer)
-                .map(|(i, q)| VertexMove {
-                    layer: (i / per_layer) as u32,
-                    vertex: (i % per_layer) as u32,
-                    position: q.as_dvec3(),
-                })
-                .collect();
-            let change = asset
-                .move_vertices(&moves)
-                .map_err(|e| error(format!("characters[{}]: re-baking: {e}", d.character)))?;
-            let sent = renderer.update_hair(ctx, &d.key, asset, &change)?;
+        // Re-bake in parallel (characters are independent), then stage in order.
+        let changes: Vec<Result<hairmesh::asset::AssetChange, RenderError>> = animation
+            .dynamic
+            .par_iter()
+            .zip(self.assets.par_iter_mut())
+            .zip(positions.par_iter())
+            .map(|((d, asset), p)| {
+                let per_layer = asset.mesh().vertex_count();
+                let total = asset.mesh().layers.len() * per_layer;
+                if p.len() != total {
+                    return Err(error(format!(
+                        "characters[{}]: {} positions for a hair mesh of {total} vertices",
+                        d.character,
+                        p.len()
+                    )));
+                }
+                let moves: Vec<VertexMove> = p
+                    .iter()
+                    .enumerate()
+                    .skip(per_layer)
+                    .map(|(i, q)| VertexMove {
+                        layer: (i / per_layer) as u32,
+                        vertex: (i % per_layer) as u32,
+                        position: q.as_dvec3(),
+                    })
+                    .collect();
+                asset
+                    .move_vertices(&moves)
+                    .map_err(|e| error(format!("characters[{}]: re-baking: {e}", d.character)))
+            })
+            .collect();
+        for ((d, asset), change) in animation.dynamic.iter().zip(&self.assets).zip(changes) {
+            let sent = renderer.update_hair(ctx, &d.key, asset, &change?)?;
             update.rebaked += 1;
             update.upload_bytes += sent.bytes;
         }

@@ -85,6 +85,10 @@ struct CrowdArgs {
     /// Seed of every random choice (same seed, same crowd).
     #[arg(long, default_value_t = 1)]
     seed: u64,
+    /// Also write `heads_animated.json`: every head moving with its own phase, its hair
+    /// simulated in its own wind (render it with `hair-render --frames`).
+    #[arg(long)]
+    animated: bool,
 }
 
 #[derive(Args, Debug)]
@@ -147,6 +151,7 @@ fn crowd(args: &CrowdArgs) -> Result<()> {
         teapot_strands: args.teapot_strands,
         size: args.size,
         seed: args.seed,
+        animated: args.animated,
         ..hairkit_cli::crowd_scenes::CrowdOptions::default()
     };
     let start = Instant::now();
@@ -170,6 +175,9 @@ fn crowd(args: &CrowdArgs) -> Result<()> {
         start.elapsed().as_secs_f64()
     );
     println!("{}\n{}", scenes.heads.display(), scenes.teapots.display());
+    if let Some(animated) = &scenes.heads_animated {
+        println!("{}", animated.display());
+    }
     println!(
         "render one: hair-render {} -o crowd.png --stats   (add --frames N to follow the camera path)",
         scenes.heads.display()
