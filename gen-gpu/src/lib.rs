@@ -20,7 +20,7 @@ mod stored;
 
 pub use ash::vk;
 pub use backend::caps::{Capabilities, MeshShaderLimits};
-pub use backend::command::{Attachments, FrameTimings, ImageRegion, PassTiming, Recorder};
+pub use backend::command::{Attachments, FrameTimings, PassTiming, Recorder};
 pub use backend::context::{Context, ContextDesc, Validation, ValidationMessage};
 pub use backend::pipeline::{
     Binding, Blend, ComputePipeline, ComputePipelineDesc, GraphicsPipeline, GraphicsPipelineDesc,

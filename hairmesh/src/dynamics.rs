@@ -481,11 +481,6 @@ impl HairSim {
         self.x.len()
     }
 
-    /// Constraints projected per substep (column, layer, bend, shape; collisions not counted).
-    pub fn constraint_count(&self) -> usize {
-        self.columns.len() + self.edges.len() + self.bends.len() + self.x.len() - self.per_layer
-    }
-
     /// Seconds simulated so far.
     pub fn time(&self) -> f64 {
         self.time
@@ -534,6 +529,7 @@ impl HairSim {
         let g = Vec3A::from_array(p.gravity);
         let wind = Vec3A::from_array(p.wind.velocity);
         let gust = p.wind.turbulence * wind.length();
+        let windy = p.wind.drag > 0.0 && gust + wind.length() > 0.0;
         let keep = (-p.damping * h).exp();
         let toward_wind = (-p.wind.drag * h).exp();
         for i in 0..n {
@@ -543,7 +539,7 @@ impl HairSim {
         for i in n..self.x.len() {
             let x = self.x[i];
             let mut v = (x - self.prev[i]) / h * keep;
-            if p.wind.drag > 0.0 && gust + wind.length() > 0.0 {
+            if windy {
                 let air = wind + self.gusts.at(t, x) * gust;
                 v = air + (v - air) * toward_wind;
             }

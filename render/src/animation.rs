@@ -100,22 +100,22 @@ impl Animation {
     /// Dynamic characters get upload keys of their own in `instance` (each is simulated
     /// independently), so call this before setting up the renderer.
     pub fn new(instance: &mut SceneInstance) -> Result<Self, RenderError> {
-        let settings = instance.settings.clone();
+        let SceneInstance { settings, characters: instances } = instance;
         let scene = &settings.scene;
         let path = settings.path.clone();
         let error = |message: String| RenderError::Animation { path: path.clone(), message };
         let (fps, frames) = scene.animation.map_or((24.0, 1), |a| (a.fps, a.frames));
-        if instance.characters.len() != scene.characters.len() {
+        if instances.len() != scene.characters.len() {
             return Err(error(format!(
                 "the instance has {} characters and the scene {}: an animation needs the scene's own",
-                instance.characters.len(),
+                instances.len(),
                 scene.characters.len()
             )));
         }
         let mut characters = Vec::new();
         let mut dynamic = Vec::new();
         let mut key = Fnv::new().bytes(b"hairkit-sim 1").bytes(&fps.to_le_bytes());
-        for (i, (desc, c)) in scene.characters.iter().zip(&mut instance.characters).enumerate() {
+        for (i, (desc, c)) in scene.characters.iter().zip(instances.iter_mut()).enumerate() {
             let animated = AnimatedCharacter { base: c.transform, motion: desc.motion.clone() };
             let Some(params) = &desc.dynamics else {
                 characters.push(animated);
@@ -287,8 +287,9 @@ impl SimCache {
                 out
             })
             .collect();
-        let frames =
-            (0..frames as usize).map(|f| per_character.iter().map(|c| c[f].clone()).collect()).collect();
+        // Per character per frame → per frame per character, moving the positions.
+        let mut columns: Vec<_> = per_character.into_iter().map(Vec::into_iter).collect();
+        let frames = (0..frames).map(|_| columns.iter_mut().filter_map(Iterator::next).collect()).collect();
         Self { key: animation.key, fps: animation.fps, vertex_counts: animation.vertex_counts(), frames }
     }
 
@@ -317,8 +318,8 @@ impl SimCache {
             w.write_all(&header)?;
             for frame in &self.frames {
                 for positions in frame {
-                    let floats: Vec<f32> = positions.iter().flat_map(|p| p.to_array()).collect();
-                    let bytes: Vec<u8> = floats.iter().flat_map(|x| x.to_le_bytes()).collect();
+                    let bytes: Vec<u8> =
+                        positions.iter().flat_map(|p| p.to_array()).flat_map(f32::to_le_bytes).collect();
                     w.write_all(&bytes)?;
                 }
             }

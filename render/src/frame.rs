@@ -166,8 +166,8 @@ pub struct SceneRenderer {
     /// Shadow pipelines, when some light casts shadows.
     pub(crate) shadow: Option<ShadowPipelines>,
     /// The last shadow maps rendered and the content they were rendered from: reused while
-    /// [`Self::content_version`] is unchanged (lights and placements are fixed, hair edits
-    /// bump their asset's revision).
+    /// [`Self::content_version`] is unchanged (hair edits bump their asset's revision, moved
+    /// characters the placement count).
     shadow_cache: Mutex<Option<(ContentVersion, ShadowAtlas)>>,
     /// The frames' transient resources, reused from frame to frame.
     pool: Mutex<TransientPool>,
@@ -762,8 +762,9 @@ impl SceneRenderer {
         self.plan(self.view()).graph.outline()
     }
 
-    /// What every cache of this scene is derived from: the revision of each uploaded hair
-    /// (lights, placements and occluders are fixed for a renderer's life).
+    /// What every cache of this scene is derived from: the revision of each uploaded hair and
+    /// the count of placement changes ([`Self::set_character_transform`]; lights and occluder
+    /// meshes are fixed for a renderer's life).
     pub fn content_version(&self) -> ContentVersion {
         ContentVersion(self.hairs.iter().map(GpuHair::revision).chain([self.placements]).collect())
     }
@@ -799,17 +800,6 @@ impl SceneRenderer {
         }
         self.placements += 1;
         Ok(())
-    }
-
-    /// The upload key of scene character `index`'s generated hair
-    /// ([`crate::instance::CharacterInstance::key`]), `None` for stored strands.
-    pub fn hair_key(&self, index: usize) -> Option<&str> {
-        let slot = self.slots.get(index)?;
-        if slot.stored {
-            return None;
-        }
-        let hair = self.characters[slot.index].hair;
-        self.hair_keys.iter().find(|(_, h)| **h == hair).map(|(k, _)| k.as_str())
     }
 
     /// The staged hair updates the next frame uploads first: (hair, revision it brings).

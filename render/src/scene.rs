@@ -315,20 +315,21 @@ impl MotionDesc {
         out(v)
     }
 
-    fn validate(&self, field: &str) -> Result<(), String> {
+    /// Checks every field; the error is (the field under `motion`, the message).
+    fn validate(&self) -> Result<(), (String, String)> {
         if !self.pivot.iter().all(|x| x.is_finite()) {
-            return Err(format!("{field}.pivot: {:?} is not finite", self.pivot));
+            return Err(("pivot".into(), format!("{:?} is not finite", self.pivot)));
         }
         if self.keys.len() > 100_000 {
-            return Err(format!("{field}.keys: {} keys (at most 100000)", self.keys.len()));
+            return Err(("keys".into(), format!("{} keys (at most 100000)", self.keys.len())));
         }
         for (i, k) in self.keys.iter().enumerate() {
             let all = [k.time].into_iter().chain(k.rotation_degrees).chain(k.translation);
             if !all.into_iter().all(f32::is_finite) {
-                return Err(format!("{field}.keys[{i}]: a value is not finite"));
+                return Err((format!("keys[{i}]"), "a value is not finite".into()));
             }
             if i > 0 && k.time <= self.keys[i - 1].time {
-                return Err(format!("{field}.keys[{i}].time: {} (times must increase)", k.time));
+                return Err((format!("keys[{i}].time"), format!("{} (times must increase)", k.time)));
             }
         }
         for (name, s) in [("turn", &self.turn), ("nod", &self.nod), ("tilt", &self.tilt)] {
@@ -339,8 +340,9 @@ impl MotionDesc {
                     && s.period > 0.0
                     && s.phase.is_finite())
             {
-                return Err(format!(
-                    "{field}.{name}: {s:?} (expected degrees within ±180, a period in seconds > 0, a finite phase)"
+                return Err((
+                    name.into(),
+                    format!("{s:?} (expected degrees within ±180, a period in seconds > 0, a finite phase)"),
                 ));
             }
         }
@@ -880,7 +882,7 @@ fn validate_with(loaded: &LoadedScene, characters: bool) -> Result<(), SceneErro
     for (i, c) in s.characters.iter().enumerate() {
         let field = format!("characters[{i}]");
         if let Some(m) = &c.motion {
-            m.validate(&format!("{field}.motion")).map_err(|m| invalid(&field, m))?;
+            m.validate().map_err(|(sub, message)| invalid(&format!("{field}.motion.{sub}"), message))?;
             if s.animation.is_none() {
                 return Err(invalid(
                     &format!("{field}.motion"),

@@ -233,16 +233,19 @@ fn run(cli: &Cli) -> Result<()> {
     for i in cli.frames.start..cli.frames.end {
         let (frame_eye, frame_target) = scene.frame_camera(i, length);
         let update = if animation.moves() {
+            let simulated;
             let positions = match &cache {
-                Some(c) => c.positions(i).map(<[_]>::to_vec).unwrap_or_default(),
+                // The cache was checked to hold every frame of the range.
+                Some(c) => c.positions(i).with_context(|| format!("{}: frame {i}", cache_path.display()))?,
                 None => {
                     while live.frame() < i {
                         live.advance();
                     }
-                    live.positions()
+                    simulated = live.positions();
+                    &simulated
                 }
             };
-            Some(player.show(&animation, &mut renderer, &ctx, i, &positions)?)
+            Some(player.show(&animation, &mut renderer, &ctx, i, positions)?)
         } else {
             None
         };

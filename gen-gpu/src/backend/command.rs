@@ -10,19 +10,6 @@ use crate::{Buffer, BufferDesc, Context, GpuError, Image, ImageDesc, MemoryLocat
 /// scopes are labelled but untimed.
 const MAX_SCOPES: u32 = 2048;
 
-/// A box of texels of an image ([`Context::write_image_regions`]).
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub struct ImageRegion {
-    pub offset: [u32; 3],
-    pub extent: [u32; 3],
-}
-
-impl ImageRegion {
-    pub fn texels(&self) -> u64 {
-        self.extent.iter().map(|&n| u64::from(n)).product()
-    }
-}
-
 /// GPU time of one pass.
 #[derive(Clone, Debug, PartialEq)]
 pub struct PassTiming {
@@ -481,10 +468,10 @@ impl<'a> Recorder<'a> {
         let copy = (vk::PipelineStageFlags2::COPY, vk::AccessFlags2::TRANSFER_WRITE);
         self.image_barrier(image, (from.0, vk::ImageLayout::TRANSFER_DST_OPTIMAL), from.1, copy);
         // SAFETY: the copies lie inside the image and the staging buffer (the callers'
-        // contract: write_image_regions and GpuHair::stage_update check the regions against the
-        // image and build the staging data from them, create_image_with_data copies the whole
-        // image from its tightly packed data), and the barrier above put the image in
-        // TRANSFER_DST_OPTIMAL.
+        // contract: GpuHair::stage_update builds them from texels checked to lie in the slice of
+        // a layout equal to the one the image was created with, through the image's depth, and
+        // packs the staging data from them; create_image_with_data copies the whole image from
+        // its tightly packed data), and the barrier above put the image in TRANSFER_DST_OPTIMAL.
         unsafe {
             self.device().cmd_copy_buffer_to_image(
                 self.cmd,
@@ -783,72 +770,6 @@ impl Context {
             Ok(())
         })?;
         Ok(())
-    }
-
-    /// Overwrites boxes of texels of a sampled image (in SHADER_READ_ONLY_OPTIMAL layout before
-    /// and after) with `data`: the regions' texels one after another, each region tightly
-    /// packed (x fastest, then y, then z), `texel_bytes` per texel. Regions outside the image
-    /// or data of the wrong length are refused with [`GpuError::BadUpload`]. Earlier work
-    /// reading the image has completed (submissions are synchronous); work recorded later sees
-    /// the new texels.
-    pub fn write_image_regions(
-        &self,
-        image: &Image,
-        regions: &[ImageRegion],
-        texel_bytes: u64,
-        data: &[u8],
-    ) -> Result<()> {
-        let refuse = |offset: u64, why: &'static str| GpuError::BadUpload {
-            name: image.name().into(),
-            offset,
-            size: data.len() as u64,
-            why,
-        };
-        let e = image.desc.extent;
-        let mut copies = Vec::with_capacity(regions.len());
-        let mut at = 0u64;
-        for r in regions {
-            let inside = [
-                (r.offset[0], r.extent[0], e.width),
-                (r.offset[1], r.extent[1], e.height),
-                (r.offset[2], r.extent[2], e.depth),
-            ]
-            .iter()
-            .all(|&(o, n, limit)| n > 0 && o.checked_add(n).is_some_and(|end| end <= limit));
-            if !inside {
-                return Err(refuse(at, "a region is empty or outside the image"));
-            }
-            copies.push(
-                vk::BufferImageCopy::default()
-                    .buffer_offset(at)
-                    .image_subresource(image.layers())
-                    .image_offset(vk::Offset3D {
-                        x: r.offset[0] as i32,
-                        y: r.offset[1] as i32,
-                        z: r.offset[2] as i32,
-                    })
-                    .image_extent(vk::Extent3D {
-                        width: r.extent[0],
-                        height: r.extent[1],
-                        depth: r.extent[2],
-                    }),
-            );
-            at += r.texels() * texel_bytes;
-        }
-        if at != data.len() as u64 {
-            return Err(refuse(0, "the data is not the regions' texels"));
-        }
-        if regions.is_empty() {
-            return Ok(());
-        }
-        let sampled = (vk::PipelineStageFlags2::ALL_COMMANDS, vk::AccessFlags2::SHADER_SAMPLED_READ);
-        self.copy_to_sampled_image(
-            &format!("update {}", image.name()),
-            image,
-            (vk::ImageLayout::SHADER_READ_ONLY_OPTIMAL, sampled),
-            data,
-            &copies,
-        )
     }
 
     /// Overwrites `data.len()` bytes of a buffer at `offset` (directly where it is mapped, else
