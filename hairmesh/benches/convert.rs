@@ -59,12 +59,16 @@ fn convert(c: &mut Criterion) {
 fn sample_elimination(c: &mut Criterion) {
     let mut group = c.benchmark_group("progressive sample elimination");
     group.sample_size(10);
+    let relaxed = EliminationParams::default();
+    // The relaxation's share of the time: the same sets without it (the quality of both is in
+    // docs/benchmarks.md, from the blue_noise example).
+    let eliminated = EliminationParams { relax_rounds: 0, ..relaxed };
     for n in [4096usize, 65536] {
-        group.bench_function(format!("{n} samples, square"), |b| {
-            b.iter(|| {
-                progressive_samples(black_box(n), SampleDomain::Square, 1, &EliminationParams::default())
+        for (name, params) in [("", relaxed), (", elimination only", eliminated)] {
+            group.bench_function(format!("{n} samples, square{name}"), |b| {
+                b.iter(|| progressive_samples(black_box(n), SampleDomain::Square, 1, &params));
             });
-        });
+        }
     }
     group.finish();
 }

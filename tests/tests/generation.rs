@@ -441,19 +441,25 @@ fn main() -> ExitCode {
                 // Same include, same inputs: the strands agree to f32 rounding (a compiler may
                 // contract differently per stage): 1e-5 of the asset's size.
                 let tolerance = 1e-5 * asset.textures.normalization.scale as f32;
+                let mut largest = 0f32;
                 for (a, b) in compute.strands.iter().zip(&mesh.strands) {
                     ensure!(
                         (a.bundle, a.index) == (b.bundle, b.index) && a.positions.len() == b.positions.len()
                     );
                     for (p, q) in a.positions.iter().zip(&b.positions) {
                         ensure!(p.distance(*q) <= tolerance, "{p} vs {q}");
+                        largest = largest.max(p.distance(*q));
                     }
                 }
                 let (mesh_image, mt) = draw_hair(ctx, &generator, &hair, &inputs, GenerationPath::Mesh)?;
                 let (compute_image, ct) =
                     draw_hair(ctx, &generator, &hair, &inputs, GenerationPath::Compute)?;
-                // Same triangles in the same order per strand; strands overlap at equal depth
-                // only where they touch, so mean FLIP ≤ 0.01 and 99th percentile ≤ 0.1.
+                // Same triangles in the same order per strand. Where two strands lie on top of
+                // each other (roots close together on both sides of a bundle edge) the depth test
+                // picks one of them by rounding, and the paths' positions differ by rounding
+                // (2.4e-7 above): those pixels may differ, nothing else. So: mean FLIP ≤ 0.01 and
+                // at most 0.5 % of the hair's pixels different (measured ≤ 0.1 %). FLIP's
+                // percentiles are no bound here: its filter spreads one pixel over its neighbours.
                 let vertex_counts: std::collections::BTreeSet<usize> =
                     compute.strands.iter().map(|s| s.positions.len()).collect();
                 if lod.vertex_alpha >= 20000.0 {
@@ -466,13 +472,23 @@ fn main() -> ExitCode {
                     &format!("hair_mesh_vs_compute_{filtering:?}_alpha_{}", lod.vertex_alpha),
                     &mesh_image,
                     &compute_image,
-                    Tolerance { mean: 0.01, percentile: (0.99, 0.1) },
+                    Tolerance { mean: 0.01, percentile: (0.99, 1.0) },
                 )
                 .map_err(anyhow::Error::msg)?;
                 let covered = compute_image.pixels.chunks_exact(4).filter(|p| p[0] > 10).count();
                 ensure!(covered > 500, "only {covered} hair pixels");
+                let differing = mesh_image
+                    .pixels
+                    .chunks_exact(4)
+                    .zip(compute_image.pixels.chunks_exact(4))
+                    .filter(|(a, b)| a != b)
+                    .count();
+                ensure!(
+                    differing * 200 <= covered,
+                    "{differing} of {covered} hair pixels differ between the mesh and compute paths"
+                );
                 eprintln!(
-                    "  {filtering:?} lod {} vertex α {} (vertices per strand {vertex_counts:?}): FLIP mean {:.5}; mesh {:.1} ms, compute {:.1} ms",
+                    "  {filtering:?} lod {} vertex α {} (vertices per strand {vertex_counts:?}): positions within {largest:.2e}, {differing} of {covered} pixels differ, FLIP mean {:.5}; mesh {:.1} ms, compute {:.1} ms",
                     lod.enabled,
                     lod.vertex_alpha,
                     stats.mean,
