@@ -182,7 +182,8 @@ pub struct EliminationParams {
     #[serde(default = "default_relax_rounds")]
     pub relax_rounds: u32,
     /// Distance, as a fraction of a level's packing distance `2 r_max`, below which the
-    /// relaxation pushes two samples apart. Above ~0.8 the sets turn visibly regular.
+    /// relaxation pushes two samples apart. 0.72 measured best: at 0.75–0.85 more pairs are
+    /// still crowded after the same rounds and 65,536-sample sets end with a lower ρ.
     #[serde(default = "default_relax_spacing")]
     pub relax_spacing: f64,
 }
