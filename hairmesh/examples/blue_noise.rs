@@ -95,7 +95,7 @@ fn edge_profile(points: &[DVec2]) -> String {
     let mut counts = [0usize; 6];
     let mut on_edge = 0;
     for p in points {
-        let to_edge = p.x.min(p.y).min(1.0 - p.x).min(1.0 - p.y);
+        let to_edge = SampleDomain::Square.edge_distance(*p);
         on_edge += usize::from(to_edge == 0.0);
         if let Some(c) = counts.get_mut((to_edge / band) as usize) {
             *c += 1;

@@ -131,10 +131,10 @@ fn the_committed_example_assets_are_what_the_readme_commands_write() {
         .collect();
     assert_eq!(commands.len(), 2, "the README lists the two example assets' commands");
     let dir = tempfile::tempdir().expect("temp dir");
+    // Run where the README's paths are relative to (the asset records them as given); only the
+    // output goes to the temp dir.
+    let root = Path::new(env!("CARGO_MANIFEST_DIR")).join("..");
     for command in commands {
-        // Run where the README's paths are relative to (the asset records them as given); only
-        // the output goes to the temp dir.
-        let root = Path::new(env!("CARGO_MANIFEST_DIR")).join("..");
         let mut args: Vec<String> = command.split_whitespace().skip(1).map(str::to_owned).collect();
         let out_at = args.iter().position(|a| a == "-o").expect("-o") + 1;
         let committed = root.join(&args[out_at]);

@@ -34,6 +34,11 @@ fn rgb(image: &RgbaImage) -> Vec<u8> {
     image.pixels.chunks_exact(4).flat_map(|p| [p[0], p[1], p[2]]).collect()
 }
 
+/// How many pixels of two images of one size differ in any channel.
+pub fn differing_pixels(a: &RgbaImage, b: &RgbaImage) -> usize {
+    a.pixels.chunks_exact(4).zip(b.pixels.chunks_exact(4)).filter(|(p, q)| p != q).count()
+}
+
 /// Compares `actual` to `expected`; `Err` describes the failure after writing the PNGs.
 pub fn compare(
     name: &str,

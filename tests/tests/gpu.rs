@@ -6,7 +6,7 @@ use anyhow::{Context as _, ensure};
 use gen_gpu::diagnostics::{draw_test_strips, wang_hash, write_pattern};
 use gen_gpu::{GenerationPath, shaders};
 use hairkit_tests::harness::{GpuTest, Requirements, run_checked, run_gpu_tests};
-use hairkit_tests::image_compare::{Tolerance, compare};
+use hairkit_tests::image_compare::{Tolerance, compare, differing_pixels};
 
 /// A check inside a `submit` closure (which returns gen-gpu's error type).
 fn ensure_gpu(ok: bool, what: &str) -> gen_gpu::Result<()> {
@@ -115,12 +115,7 @@ fn main() -> ExitCode {
                 Tolerance { mean: 0.005, percentile: (0.99, 0.05) },
             )
             .map_err(anyhow::Error::msg)?;
-            let differing = mesh
-                .pixels
-                .chunks_exact(4)
-                .zip(compute.pixels.chunks_exact(4))
-                .filter(|(a, b)| a != b)
-                .count();
+            let differing = differing_pixels(&mesh, &compute);
             eprintln!(
                 "  mesh vs compute: {differing} differing pixels, FLIP mean {:.5}; mesh {:.2} ms, compute {:.2} ms (GPU)",
                 stats.mean,
