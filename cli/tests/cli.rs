@@ -129,14 +129,42 @@ fn main() -> ExitCode {
                     }
                 }
             }
+            // Dynamics: per character every cost measured; in the crowd only the dynamic variant
+            // simulates, re-bakes and uploads.
+            let dynamics = std::fs::read_to_string(dir.path().join("bench-dynamics.csv"))?;
+            let field = |row: &str, i: usize| -> anyhow::Result<f64> {
+                Ok(row.split(',').nth(i).ok_or_else(|| anyhow::anyhow!("{row}: no field {i}"))?.parse()?)
+            };
+            let mut crowd_rows = 0;
+            for row in dynamics.lines().skip(1) {
+                if row.starts_with("character,") {
+                    for i in [2, 4, 5, 6, 7, 8] {
+                        let v = field(row, i)?;
+                        ensure!(v.is_finite() && v > 0.0, "bench-dynamics.csv: {row}");
+                    }
+                } else {
+                    crowd_rows += 1;
+                    let moving = row.starts_with("crowd,motion + dynamics,");
+                    for i in [4, 5, 9] {
+                        ensure!((field(row, i)? > 0.0) == moving, "bench-dynamics.csv: {row}");
+                    }
+                    ensure!(field(row, 10)? > 0.0 && field(row, 11)? > 0.0, "bench-dynamics.csv: {row}");
+                }
+            }
+            ensure!(crowd_rows == 3 && dynamics.lines().count() >= 6, "{dynamics}");
             // The lattice layout needs fewer texels and bytes than 2×2 blocks on every head cap.
             for row in std::fs::read_to_string(dir.path().join("bench-memory.csv"))?.lines().skip(1) {
                 let v: Vec<f64> = row.split(',').skip(1).map(str::parse).collect::<Result<_, _>>()?;
                 ensure!(v[4] < v[3] && v[6] < v[5], "bench-memory.csv: {row}");
             }
-            for section in
-                ["On-the-fly vs stored", "Accuracy vs time", "GPU memory", "Render passes", "Crowds"]
-            {
+            for section in [
+                "On-the-fly vs stored",
+                "Accuracy vs time",
+                "GPU memory",
+                "Render passes",
+                "Crowds",
+                "## Dynamics",
+            ] {
                 ensure!(report.contains(section), "`{section}` missing");
             }
             for plot in ["plot-generation.png", "plot-accuracy.png", "plot-crowd.png"] {

@@ -25,7 +25,7 @@ use hairmesh::style::Style;
 use render::scene::Transparency;
 
 use crate::EditorError;
-use crate::camera::{OrbitCamera, Projection, pick};
+use crate::camera::{DepthGrid, OrbitCamera, Projection, pick};
 use crate::document::{Document, Gesture, Source};
 use crate::presets::{PRESETS, Preset};
 use crate::preview::{PreviewEvent, PreviewRequest, PreviewScene, PreviewWorker};
@@ -137,6 +137,9 @@ pub struct EditorApp {
     pub show_overlay: bool,
     pub mirror_x: bool,
     pub hovered_vertex: Option<u32>,
+    /// The occluder's depth as the viewport sees it, and the view it was made for: the overlay
+    /// hides and does not pick vertices behind the head.
+    overlay_depth: Option<(OverlayView, Arc<DepthGrid>)>,
     /// The outer-layer vertex last clicked or dragged (F frames it; Escape clears it).
     pub selected_vertex: Option<u32>,
     drag: Option<VertexDrag>,
@@ -153,6 +156,25 @@ pub struct EditorApp {
     /// Requests sent to the preview.
     pub preview_requests: u64,
 }
+
+/// What the overlay's occluder depth was made for.
+#[derive(Clone, Debug)]
+struct OverlayView {
+    camera: OrbitCamera,
+    size: [f32; 2],
+    /// A new document or scalp brings a new occluder (compared by identity).
+    occluder: Arc<render::occluder::OccluderGeometry>,
+}
+
+impl PartialEq for OverlayView {
+    fn eq(&self, other: &Self) -> bool {
+        self.camera == other.camera && self.size == other.size && Arc::ptr_eq(&self.occluder, &other.occluder)
+    }
+}
+
+/// How far (a fraction of the depth) the head must lie in front of a vertex to hide it: hair
+/// tips sit a layer's thickness above the scalp, and the depth image is coarse.
+const OVERLAY_DEPTH_TOLERANCE: f32 = 0.01;
 
 impl std::fmt::Debug for EditorApp {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
@@ -194,6 +216,7 @@ impl EditorApp {
             show_overlay: true,
             mirror_x: false,
             hovered_vertex: None,
+            overlay_depth: None,
             selected_vertex: None,
             drag: None,
             press_vertex: None,
@@ -1043,13 +1066,33 @@ impl EditorApp {
         let mesh = doc.asset().mesh();
         let outer = mesh.layers.len() - 1;
         let pointer = response.hover_pos().map(|p| p - rect.min);
-        // A column whose root-to-tip direction points away from the camera is on the far side
-        // of the head: drawn faint and not pickable (the overlay has no depth buffer).
+        // Drawn faint and not pickable: a column whose root-to-tip direction points away from
+        // the camera (the far side of the hair), and an outer vertex the head hides (tested
+        // against a coarse depth image of the occluder, made again when the view changes).
+        let depth = doc.occluder.as_ref().map(|o| {
+            let view =
+                OverlayView { camera: self.camera, size: [rect.width(), rect.height()], occluder: o.clone() };
+            match &self.overlay_depth {
+                Some((v, grid)) if *v == view => grid.clone(),
+                _ => {
+                    let positions: Vec<Vec3> =
+                        o.positions.iter().map(|p| Vec3::new(p[0], p[1], p[2])).collect();
+                    let grid = Arc::new(DepthGrid::rasterize(&projection, &positions, &o.indices));
+                    self.overlay_depth = Some((view, grid.clone()));
+                    grid
+                }
+            }
+        });
         let eye = self.camera.eye().as_dvec3();
         let facing: Vec<bool> = (0..mesh.vertex_count())
             .map(|v| {
                 let (root, tip) = (mesh.layers[0][v], mesh.layers[outer][v]);
-                (tip - root).dot(eye - tip) >= 0.0
+                let hidden = depth.as_ref().is_some_and(|grid| {
+                    projection
+                        .project(tip.as_vec3())
+                        .is_some_and(|(pixel, w)| grid.hides(pixel, w, OVERLAY_DEPTH_TOLERANCE))
+                });
+                (tip - root).dot(eye - tip) >= 0.0 && !hidden
             })
             .collect();
         let pick_at = |pointer: Vec2| -> Option<u32> {

@@ -145,9 +145,121 @@ pub fn pick(
     best.map(|(i, _, _)| i)
 }
 
+/// The nearest depth (clip w) of a mesh per cell of a coarse grid over the viewport: what the
+/// overlay tests hair-mesh vertices against, so a vertex the head hides is neither drawn bright
+/// nor pickable. A CPU rasterization of the occluder's triangles (a few thousand to tens of
+/// thousands: a millisecond or two at the grid's size), redone only when the view changes.
+#[derive(Clone, Debug)]
+pub struct DepthGrid {
+    /// Viewport pixels per cell.
+    cell: f32,
+    width: usize,
+    height: usize,
+    depth: Vec<f32>,
+}
+
+impl DepthGrid {
+    /// Viewport pixels per cell: fine enough for the overlay's 8-pixel pick radius.
+    pub const CELL: f32 = 4.0;
+
+    /// Rasterizes the triangles `indices` of `positions` (world space) as `projection` sees
+    /// them. Triangles with a corner behind the camera are left out (they hide nothing in
+    /// front of a camera outside the head).
+    pub fn rasterize(projection: &Projection, positions: &[Vec3], indices: &[u32]) -> Self {
+        let cell = Self::CELL;
+        let width = (projection.size.x / cell).ceil().max(1.0) as usize;
+        let height = (projection.size.y / cell).ceil().max(1.0) as usize;
+        let mut depth = vec![f32::INFINITY; width * height];
+        let corner = |i: u32| positions.get(i as usize).and_then(|&p| projection.project(p));
+        for t in indices.chunks_exact(3) {
+            let (Some(a), Some(b), Some(c)) = (corner(t[0]), corner(t[1]), corner(t[2])) else { continue };
+            // In cell units; 1/w interpolates linearly in screen space.
+            let (pa, pb, pc) = (a.0 / cell, b.0 / cell, c.0 / cell);
+            let area = (pb - pa).perp_dot(pc - pa);
+            // Degenerate (or NaN) triangles cover nothing.
+            if area.abs() <= 1e-12 || area.is_nan() {
+                continue;
+            }
+            let lo = pa.min(pb).min(pc).floor().max(Vec2::ZERO);
+            let hi = pa.max(pb).max(pc).ceil().min(Vec2::new(width as f32, height as f32));
+            for y in lo.y as usize..hi.y as usize {
+                for x in lo.x as usize..hi.x as usize {
+                    let q = Vec2::new(x as f32 + 0.5, y as f32 + 0.5);
+                    let (wa, wb) = ((pb - q).perp_dot(pc - q) / area, (pc - q).perp_dot(pa - q) / area);
+                    let wc = 1.0 - wa - wb;
+                    if wa < 0.0 || wb < 0.0 || wc < 0.0 {
+                        continue;
+                    }
+                    let w = 1.0 / (wa / a.1 + wb / b.1 + wc / c.1);
+                    let d = &mut depth[y * width + x];
+                    *d = d.min(w);
+                }
+            }
+        }
+        Self { cell, width, height, depth }
+    }
+
+    /// Whether the mesh lies in front of a point at `pixel` and `depth` (clip w), by more than
+    /// `tolerance` (a fraction of the depth: the grid is coarse, and hair roots sit on the
+    /// scalp). Every cell within a cell's distance must be in front, so silhouettes stay
+    /// visible.
+    pub fn hides(&self, pixel: Vec2, depth: f32, tolerance: f32) -> bool {
+        let c = pixel / self.cell;
+        let (x, y) = (c.x.floor() as i64, c.y.floor() as i64);
+        let limit = depth * (1.0 - tolerance);
+        for dy in -1..=1 {
+            for dx in -1..=1 {
+                let (cx, cy) = (x + dx, y + dy);
+                if cx < 0 || cy < 0 || cx >= self.width as i64 || cy >= self.height as i64 {
+                    return false;
+                }
+                // NaN depth (an unusable point) hides nothing.
+                if self.depth[cy as usize * self.width + cx as usize] >= limit || limit.is_nan() {
+                    return false;
+                }
+            }
+        }
+        true
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn a_mesh_in_front_hides_points_behind_it_and_not_beside_or_before_it() {
+        let cam =
+            OrbitCamera { target: Vec3::ZERO, yaw: 0.0, pitch: 0.0, distance: 3.0, fov_y_degrees: 35.0 };
+        let proj = Projection::new(&cam, Vec2::new(320.0, 180.0));
+        // A square of side 1 at z = 0 (the camera looks along −Z from z = 3).
+        let square = [
+            Vec3::new(-0.5, -0.5, 0.0),
+            Vec3::new(0.5, -0.5, 0.0),
+            Vec3::new(0.5, 0.5, 0.0),
+            Vec3::new(-0.5, 0.5, 0.0),
+        ];
+        let grid = DepthGrid::rasterize(&proj, &square, &[0, 1, 2, 0, 2, 3]);
+        let hidden = |p: Vec3| {
+            let (pixel, depth) = proj.project(p).expect("in front of the camera");
+            grid.hides(pixel, depth, 0.02)
+        };
+        assert!(hidden(Vec3::new(0.0, 0.0, -0.3)), "behind the square's centre");
+        assert!(hidden(Vec3::new(0.3, -0.2, -1.0)), "behind, off centre");
+        assert!(!hidden(Vec3::new(0.0, 0.0, 0.3)), "in front of the square");
+        assert!(!hidden(Vec3::new(0.0, 0.0, -0.01)), "on it, within the tolerance");
+        assert!(!hidden(Vec3::new(0.9, 0.0, -0.3)), "beside it");
+        assert!(!hidden(Vec3::new(0.49, 0.0, -0.3)), "behind its edge: the silhouette stays visible");
+        // Winding does not matter; a triangle with a corner behind the camera is left out.
+        let grid = DepthGrid::rasterize(&proj, &square, &[0, 2, 1, 0, 3, 2]);
+        assert!(grid.hides(proj.project(Vec3::new(0.0, 0.0, -0.3)).expect("front").0, 3.3, 0.02));
+        let behind = [Vec3::new(-0.5, -0.5, 0.0), Vec3::new(0.5, -0.5, 0.0), Vec3::new(0.0, 0.5, 5.0)];
+        let grid = DepthGrid::rasterize(&proj, &behind, &[0, 1, 2]);
+        assert!(grid.depth.iter().all(|d| d.is_infinite()));
+        // Out-of-range indices are skipped, not a panic.
+        let grid = DepthGrid::rasterize(&proj, &square, &[0, 1, 9]);
+        assert!(grid.depth.iter().all(|d| d.is_infinite()));
+    }
 
     #[test]
     fn the_target_projects_to_the_viewport_centre_and_picks() {

@@ -144,6 +144,25 @@ pub struct VertexMove {
     pub position: DVec3,
 }
 
+impl VertexMove {
+    /// Every vertex above the root layer moved to `positions`, the whole hair mesh layer-major
+    /// with `per_layer` vertices per layer (what a simulation step yields; the roots stay on
+    /// the scalp).
+    pub fn above_roots(positions: &[glam::Vec3], per_layer: usize) -> Vec<VertexMove> {
+        let per_layer = per_layer.max(1);
+        positions
+            .iter()
+            .enumerate()
+            .skip(per_layer)
+            .map(|(i, p)| VertexMove {
+                layer: (i / per_layer) as u32,
+                vertex: (i % per_layer) as u32,
+                position: p.as_dvec3(),
+            })
+            .collect()
+    }
+}
+
 /// What an edit rewrote: the GPU copy uploads these again.
 #[derive(Clone, Debug, Default, PartialEq, Eq)]
 pub struct AssetChange {

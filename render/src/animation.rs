@@ -475,16 +475,7 @@ impl Player {
                         p.len()
                     )));
                 }
-                let moves: Vec<VertexMove> = p
-                    .iter()
-                    .enumerate()
-                    .skip(per_layer)
-                    .map(|(i, q)| VertexMove {
-                        layer: (i / per_layer) as u32,
-                        vertex: (i % per_layer) as u32,
-                        position: q.as_dvec3(),
-                    })
-                    .collect();
+                let moves = VertexMove::above_roots(p, per_layer);
                 asset
                     .move_vertices(&moves)
                     .map_err(|e| error(format!("characters[{}]: re-baking: {e}", d.character)))

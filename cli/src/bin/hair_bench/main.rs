@@ -4,12 +4,15 @@
 //! ```text
 //! hair-bench [--quick] [--only SECTION[,SECTION]] [--out DIR] [--device SEL]
 //! ```
-//! Sections: `generation`, `memory`, `stored`, `accuracy`, `crowd`, `passes`; each sits between
-//! its own markers in the report, so `--only` replaces just those.
+//! Sections: `generation`, `memory`, `stored`, `accuracy`, `crowd`, `passes`, `raster`, `volume`,
+//! `dynamics`; each sits between its own markers in the report, so `--only` replaces just those.
 //! Tables: generation + raster per path, GPU memory of an asset vs the same strands stored,
 //! on-the-fly vs stored strands, accuracy vs time, crowds with LOD off and on (the scenes of
-//! `hairkit crowd`), render passes; CSV files beside the report and PNG plots
+//! `hairkit crowd`), render passes, both rasterizers, the volume LOD path, dynamics (simulation,
+//! re-bake and upload per character; an animated crowd); CSV files beside the report and PNG plots
 //! (`plot-*.png`). A progress bar shows the stage on a terminal.
+
+mod dynamics;
 
 use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
@@ -46,7 +49,7 @@ struct Cli {
     #[arg(long, default_value = "auto")]
     raster: render::scene::Raster,
     /// Run only these sections (comma-separated: generation, memory, stored, accuracy, crowd,
-    /// passes, raster, volume) and replace only them in the report.
+    /// passes, raster, volume, dynamics) and replace only them in the report.
     #[arg(long, value_name = "SECTION[,SECTION]")]
     only: Option<String>,
 }
@@ -119,8 +122,8 @@ fn median(mut v: Vec<f64>) -> f64 {
 }
 
 /// The report's sections in order, as `--only` names them.
-const SECTIONS: [&str; 8] =
-    ["generation", "memory", "stored", "accuracy", "crowd", "passes", "raster", "volume"];
+const SECTIONS: [&str; 9] =
+    ["generation", "memory", "stored", "accuracy", "crowd", "passes", "raster", "volume", "dynamics"];
 
 /// One section of the report: its markdown (between its own markers), CSV files and plots.
 struct Section {
@@ -260,6 +263,7 @@ fn run(cli: &Cli) -> Result<()> {
             "crowd" => crowd_section(&setup, &progress)?,
             "raster" => raster_section(&setup, &progress)?,
             "volume" => volume_section(&setup, &progress)?,
+            "dynamics" => dynamics::dynamics_section(&setup, &progress)?,
             _ => passes_section(&setup)?,
         });
         progress.inc(1);
@@ -629,7 +633,8 @@ fn passes_ms(frame: &render::frame::RenderedFrame, prefixes: &[&str]) -> f64 {
         .iter()
         .filter(|p| p.depth == 1 && prefixes.iter().any(|x| p.name.starts_with(x)))
         .filter_map(|p| p.gpu_ms)
-        .sum()
+        // From +0: an empty f64 sum is -0, printed "-0.00".
+        .fold(0.0, |sum, ms| sum + ms)
 }
 
 /// The heads crowd of `hairkit crowd` (9 × 3,000 strands with `--quick`, else 100 × 100k)
