@@ -118,6 +118,7 @@ fn main() -> ExitCode {
                 ("bench-effects.csv", 1, 3),
                 ("bench-crowd.csv", 1, 4),
                 ("bench-memory.csv", 1, 5),
+                ("bench-shadows.csv", 1, 6),
             ] {
                 let csv = std::fs::read_to_string(dir.path().join(file))?;
                 let rows: Vec<&str> = csv.lines().skip(1).collect();
@@ -128,6 +129,11 @@ fn main() -> ExitCode {
                         ensure!(v.is_finite() && v >= 0.0, "{file}: {row}");
                     }
                 }
+            }
+            // The compute rasterizer's maps look like the triangle pipeline's.
+            for row in std::fs::read_to_string(dir.path().join("bench-shadows.csv"))?.lines().skip(1) {
+                let flip: f64 = row.rsplit(',').next().unwrap_or_default().parse()?;
+                ensure!(flip < 0.05, "bench-shadows.csv: {row}");
             }
             // Dynamics: per character every cost measured; in the crowd only the dynamic variant
             // simulates, re-bakes and uploads.

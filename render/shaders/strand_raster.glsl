@@ -6,7 +6,15 @@
 // across the strand: a sub-pixel strand spreads its width over one or two pixels instead of
 // being widened to a pixel). Columns are half-open at the segment's end, so consecutive segments
 // of a strand never cover a column twice. The CPU port is render/src/raster.rs (`cpu`).
+//
+// With SHADOW_RASTER defined, the includer (the deep opacity map kernels, hair_shadow*.comp)
+// declares its own `raster` push constants (at least `model` and `max_half_width`) and
+// `void shadow_fragment(uint pixel, float coverage, float ndc_z)`, which every covered pixel
+// goes to instead of the visibility buffer (no tiles, no phases).
 
+#ifdef SHADOW_RASTER
+#include "raster_common.glsl"
+#else
 #include "visibility_write.glsl"
 
 // The occluders' Vulkan depth per pixel (1 = none), read when raster.flags bit 0 is set.
@@ -42,6 +50,8 @@ bool in_phase(uint index, uint count) {
     bool front = index * FRONT_FRACTION < count;
     return raster.phase == RASTER_ALL || (raster.phase == RASTER_FRONT) == front;
 }
+
+#endif
 
 const uint TILE_SIZE = 8u;
 
@@ -103,6 +113,7 @@ struct ColumnAttributes {
     float random;
 };
 
+#ifndef SHADOW_RASTER
 // Plain loads first: a fragment behind the pixel's K-th slot, or adding to a pixel whose hair is
 // already opaque, skips its atomics (on CPU devices an atomic minimum is a compare-and-swap
 // loop; most fragments of dense hair take neither).
@@ -130,6 +141,8 @@ void raster_fragment(uint pixel, float coverage, float ndc_z, inout ColumnAttrib
     }
     add_coverage(first + k, coverage_increment(coverage * raster.opacity));
 }
+
+#endif
 
 void raster_segment(RasterVertex a, RasterVertex b, uint material, float random) {
     // Vulkan's view volume in depth: 0 <= z <= w (x and y are clipped per pixel below).
@@ -190,6 +203,7 @@ void raster_segment(RasterVertex a, RasterVertex b, uint material, float random)
         column.random = random;
         int j0 = max(int(floor(m - h)), 0);
         int j1 = min(int(floor(m + h)), size_minor - 1);
+#ifndef SHADOW_RASTER
         if (raster.phase == RASTER_REST && j0 <= j1) {
             // The column's end pixels' tiles (and the two others of their square when it spans
             // two tiles): strictly behind all of them, it changes nothing.
@@ -205,10 +219,15 @@ void raster_segment(RasterVertex a, RasterVertex b, uint material, float random)
                 }
             }
         }
+#endif
         for (int j = j0; j <= j1; ++j) {
             float coverage = min(m + h, float(j + 1)) - max(m - h, float(j));
             uint pixel = x_major ? uint(j) * uint(size.x) + uint(i) : uint(i) * uint(size.x) + uint(j);
+#ifdef SHADOW_RASTER
+            shadow_fragment(pixel, coverage, z);
+#else
             raster_fragment(pixel, coverage, z, column);
+#endif
         }
     }
 }

@@ -672,6 +672,10 @@ impl SceneRenderer {
             self.compute_raster = Some(ComputeRaster::new(ctx)?);
             self.raster_materials = table;
             self.character_materials = indices;
+            // The deep opacity maps go through the same segment walker.
+            if let Some(shadow) = &mut self.shadow {
+                shadow.compute = Some(crate::shadow::ComputeShadow::new(ctx)?);
+            }
         }
         // AO and volume shadows work on either rasterizer; the volume LOD path needs the
         // compute rasterizer (the scene is refused otherwise).
@@ -687,6 +691,27 @@ impl SceneRenderer {
         }
         self.raster = raster;
         Ok(())
+    }
+
+    /// Whether the deep opacity maps are rasterized by the compute rasterizer's kernels (with
+    /// the compute rasterizer and shadows) rather than the triangle pipeline.
+    pub fn compute_shadows(&self) -> bool {
+        self.shadow.as_ref().is_some_and(|s| s.compute.is_some())
+    }
+
+    /// Renders the deep opacity maps through the triangle pipeline from now on, whatever the
+    /// rasterizer (the reference the compute maps are tested and benchmarked against); maps
+    /// already cached are made again on the next frame.
+    pub fn use_triangle_shadows(&mut self) {
+        if let Some(s) = &mut self.shadow {
+            s.compute = None;
+        }
+        self.forget_shadow_maps();
+    }
+
+    /// Drops the cached shadow maps: the next frame makes them again (benchmarks time them so).
+    pub fn forget_shadow_maps(&self) {
+        *self.shadow_cache.lock().unwrap_or_else(|e| e.into_inner()) = None;
     }
 
     /// The rasterizer this renderer draws hair with.

@@ -644,13 +644,23 @@ pub mod cpu {
         }
     }
 
-    fn segment(
+    /// One column's (or row's) fragment attributes, as the kernel interpolates them.
+    struct Column {
+        /// View depth (clip w).
+        w: f32,
+        /// Vulkan depth (NDC z), linear in screen space.
+        z: f32,
+        tangent: Vec3,
+        tau: f32,
+    }
+
+    /// The kernel's segment walker (`raster_segment`): every pixel the segment's footprint
+    /// covers goes to `fragment(pixel, coverage, column)`.
+    fn walk_segment(
         view: &RasterView,
-        out: &mut RasterBuffers,
         a: &RasterVertex,
         b: &RasterVertex,
-        material: u32,
-        random: f32,
+        mut fragment: impl FnMut(usize, f32, &Column),
     ) {
         let (mut t0, mut t1) = (0.0f32, 1.0f32);
         clip_range(a.clip.z, b.clip.z, &mut t0, &mut t1);
@@ -687,22 +697,92 @@ pub mod cpu {
         let last = (((hi - 0.5).ceil() as i32) - 1).min(size_major - 1);
         let stretch = len / d_major.abs();
         let (inv_wp, inv_wq) = (1.0 / p.clip.w, 1.0 / q.clip.w);
+        let (zp, zq) = (p.clip.z * inv_wp, q.clip.z * inv_wq);
         for i in first..=last {
             let t = (i as f32 + 0.5 - a_major) / d_major;
             let m = a_minor + t * d_minor;
             let h = (hp + (hq - hp) * t) * stretch;
             let inv_w = inv_wp + (inv_wq - inv_wp) * t;
             let tq = t * inv_wq / inv_w;
-            let tangent = p.tangent.lerp(q.tangent, tq);
-            let tau = p.tau + (q.tau - p.tau) * tq;
-            let word = visibility_word(1.0 / inv_w, material, tangent, tau, random);
+            let column = Column {
+                w: 1.0 / inv_w,
+                z: zp + (zq - zp) * t,
+                tangent: p.tangent.lerp(q.tangent, tq),
+                tau: p.tau + (q.tau - p.tau) * tq,
+            };
             let j0 = ((m - h).floor() as i32).max(0);
             let j1 = ((m + h).floor() as i32).min(size_minor - 1);
             for j in j0..=j1 {
                 let coverage = (m + h).min((j + 1) as f32) - (m - h).max(j as f32);
                 let (x, y) = if x_major { (i, j) } else { (j, i) };
-                fragment(out, y as usize * view.width as usize + x as usize, coverage, word);
+                fragment(y as usize * view.width as usize + x as usize, coverage, &column);
             }
+        }
+    }
+
+    fn segment(
+        view: &RasterView,
+        out: &mut RasterBuffers,
+        a: &RasterVertex,
+        b: &RasterVertex,
+        material: u32,
+        random: f32,
+    ) {
+        walk_segment(view, a, b, |pixel, coverage, c| {
+            let word = visibility_word(c.w, material, c.tangent, c.tau, random);
+            fragment(out, pixel, coverage, word);
+        });
+    }
+
+    /// A light's deep opacity maps as the compute shadow kernels fill them
+    /// (`shadow_raster.glsl`): the nearest hair depth's bits per texel and the fixed-point
+    /// opacity sums of the three layers behind it (and one unused word).
+    #[derive(Clone, Debug, PartialEq)]
+    pub struct ShadowMaps {
+        pub depth_bits: Vec<u32>,
+        pub opacity: Vec<[u32; 4]>,
+        /// Layer ends (world units).
+        pub ends: [f32; 3],
+        /// Near, far, 1 = perspective (the light's depth parameters).
+        pub depth: [f32; 3],
+    }
+
+    impl ShadowMaps {
+        /// Empty maps of `texels` texels: depth at the far plane, no opacity.
+        pub fn new(texels: usize, ends: [f32; 3], depth: [f32; 3]) -> Self {
+            Self { depth_bits: vec![1f32.to_bits(); texels], opacity: vec![[0; 4]; texels], ends, depth }
+        }
+
+        fn linear_depth(&self, z: f32) -> f32 {
+            let [n, f, perspective] = self.depth;
+            if perspective > 0.5 { n * f / (f - z * (f - n)) } else { n + z * (f - n) }
+        }
+    }
+
+    /// Rasterizes one strand into `maps` as the compute shadow kernels do: with `opacity`
+    /// false the nearest depth, else (over the depth already there) the opacity sums.
+    pub fn shadow_strand(view: &RasterView, maps: &mut ShadowMaps, strand: &[StrandPoint], opacity: bool) {
+        let vertices: Vec<RasterVertex> = strand.iter().map(|v| raster_vertex(view, v)).collect();
+        for pair in vertices.windows(2) {
+            walk_segment(view, &pair[0], &pair[1], |texel, coverage, c| {
+                if !(coverage > 0.0) {
+                    return;
+                }
+                if !opacity {
+                    let bits = c.z.max(0.0).to_bits();
+                    maps.depth_bits[texel] = maps.depth_bits[texel].min(bits);
+                    return;
+                }
+                let d = maps.linear_depth(c.z) - maps.linear_depth(f32::from_bits(maps.depth_bits[texel]));
+                let add =
+                    (coverage.min(1.0) * crate::shadow::STRAND_OPACITY * crate::shadow::SHADOW_OPACITY_SCALE
+                        + 0.5) as u32;
+                for layer in 0..3 {
+                    if d <= maps.ends[layer] {
+                        maps.opacity[texel][layer] += add;
+                    }
+                }
+            });
         }
     }
 

@@ -104,10 +104,208 @@ pub struct ShadowAtlas {
     pub size: u32,
 }
 
-/// The two generators of the shadow passes.
+/// The two generators of the shadow passes, and with the compute rasterizer its shadow kernels.
 pub struct ShadowPipelines {
     pub depth: Generator,
     pub opacity: Generator,
+    /// Set when the scene draws its hair with the compute rasterizer: the maps are then
+    /// rasterized by the same segment walker ([`ComputeShadow`]).
+    pub compute: Option<ComputeShadow>,
+}
+
+/// Fixed-point units per unit of opacity in the compute kernels' sums (`SHADOW_OPACITY_SCALE`).
+pub const SHADOW_OPACITY_SCALE: f32 = 4096.0;
+/// Opacity of one strand fragment before coverage (`STRAND_OPACITY` of both paths).
+pub const STRAND_OPACITY: f32 = 0.5;
+
+/// Which map a compute shadow dispatch fills (`SHADOW_MODE_*` of `shadow_raster.glsl`).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[repr(u32)]
+pub enum ShadowMode {
+    /// The nearest hair depth per texel.
+    Depth = 0,
+    /// Opacity summed into the three layers behind it (fixed point).
+    Opacity = 1,
+}
+
+/// The push constants of the compute shadow kernels (`ShadowRasterParams`).
+#[repr(C)]
+#[derive(Clone, Copy, Debug, bytemuck::Pod, bytemuck::Zeroable)]
+pub struct ShadowRasterPush {
+    pub model: [f32; 16],
+    pub slots: u32,
+    pub mode: u32,
+    pub first_texel: u32,
+    pub max_half_width: f32,
+    /// xyz layer ends (world units), w the map size.
+    pub ends: [f32; 4],
+    /// Near, far, 1 = perspective.
+    pub depth: [f32; 4],
+}
+
+impl ShadowRasterPush {
+    pub fn new(shadow: &LightShadow, size: u32, model: Mat4, mode: ShadowMode, slots: u32) -> Self {
+        let [near, far, perspective, _] = shadow.depth_params;
+        let e = shadow.layer_ends;
+        Self {
+            model: model.to_cols_array(),
+            slots,
+            mode: mode as u32,
+            first_texel: shadow.first_texel as u32,
+            max_half_width: crate::raster::MAX_HALF_WIDTH_PIXELS,
+            ends: [e[0], e[1], e[2], size as f32],
+            depth: [near, far, perspective, 0.0],
+        }
+    }
+}
+
+/// The deep opacity maps through the compute rasterizer: the fused kernel (generation in the
+/// light's view), the stored-strand kernel and the pass turning the fixed-point opacity sums
+/// into the float layers the shading reads.
+pub struct ComputeShadow {
+    pub(crate) fused: gen_gpu::Pipeline,
+    pub(crate) stored: gen_gpu::Pipeline,
+    pub(crate) resolve: gen_gpu::Pipeline,
+}
+
+impl std::fmt::Debug for ComputeShadow {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("ComputeShadow").finish()
+    }
+}
+
+impl ComputeShadow {
+    pub fn new(ctx: &Context) -> gen_gpu::Result<Self> {
+        use crate::contract::binding;
+        let compute = |name, shader, bindings: &[gen_gpu::Binding], push_constant_size| {
+            gen_gpu::Pipeline::compute(
+                ctx,
+                &gen_gpu::ComputePipelineDesc {
+                    name,
+                    shader,
+                    bindings,
+                    push_constant_size,
+                    specialization: &[],
+                },
+            )
+        };
+        let maps = [binding::SHADOW_DEPTH, binding::SHADOW_OPACITY];
+        let strand = gen_gpu::strand_bindings(&maps);
+        let push = size_of::<ShadowRasterPush>() as u32;
+        Ok(Self {
+            fused: compute(
+                "deep opacity maps (compute raster, fused generation)",
+                &shaders::HAIR_SHADOW_COMP,
+                &strand,
+                push,
+            )?,
+            stored: compute(
+                "deep opacity maps (compute raster, stored strands)",
+                &shaders::HAIR_SHADOW_STORED_COMP,
+                &strand,
+                push,
+            )?,
+            resolve: compute(
+                "deep opacity maps: opacity sums to floats",
+                &shaders::SHADOW_RESOLVE_COMP,
+                &gen_gpu::Binding::storage_buffers(&[binding::SHADOW_OPACITY], vk::ShaderStageFlags::COMPUTE),
+                16,
+            )?,
+        })
+    }
+
+    /// Workgroup size of the stored-strand kernel (from its SPIR-V).
+    pub(crate) fn stored_group_size() -> u32 {
+        shaders::HAIR_SHADOW_STORED_COMP.workgroup_size[0]
+    }
+
+    /// Records the pass turning light `shadow`'s opacity sums into floats.
+    pub(crate) fn record_resolve(
+        &self,
+        rec: &gen_gpu::Recorder<'_>,
+        opacity: &Buffer,
+        shadow: &LightShadow,
+        size: u32,
+    ) {
+        let texels = size * size;
+        rec.bind_pipeline(&self.resolve);
+        rec.push_storage_buffers(&self.resolve, &[(crate::contract::binding::SHADOW_OPACITY, opacity)]);
+        let push = [shadow.first_texel as u32, texels, (1.0 / SHADOW_OPACITY_SCALE).to_bits(), 0];
+        rec.push_constants(&self.resolve, &push);
+        rec.dispatch(texels.div_ceil(shaders::SHADOW_RESOLVE_COMP.workgroup_size[0]), 1, 1);
+    }
+
+    /// Rasterizes `stored` strands alone into fresh maps of `size`² texels for `shadow` (one
+    /// light, first texel 0) in `mode` and reads them back: the nearest depth bits per texel,
+    /// then (with [`ShadowMode::Opacity`], over the depth map from `depth_bits`) the fixed-point
+    /// opacity sums, before the float resolve. What the tests compare with the CPU port
+    /// ([`crate::raster::cpu::shadow_strand`]).
+    pub fn rasterize_stored(
+        &self,
+        ctx: &Context,
+        stored: &gen_gpu::StoredStrands,
+        inputs: &FrameInputs,
+        shadow: &LightShadow,
+        mode: ShadowMode,
+        depth_bits: Option<&[u32]>,
+    ) -> gen_gpu::Result<(Vec<u32>, Vec<[u32; 4]>)> {
+        use crate::contract::binding;
+        let size = inputs.viewport[0];
+        let texels = u64::from(size) * u64::from(size);
+        let transfer = vk::BufferUsageFlags::TRANSFER_DST | vk::BufferUsageFlags::TRANSFER_SRC;
+        let mut depth = Buffer::new(
+            ctx,
+            "shadow depth (test)",
+            gen_gpu::BufferDesc::storage(texels * 4).usage(transfer),
+        )?;
+        let opacity = Buffer::new(
+            ctx,
+            "shadow opacity (test)",
+            gen_gpu::BufferDesc::storage(texels * 16).usage(transfer),
+        )?;
+        if let Some(bits) = depth_bits {
+            ctx.write_buffer(&mut depth, 0, bytemuck::cast_slice(bits))?;
+        }
+        let params = stored.frame_params(ctx, inputs)?;
+        let extra = [(binding::SHADOW_DEPTH, &depth), (binding::SHADOW_OPACITY, &opacity)];
+        ctx.submit("deep opacity maps (stored strands, test)", |rec| {
+            if depth_bits.is_none() {
+                rec.fill_buffer(&depth, 1f32.to_bits());
+            }
+            rec.fill_buffer(&opacity, 0);
+            rec.memory_barrier(
+                (vk::PipelineStageFlags2::CLEAR, vk::AccessFlags2::TRANSFER_WRITE),
+                (
+                    vk::PipelineStageFlags2::COMPUTE_SHADER,
+                    vk::AccessFlags2::SHADER_STORAGE_READ | vk::AccessFlags2::SHADER_STORAGE_WRITE,
+                ),
+            );
+            stored.record_compute(
+                rec,
+                &self.stored,
+                &params,
+                &extra,
+                Self::stored_group_size(),
+                |rec, slots| {
+                    rec.push_constants(
+                        &self.stored,
+                        &ShadowRasterPush::new(shadow, size, Mat4::IDENTITY, mode, slots),
+                    );
+                },
+            );
+            rec.memory_barrier(
+                (vk::PipelineStageFlags2::COMPUTE_SHADER, vk::AccessFlags2::SHADER_STORAGE_WRITE),
+                (
+                    vk::PipelineStageFlags2::COPY | vk::PipelineStageFlags2::HOST,
+                    vk::AccessFlags2::TRANSFER_READ | vk::AccessFlags2::HOST_READ,
+                ),
+            );
+            Ok(())
+        })?;
+        let depth = bytemuck::pod_collect_to_vec(&ctx.read_buffer(&depth, texels * 4)?);
+        let sums: Vec<u32> = bytemuck::pod_collect_to_vec(&ctx.read_buffer(&opacity, texels * 16)?);
+        Ok((depth, sums.chunks_exact(4).map(|c| [c[0], c[1], c[2], c[3]]).collect()))
+    }
 }
 
 impl std::fmt::Debug for ShadowPipelines {
@@ -151,7 +349,7 @@ impl ShadowPipelines {
                 ..GeneratorOptions::default()
             },
         )?;
-        Ok(Self { depth, opacity })
+        Ok(Self { depth, opacity, compute: None })
     }
 }
 

@@ -188,8 +188,183 @@ fn kernel_vs_port(
     Ok((gpu, port))
 }
 
+/// The compute shadow kernel against its CPU port on `strands` (uploaded together) in the
+/// `size`² map of `inputs`: the nearest depth per texel (within f32 rounding of the GPU's
+/// interpolation), then the opacity sums over the GPU's depth map (within 1 % + 2 units per
+/// texel). At most 0.5 % of the covered texels may differ (a fragment on a pixel boundary).
+fn shadow_kernel_vs_port(
+    ctx: &gen_gpu::Context,
+    shadow: &render::shadow::ComputeShadow,
+    inputs: &FrameInputs,
+    light: &render::shadow::LightShadow,
+    strands: &[(Vec<Vec3>, f32)],
+) -> anyhow::Result<(Vec<u32>, Vec<[u32; 4]>)> {
+    use render::shadow::ShadowMode;
+    let size = inputs.viewport[0];
+    let view = RasterView {
+        view_proj: inputs.view_proj,
+        eye: inputs.view.eye.as_vec3(),
+        width: size,
+        height: size,
+        model: Mat4::IDENTITY,
+        max_half_width: render::raster::MAX_HALF_WIDTH_PIXELS,
+    };
+    let points: Vec<Vec3> = strands.iter().flat_map(|(p, _)| p.iter().copied()).collect();
+    let counts: Vec<u32> = strands.iter().map(|(p, _)| p.len() as u32).collect();
+    // One width for the upload: the strands share it.
+    let width = strands.first().map_or(0.01, |s| s.1);
+    let stored = StoredStrands::upload(ctx, &points, &counts, width, 0.5)?;
+    let [near, far, perspective, _] = light.depth_params;
+    let mut port = cpu::ShadowMaps::new((size * size) as usize, light.layer_ends, [near, far, perspective]);
+    let (gpu_depth, _) = shadow.rasterize_stored(ctx, &stored, inputs, light, ShadowMode::Depth, None)?;
+    for (p, _) in strands {
+        cpu::shadow_strand(&view, &mut port, &stored_points(p, width, 0.5), false);
+    }
+    let far_bits = 1f32.to_bits();
+    let covered = port.depth_bits.iter().filter(|&&b| b != far_bits).count();
+    let depth_off = gpu_depth
+        .iter()
+        .zip(&port.depth_bits)
+        .filter(|&(&g, &p)| {
+            let (g, p) = (f32::from_bits(g), f32::from_bits(p));
+            // NaN on either side counts as a difference.
+            (g - p).abs() > 1e-5 * p.abs().max(1e-3) || g.is_nan() || p.is_nan()
+        })
+        .count();
+    // Opacity over the GPU's depth map on both sides, so the layers are measured alike.
+    port.depth_bits = gpu_depth.clone();
+    let (_, gpu_opacity) =
+        shadow.rasterize_stored(ctx, &stored, inputs, light, ShadowMode::Opacity, Some(&gpu_depth))?;
+    for (p, _) in strands {
+        cpu::shadow_strand(&view, &mut port, &stored_points(p, width, 0.5), true);
+    }
+    let opacity_off = gpu_opacity
+        .iter()
+        .zip(&port.opacity)
+        .filter(|(g, p)| {
+            (0..3).any(|l| (f64::from(g[l]) - f64::from(p[l])).abs() > 0.01 * f64::from(p[l].max(g[l])) + 2.0)
+        })
+        .count();
+    eprintln!(
+        "  {covered} texels hold hair; {depth_off} depths and {opacity_off} opacity texels differ from the CPU port"
+    );
+    let allowed = (covered as f64 * 0.005).ceil() as usize;
+    ensure!(depth_off <= allowed && opacity_off <= allowed, "more than {allowed} texels differ");
+    Ok((gpu_depth, gpu_opacity))
+}
+
+/// `name` with shadows through the compute rasterizer, its maps made by the compute kernels
+/// and by the triangle pipeline: the mean FLIP between the two images, which must stay within
+/// `flip_mean`.
+fn compute_maps_against_triangle_maps(
+    ctx: &gen_gpu::Context,
+    name: &str,
+    path: &std::path::Path,
+    flip_mean: f32,
+) -> anyhow::Result<()> {
+    let scene = load_scene(path)?;
+    let mut renderer = SceneRenderer::new(ctx, &scene, GenerationPath::Compute)?;
+    ensure!(renderer.compute_shadows(), "the compute rasterizer should make its maps in compute");
+    let compute = renderer.render(ctx)?;
+    let shadow_passes: Vec<&String> = compute.passes.iter().filter(|p| p.starts_with("shadow")).collect();
+    ensure!(
+        shadow_passes.iter().any(|p| p.contains("opacity (compute raster"))
+            && !shadow_passes.iter().any(|p| p.ends_with(": opacity")),
+        "{shadow_passes:?}"
+    );
+    renderer.use_triangle_shadows();
+    let triangles = renderer.render(ctx)?;
+    ensure!(triangles.passes.iter().any(|p| p.ends_with(": opacity")), "{:?}", triangles.passes);
+    for (what, frame) in [("compute", &compute), ("triangles", &triangles)] {
+        render::output::write_png(
+            &output_dir().join(format!("shadow-maps-{name}-{what}.png")),
+            &frame.image,
+        )?;
+    }
+    let stats = compare(
+        &format!("shadow_maps_{name}"),
+        &compute.image,
+        &triangles.image,
+        Tolerance { mean: flip_mean, percentile: (0.99, 1.0) },
+    )
+    .map_err(anyhow::Error::msg)?;
+    eprintln!(
+        "  {name}: compute maps vs triangle maps, FLIP mean {:.4} (99th {:.4})",
+        stats.mean, stats.percentile
+    );
+    Ok(())
+}
+
 fn main() -> ExitCode {
     run_gpu_tests(vec![
+        GpuTest::new("the_shadow_kernel_matches_its_cpu_port", Requirements::INT64_ATOMICS, |ctx| {
+            let shadow = render::shadow::ComputeShadow::new(ctx)?;
+            // A point light at z = 1 looking down −z (perspective), a 61² map.
+            let size = 61;
+            let (near, far) = (0.05f32, 4.0f32);
+            let proj = Mat4::perspective_rh(60f32.to_radians(), 1.0, near, far);
+            let flip = Mat4::from_scale(Vec3::new(1.0, -1.0, 1.0));
+            let eye = Vec3::new(0.0, 0.0, 1.0);
+            let view_proj = flip * proj * Mat4::look_at_rh(eye, Vec3::ZERO, Vec3::Y);
+            let inputs = FrameInputs {
+                view_proj,
+                view: hairmesh::reference::ViewParams {
+                    eye: eye.as_dvec3(),
+                    vertical_resolution: f64::from(size),
+                    projection: hairmesh::reference::Projection::Perspective { fov_y: 60f64.to_radians() },
+                },
+                lod: hairmesh::reference::LodParams::default(),
+                viewport: [size, size],
+                cull: false,
+            };
+            let light = render::shadow::LightShadow {
+                light_view_proj: view_proj,
+                depth_params: [near, far, 1.0, 0.0],
+                layer_ends: [0.02, 0.06, 0.16],
+                first_texel: 0,
+                occluder_bias: 0.0,
+            };
+            // Several strands over each other (layers), across the map's edge, wide and thin,
+            // and through the near plane.
+            let mut strands: Vec<(Vec<Vec3>, f32)> = (0..12)
+                .map(|k| {
+                    let z = -0.03 * k as f32;
+                    (
+                        line(Vec3::new(-0.6, -0.3 + 0.02 * k as f32, z), Vec3::new(0.5, 0.4, z - 0.1), 17),
+                        0.004,
+                    )
+                })
+                .collect();
+            strands.push((line(Vec3::new(-2.0, 0.1, -0.2), Vec3::new(2.0, -0.1, -0.2), 9), 0.004));
+            strands.push((line(Vec3::new(0.1, -0.5, 0.0), Vec3::new(0.12, 0.5, -0.3), 9), 0.004));
+            strands.push((line(Vec3::new(0.05, 0.02, 0.5), Vec3::new(0.08, 0.05, 1.5), 9), 0.004));
+            let (depth, opacity) = shadow_kernel_vs_port(ctx, &shadow, &inputs, &light, &strands)?;
+            let covered = depth.iter().filter(|&&b| b != 1f32.to_bits()).count();
+            ensure!(covered > 300, "the strands cover too little ({covered} texels)");
+            // Layers accumulate: where strands overlap, the last layer holds the most.
+            ensure!(
+                opacity.iter().all(|o| o[0] <= o[1] && o[1] <= o[2] && o[3] == 0),
+                "layers must be cumulative"
+            );
+            ensure!(opacity.iter().any(|o| o[2] > o[0]), "some hair lies beyond the first layer");
+            // Nothing of a strand behind the light reaches the maps.
+            let behind = [(line(Vec3::new(-0.3, 0.0, 1.5), Vec3::new(0.3, 0.1, 2.0), 9), 0.01)];
+            let (depth, opacity) = shadow_kernel_vs_port(ctx, &shadow, &inputs, &light, &behind)?;
+            ensure!(
+                depth.iter().all(|&b| b == 1f32.to_bits()) && opacity.iter().all(|o| *o == [0; 4]),
+                "behind the light"
+            );
+            Ok(())
+        }),
+        GpuTest::new("compute_shadow_maps_match_the_triangle_maps", Requirements::INT64_ATOMICS, |ctx| {
+            let dir = tempfile::tempdir()?;
+            let effects = serde_json::json!({ "transparency": "opaque", "shadows": true, "shadow_map_size": 256, "raster": "compute" });
+            let path = scene_with(dir.path(), "one_character", 256, 192, effects.clone())?;
+            compute_maps_against_triangle_maps(ctx, "one_character", &path, 0.05)?;
+            // Stored strands (the Sintel groom on its bust): the stored-strand kernel.
+            let path = sintel_scene(dir.path(), "sintel", effects)?;
+            compute_maps_against_triangle_maps(ctx, "sintel", &path, 0.05)
+        }),
         GpuTest::new("the_raster_kernel_matches_its_cpu_port", Requirements::INT64_ATOMICS, |ctx| {
             let raster = ComputeRaster::new(ctx)?;
             // An odd size (no multiple of any tile), the camera at z = 1 looking down -z.

@@ -13,10 +13,14 @@ use glam::{Mat4, Vec3};
 
 use super::ScenePass;
 use crate::RenderError;
+use crate::contract::binding;
 use crate::frame::{FrameIds, FramePlan, SceneRenderer, transformed_box};
 use crate::graph::{Access, FrameGraph, GraphRun, PassNode, Res};
 use crate::scene::Light;
-use crate::shadow::{LightShadow, LightView, OPACITY_FORMAT, ShadowAtlas, ShadowLight, light_inputs};
+use crate::shadow::{
+    ComputeShadow, LightShadow, LightView, OPACITY_FORMAT, ShadowAtlas, ShadowLight, ShadowMode,
+    ShadowRasterPush, light_inputs,
+};
 
 /// One shadow pass of light `light` (its index among the shadow-casting lights).
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -42,6 +46,24 @@ pub enum ShadowPass {
         light: usize,
     },
     CopyOpacity {
+        light: usize,
+    },
+    /// Compute raster: the maps cleared (depth to the far plane, opacity sums to zero).
+    ClearMaps,
+    /// Compute raster: the casters' LOD in the light's view (the fused kernels generate).
+    Lod {
+        light: usize,
+    },
+    /// Compute raster: the nearest hair depth per texel.
+    ComputeHairDepth {
+        light: usize,
+    },
+    /// Compute raster: opacity summed into the layers behind it.
+    ComputeOpacity {
+        light: usize,
+    },
+    /// Compute raster: the opacity sums into the float layers the shading reads.
+    ResolveOpacity {
         light: usize,
     },
 }
@@ -107,7 +129,21 @@ pub(crate) fn plan(
         );
     }
     let depth_pass = [(s.depth_image, Access::DepthAttachment), (s.color_image, Access::ColorAttachment)];
+    let compute = r.compute_shadows();
+    if compute {
+        add(
+            g,
+            "shadow: clear the maps (compute raster)".into(),
+            &[],
+            &[(s.maps, Access::TransferWrite)],
+            ShadowPass::ClearMaps,
+        );
+    }
     for (light, &strands) in s.light_strands.iter().enumerate() {
+        if compute {
+            plan_compute_light(g, s, &add, occluders, ids, light, strands, &depth_pass);
+            continue;
+        }
         let hair: Vec<(Res, Access)> = s.hair.iter().map(|&h| (h, Access::ComputeRead)).collect();
         add(
             g,
@@ -165,6 +201,70 @@ pub(crate) fn plan(
             ShadowPass::CopyOpacity { light },
         );
     }
+}
+
+/// One light's passes with the compute rasterizer: the LOD in its view, the occluders' depth
+/// (triangles, as they are meshes), then the hair's nearest depth and its opacity layers by the
+/// compute kernels (generation fused), and the opacity sums to floats.
+#[allow(clippy::too_many_arguments, reason = "the plan's shared pieces, passed once per light")]
+fn plan_compute_light(
+    g: &mut FrameGraph<ScenePass>,
+    s: &ShadowIds,
+    add: &impl Fn(&mut FrameGraph<ScenePass>, String, &[(Res, Access)], &[(Res, Access)], ShadowPass),
+    occluders: bool,
+    ids: &FrameIds,
+    light: usize,
+    strands: Res,
+    depth_pass: &[(Res, Access)],
+) {
+    let hair: Vec<(Res, Access)> = s.hair.iter().map(|&h| (h, Access::ComputeRead)).collect();
+    add(
+        g,
+        format!("shadow {light}: LOD in the light's view"),
+        &hair,
+        &[(strands, Access::ComputeWrite)],
+        ShadowPass::Lod { light },
+    );
+    if occluders {
+        add(
+            g,
+            format!("shadow {light}: occluder depth"),
+            &[(ids.occluder_meshes, Access::PreRasterRead)],
+            depth_pass,
+            ShadowPass::OccluderDepth { light },
+        );
+        add(
+            g,
+            format!("shadow {light}: copy occluder depth to the atlas"),
+            &[(s.depth_image, Access::TransferRead)],
+            &[(s.maps, Access::TransferWrite)],
+            ShadowPass::CopyOccluderDepth { light },
+        );
+    }
+    let mut casters = hair;
+    casters.extend([(strands, Access::ComputeRead), (strands, Access::IndirectRead)]);
+    casters.extend(s.stored.iter().map(|&st| (st, Access::ComputeRead)));
+    add(
+        g,
+        format!("shadow {light}: hair depth (compute raster, fused generation)"),
+        &casters,
+        &[(s.maps, Access::ComputeWrite)],
+        ShadowPass::ComputeHairDepth { light },
+    );
+    add(
+        g,
+        format!("shadow {light}: opacity (compute raster, fused generation)"),
+        &casters,
+        &[(s.maps, Access::ComputeWrite)],
+        ShadowPass::ComputeOpacity { light },
+    );
+    add(
+        g,
+        format!("shadow {light}: opacity sums to layers"),
+        &[],
+        &[(s.maps, Access::ComputeWrite)],
+        ShadowPass::ResolveOpacity { light },
+    );
 }
 
 /// One light's generated casters and draw parameters.
@@ -260,11 +360,16 @@ pub(crate) fn prepare(
             })?;
             let inputs: Vec<FrameInputs> =
                 r.characters.iter().map(|c| light_inputs(&view, light, c.transform, size, lod)).collect();
+            // With the compute rasterizer the kernels generate the strands themselves: no
+            // strand buffers, only the LOD's buffers.
             let frames = r
                 .characters
                 .iter()
                 .zip(&inputs)
-                .map(|(c, inputs)| pipes.depth.prepare(ctx, &r.hairs[c.hair], inputs))
+                .map(|(c, inputs)| match pipes.compute {
+                    Some(_) => r.generator.prepare_fused(ctx, &r.hairs[c.hair], inputs),
+                    None => pipes.depth.prepare(ctx, &r.hairs[c.hair], inputs),
+                })
                 .collect::<gen_gpu::Result<Vec<_>>>()?;
             let stored_params = r
                 .stored_characters
@@ -385,7 +490,7 @@ pub(crate) fn record(
             let l = light(i);
             // Depth is cleared again: every fragment adds its opacity (no depth test culls it).
             rec.begin_rendering(&s.opacity_image, [0.0; 4], Some(&s.depth_image));
-            let extra = [(crate::contract::binding::SHADOW_DEPTH, &s.depth)];
+            let extra = [(binding::SHADOW_DEPTH, &s.depth)];
             let ends = l.shadow.layer_ends;
             let [near, far, perspective, _] = l.shadow.depth_params;
             let constants: [u32; 12] = [
@@ -410,6 +515,60 @@ pub(crate) fn record(
         ShadowPass::CopyOpacity { light: i } => {
             rec.copy_image_to_buffer_at(&s.opacity_image, &s.opacity, light(i).shadow.first_texel * 16);
         }
+        ShadowPass::ClearMaps => {
+            rec.fill_buffer(&s.depth, 1f32.to_bits());
+            rec.fill_buffer(&s.opacity, 0);
+        }
+        ShadowPass::Lod { light: i } => {
+            for (c, frame) in r.characters.iter().zip(&light(i).frames) {
+                r.generator.record_lod(rec, &r.hairs[c.hair], frame);
+            }
+        }
+        ShadowPass::ComputeHairDepth { light: i } => {
+            record_compute_maps(r, rec, s, light(i), ShadowMode::Depth);
+        }
+        ShadowPass::ComputeOpacity { light: i } => {
+            record_compute_maps(r, rec, s, light(i), ShadowMode::Opacity);
+        }
+        ShadowPass::ResolveOpacity { light: i } => {
+            if let Some(compute) = &pipes.compute {
+                compute.record_resolve(rec, &s.opacity, &light(i).shadow, s.size);
+            }
+        }
     }
     Ok(())
+}
+
+/// One compute shadow dispatch per caster of `light`: the fused kernel over each character's
+/// live strands (the LOD pass's indirect arguments), the stored kernel over each strand file.
+fn record_compute_maps(
+    r: &SceneRenderer,
+    rec: &Recorder<'_>,
+    s: &ShadowFrame,
+    light: &PerLight,
+    mode: ShadowMode,
+) {
+    let Some(compute) = r.shadow.as_ref().and_then(|p| p.compute.as_ref()) else { return };
+    let extra = [(binding::SHADOW_DEPTH, &s.depth), (binding::SHADOW_OPACITY, &s.opacity)];
+    if !r.characters.is_empty() {
+        rec.bind_pipeline(&compute.fused);
+    }
+    for (c, frame) in r.characters.iter().zip(&light.frames) {
+        r.generator.bind_frame(rec, &compute.fused, &r.hairs[c.hair], frame, &extra);
+        rec.push_constants(
+            &compute.fused,
+            &ShadowRasterPush::new(&light.shadow, s.size, c.transform, mode, 0),
+        );
+        Generator::record_fused_dispatch(rec, frame);
+    }
+    for (c, params) in r.stored_characters.iter().zip(&light.stored_params) {
+        let pipeline = &compute.stored;
+        let group = ComputeShadow::stored_group_size();
+        r.stored[c.hair].record_compute(rec, pipeline, params, &extra, group, |rec, slots| {
+            rec.push_constants(
+                pipeline,
+                &ShadowRasterPush::new(&light.shadow, s.size, c.transform, mode, slots),
+            );
+        });
+    }
 }

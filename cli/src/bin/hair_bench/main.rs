@@ -4,15 +4,17 @@
 //! ```text
 //! hair-bench [--quick] [--only SECTION[,SECTION]] [--out DIR] [--device SEL]
 //! ```
-//! Sections: `generation`, `memory`, `stored`, `accuracy`, `crowd`, `passes`, `raster`, `volume`,
-//! `dynamics`; each sits between its own markers in the report, so `--only` replaces just those.
+//! Sections: `generation`, `memory`, `stored`, `accuracy`, `crowd`, `passes`, `raster`, `shadows`,
+//! `volume`, `dynamics`; each sits between its own markers in the report, so `--only` replaces just those.
 //! Tables: generation + raster per path, GPU memory of an asset vs the same strands stored,
 //! on-the-fly vs stored strands, accuracy vs time, crowds with LOD off and on (the scenes of
-//! `hairkit crowd`), render passes, both rasterizers, the volume LOD path, dynamics (simulation,
+//! `hairkit crowd`), render passes, both rasterizers, deep opacity maps both ways, the volume LOD
+//! path, dynamics (simulation,
 //! re-bake and upload per character; an animated crowd); CSV files beside the report and PNG plots
 //! (`plot-*.png`). A progress bar shows the stage on a terminal.
 
 mod dynamics;
+mod shadows;
 
 use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
@@ -49,7 +51,7 @@ struct Cli {
     #[arg(long, default_value = "auto")]
     raster: render::scene::Raster,
     /// Run only these sections (comma-separated: generation, memory, stored, accuracy, crowd,
-    /// passes, raster, volume, dynamics) and replace only them in the report.
+    /// passes, raster, shadows, volume, dynamics) and replace only them in the report.
     #[arg(long, value_name = "SECTION[,SECTION]")]
     only: Option<String>,
 }
@@ -122,8 +124,18 @@ fn median(mut v: Vec<f64>) -> f64 {
 }
 
 /// The report's sections in order, as `--only` names them.
-const SECTIONS: [&str; 9] =
-    ["generation", "memory", "stored", "accuracy", "crowd", "passes", "raster", "volume", "dynamics"];
+const SECTIONS: [&str; 10] = [
+    "generation",
+    "memory",
+    "stored",
+    "accuracy",
+    "crowd",
+    "passes",
+    "raster",
+    "shadows",
+    "volume",
+    "dynamics",
+];
 
 /// One section of the report: its markdown (between its own markers), CSV files and plots.
 struct Section {
@@ -264,6 +276,7 @@ fn run(cli: &Cli) -> Result<()> {
             "raster" => raster_section(&setup, &progress)?,
             "volume" => volume_section(&setup, &progress)?,
             "dynamics" => dynamics::dynamics_section(&setup, &progress)?,
+            "shadows" => shadows::shadows_section(&setup, &progress)?,
             _ => passes_section(&setup)?,
         });
         progress.inc(1);
