@@ -37,25 +37,9 @@ bool light_volume_shadows(uint i) {
     return lights[i].depth.w > 0.5;
 }
 
-// Fraction of light `i` reaching the world point p past the occluders (x) and through the hair
-// (y) in front of it, from its maps (1 where it has none).
-vec2 light_visibility(uint i, vec3 p) {
-    float size = lights[i].map.x;
-    if (size < 0.5) {
-        return vec2(1.0);
-    }
-    vec4 clip = lights[i].view_proj * vec4(p, 1.0);
-    if (clip.w <= 0.0) {
-        return vec2(1.0);
-    }
-    vec3 ndc = clip.xyz / clip.w;
-    vec2 uv = ndc.xy * 0.5 + 0.5;
-    if (any(lessThan(uv, vec2(0.0))) || any(greaterThanEqual(uv, vec2(1.0)))) {
-        return vec2(1.0);
-    }
-    uvec2 texel = uvec2(uv * size);
-    uint index = uint(lights[i].map.y) + texel.y * uint(size) + texel.x;
-    float depth = light_linear_depth(i, ndc.z);
+// Fraction of light `i` reaching a point at world distance `depth` from it past the occluders
+// (x) and through the hair (y) in front of it, by texel `index` of its maps alone.
+vec2 texel_visibility(uint i, uint index, float depth) {
     if (depth - light_linear_depth(i, occluder_depth[index]) > lights[i].map.z) {
         return vec2(0.0, 1.0);
     }
@@ -75,6 +59,40 @@ vec2 light_visibility(uint i, vec3 p) {
         opacity = o.z;
     }
     return vec2(1.0, exp(-1.5 * opacity));
+}
+
+// Fraction of light `i` reaching the world point p past the occluders (x) and through the hair
+// (y) in front of it, from its maps (1 where it has none): each of the four texels around p
+// answers for p's depth, and their answers are blended bilinearly (percentage-closer filtering;
+// a single texel's answer shows the texels as stair steps along shadow edges).
+vec2 light_visibility(uint i, vec3 p) {
+    float size = lights[i].map.x;
+    if (size < 0.5) {
+        return vec2(1.0);
+    }
+    vec4 clip = lights[i].view_proj * vec4(p, 1.0);
+    if (clip.w <= 0.0) {
+        return vec2(1.0);
+    }
+    vec3 ndc = clip.xyz / clip.w;
+    vec2 uv = ndc.xy * 0.5 + 0.5;
+    if (any(lessThan(uv, vec2(0.0))) || any(greaterThanEqual(uv, vec2(1.0)))) {
+        return vec2(1.0);
+    }
+    float depth = light_linear_depth(i, ndc.z);
+    vec2 st = uv * size - 0.5;
+    vec2 f = fract(st);
+    ivec2 t0 = ivec2(floor(st));
+    int last = int(size) - 1;
+    uint first = uint(lights[i].map.y);
+    vec2 v = vec2(0.0);
+    for (int k = 0; k < 4; ++k) {
+        ivec2 o = ivec2(k & 1, k >> 1);
+        uvec2 texel = uvec2(clamp(t0 + o, ivec2(0), ivec2(last)));
+        vec2 w = mix(1.0 - f, f, vec2(o));
+        v += w.x * w.y * texel_visibility(i, first + texel.y * uint(size) + texel.x, depth);
+    }
+    return v;
 }
 
 // Fraction of light `i` reaching the world point p through the hair and occluders in front of it.
