@@ -4,8 +4,16 @@
 //! light outside the casters — a depth pass keeps the nearest
 //! hair per texel, an opacity pass accumulates opacity into three layers behind it, and an
 //! occluder depth pass keeps the nearest occluder (scalp, body), which shadows everything behind
-//! it. The maps of all lights share three buffers (`lighting.glsl` indexes them per light). A
-//! static scene's maps are computed once and cached. The passes are in [`crate::passes::shadow`].
+//! it. The maps of all lights share three buffers (`lighting.glsl` indexes them per light, and
+//! blends the answers of the four texels around a point). A static scene's maps are computed
+//! once and cached. The passes are in [`crate::passes::shadow`].
+//!
+//! With the compute rasterizer the hair's two passes are compute kernels ([`ComputeShadow`]:
+//! `hair_shadow.comp` with generation fused, `hair_shadow_stored.comp` for strand files) that walk
+//! segments as the hair's raster kernel does: the depth pass keeps each texel's nearest depth with
+//! an atomic minimum, the opacity pass adds coverage × [`STRAND_OPACITY`] to each layer in fixed
+//! point ([`SHADOW_OPACITY_SCALE`]), and `shadow_resolve.comp` writes the float layers. Their CPU
+//! port is [`crate::raster::cpu::shadow_strand`].
 
 use gen_gpu::{Blend, Buffer, Context, FragmentStage, FrameInputs, Generator, GeneratorOptions, vk};
 use glam::{Mat4, Vec3};

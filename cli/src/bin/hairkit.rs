@@ -431,15 +431,24 @@ fn demo(o: &DemoOptions, device: &DeviceArgs) -> Result<()> {
     );
     let mut compute_raster_ms = None;
     for path in paths {
-        let renderer = timed(&format!("{path} path: upload + pipelines"), || {
+        let mut renderer = timed(&format!("{path} path: upload + pipelines"), || {
             Ok(render::frame::SceneRenderer::new(&ctx, &scene, path)?)
         })?;
         if renderer.raster() == render::raster::RasterPath::Compute {
-            // The path generates the shadow maps; the compute rasterizer generates its strands
-            // inside its raster kernel.
-            println!(
-                "{path} path: shadow maps; hair in the view drawn by the compute rasterizer (fused generation)"
-            );
+            if path == GenerationPath::Compute {
+                println!(
+                    "hair in the view and the shadow maps drawn by the compute rasterizer (generation fused into its kernels)"
+                );
+            } else {
+                // The compute rasterizer generates its own strands, so the task + mesh path is
+                // shown through the triangle raster, where it does the generating.
+                let mut triangles = scene.clone();
+                triangles.scene.effects.raster = render::scene::Raster::Triangles;
+                renderer = render::frame::SceneRenderer::new(&ctx, &triangles, path)?;
+                println!(
+                    "{path} path: generating for the triangle raster (the compute rasterizer fuses its own)"
+                );
+            }
         }
         if path == GenerationPath::Compute {
             println!("frame graph:\n{}", renderer.graph());
