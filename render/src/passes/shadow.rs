@@ -153,20 +153,7 @@ pub(crate) fn plan(
             ShadowPass::Generate { light },
         );
         if occluders {
-            add(
-                g,
-                format!("shadow {light}: occluder depth"),
-                &[(ids.occluder_meshes, Access::PreRasterRead)],
-                &depth_pass,
-                ShadowPass::OccluderDepth { light },
-            );
-            add(
-                g,
-                format!("shadow {light}: copy occluder depth to the atlas"),
-                &[(s.depth_image, Access::TransferRead)],
-                &[(s.maps, Access::TransferWrite)],
-                ShadowPass::CopyOccluderDepth { light },
-            );
+            plan_occluder_depth(g, s, &add, ids, light, &depth_pass);
         }
         let mut strand_reads = vec![(strands, Access::IndirectRead), (strands, Access::PreRasterRead)];
         strand_reads.extend(s.stored.iter().map(|&st| (st, Access::PreRasterRead)));
@@ -203,6 +190,36 @@ pub(crate) fn plan(
     }
 }
 
+/// The signature of the plan's pass-adding closure.
+type AddPass<'a> =
+    dyn Fn(&mut FrameGraph<ScenePass>, String, &[(Res, Access)], &[(Res, Access)], ShadowPass) + 'a;
+
+/// Light `light`'s occluder depth pass (triangles: occluders are meshes) and its copy into the
+/// atlas, on either rasterizer.
+fn plan_occluder_depth(
+    g: &mut FrameGraph<ScenePass>,
+    s: &ShadowIds,
+    add: &AddPass<'_>,
+    ids: &FrameIds,
+    light: usize,
+    depth_pass: &[(Res, Access)],
+) {
+    add(
+        g,
+        format!("shadow {light}: occluder depth"),
+        &[(ids.occluder_meshes, Access::PreRasterRead)],
+        depth_pass,
+        ShadowPass::OccluderDepth { light },
+    );
+    add(
+        g,
+        format!("shadow {light}: copy occluder depth to the atlas"),
+        &[(s.depth_image, Access::TransferRead)],
+        &[(s.maps, Access::TransferWrite)],
+        ShadowPass::CopyOccluderDepth { light },
+    );
+}
+
 /// One light's passes with the compute rasterizer: the LOD in its view, the occluders' depth
 /// (triangles, as they are meshes), then the hair's nearest depth and its opacity layers by the
 /// compute kernels (generation fused), and the opacity sums to floats.
@@ -210,7 +227,7 @@ pub(crate) fn plan(
 fn plan_compute_light(
     g: &mut FrameGraph<ScenePass>,
     s: &ShadowIds,
-    add: &impl Fn(&mut FrameGraph<ScenePass>, String, &[(Res, Access)], &[(Res, Access)], ShadowPass),
+    add: &AddPass<'_>,
     occluders: bool,
     ids: &FrameIds,
     light: usize,
@@ -226,20 +243,7 @@ fn plan_compute_light(
         ShadowPass::Lod { light },
     );
     if occluders {
-        add(
-            g,
-            format!("shadow {light}: occluder depth"),
-            &[(ids.occluder_meshes, Access::PreRasterRead)],
-            depth_pass,
-            ShadowPass::OccluderDepth { light },
-        );
-        add(
-            g,
-            format!("shadow {light}: copy occluder depth to the atlas"),
-            &[(s.depth_image, Access::TransferRead)],
-            &[(s.maps, Access::TransferWrite)],
-            ShadowPass::CopyOccluderDepth { light },
-        );
+        plan_occluder_depth(g, s, add, ids, light, depth_pass);
     }
     let mut casters = hair;
     casters.extend([(strands, Access::ComputeRead), (strands, Access::IndirectRead)]);
@@ -281,7 +285,8 @@ pub(crate) struct ShadowFrame {
     occluder_depth: Buffer,
     depth_image: Image,
     color_image: Image,
-    opacity_image: Image,
+    /// The triangle opacity pass's target (none when the compute kernels make the maps).
+    opacity_image: Option<Image>,
     lights: Vec<PerLight>,
     size: u32,
 }
@@ -289,11 +294,12 @@ pub(crate) struct ShadowFrame {
 impl ShadowFrame {
     /// The images behind the graph's image resources.
     pub(crate) fn images(&self, ids: &ShadowIds) -> HashMap<Res, &Image> {
-        HashMap::from([
-            (ids.depth_image, &self.depth_image),
-            (ids.color_image, &self.color_image),
-            (ids.opacity_image, &self.opacity_image),
-        ])
+        let mut images =
+            HashMap::from([(ids.depth_image, &self.depth_image), (ids.color_image, &self.color_image)]);
+        if let Some(opacity) = &self.opacity_image {
+            images.insert(ids.opacity_image, opacity);
+        }
+        images
     }
 
     pub(crate) fn into_atlas(self) -> ShadowAtlas {
@@ -415,7 +421,12 @@ pub(crate) fn prepare(
             "shadow depth pass colour",
             ImageDesc::d2(size, size, gen_gpu::COLOR_FORMAT, usage),
         )?,
-        opacity_image: Image::new(ctx, "shadow opacity", ImageDesc::d2(size, size, OPACITY_FORMAT, usage))?,
+        opacity_image: match pipes.compute {
+            Some(_) => None,
+            None => {
+                Some(Image::new(ctx, "shadow opacity", ImageDesc::d2(size, size, OPACITY_FORMAT, usage))?)
+            }
+        },
         lights: per_light,
         size,
     })
@@ -489,7 +500,8 @@ pub(crate) fn record(
         ShadowPass::Opacity { light: i } => {
             let l = light(i);
             // Depth is cleared again: every fragment adds its opacity (no depth test culls it).
-            rec.begin_rendering(&s.opacity_image, [0.0; 4], Some(&s.depth_image));
+            let Some(opacity_image) = &s.opacity_image else { return Ok(()) };
+            rec.begin_rendering(opacity_image, [0.0; 4], Some(&s.depth_image));
             let extra = [(binding::SHADOW_DEPTH, &s.depth)];
             let ends = l.shadow.layer_ends;
             let [near, far, perspective, _] = l.shadow.depth_params;
@@ -513,7 +525,9 @@ pub(crate) fn record(
             drawn?;
         }
         ShadowPass::CopyOpacity { light: i } => {
-            rec.copy_image_to_buffer_at(&s.opacity_image, &s.opacity, light(i).shadow.first_texel * 16);
+            if let Some(opacity_image) = &s.opacity_image {
+                rec.copy_image_to_buffer_at(opacity_image, &s.opacity, light(i).shadow.first_texel * 16);
+            }
         }
         ShadowPass::ClearMaps => {
             rec.fill_buffer(&s.depth, 1f32.to_bits());
