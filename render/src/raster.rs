@@ -272,13 +272,7 @@ impl ComputeRaster {
                     &raster_push(model, material, slots, false, RasterPhase::All, 1, 1, 1.0),
                 );
             });
-            rec.memory_barrier(
-                (vk::PipelineStageFlags2::COMPUTE_SHADER, vk::AccessFlags2::SHADER_STORAGE_WRITE),
-                (
-                    vk::PipelineStageFlags2::COPY | vk::PipelineStageFlags2::HOST,
-                    vk::AccessFlags2::TRANSFER_READ | vk::AccessFlags2::HOST_READ,
-                ),
-            );
+            compute_writes_to_readback(rec);
             Ok(())
         })?;
         let bytes = ctx.read_buffer(&words, pixels * 16)?;
@@ -290,6 +284,17 @@ impl ComputeRaster {
             coverage: all.iter().skip(1).step_by(2).map(|w| !w).collect(),
         })
     }
+}
+
+/// After a test kernel: its storage writes visible to the copy and host reads of a read-back.
+pub(crate) fn compute_writes_to_readback(rec: &gen_gpu::Recorder<'_>) {
+    rec.memory_barrier(
+        (vk::PipelineStageFlags2::COMPUTE_SHADER, vk::AccessFlags2::SHADER_STORAGE_WRITE),
+        (
+            vk::PipelineStageFlags2::COPY | vk::PipelineStageFlags2::HOST,
+            vk::AccessFlags2::TRANSFER_READ | vk::AccessFlags2::HOST_READ,
+        ),
+    );
 }
 
 /// One frame's buffers of the compute rasterizer (from the renderer's transient pool).

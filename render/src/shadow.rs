@@ -301,13 +301,7 @@ impl ComputeShadow {
                     );
                 },
             );
-            rec.memory_barrier(
-                (vk::PipelineStageFlags2::COMPUTE_SHADER, vk::AccessFlags2::SHADER_STORAGE_WRITE),
-                (
-                    vk::PipelineStageFlags2::COPY | vk::PipelineStageFlags2::HOST,
-                    vk::AccessFlags2::TRANSFER_READ | vk::AccessFlags2::HOST_READ,
-                ),
-            );
+            crate::raster::compute_writes_to_readback(rec);
             Ok(())
         })?;
         let depth = bytemuck::pod_collect_to_vec(&ctx.read_buffer(&depth, texels * 4)?);

@@ -12,7 +12,7 @@ use hairmesh::asset::{AssetParams, HairAsset, StrandCount, VertexMove};
 use hairmesh::dynamics::{Collider, DynamicsParams, HairSim, Wind};
 use hairmesh::hair_mesh::{ExtrudeParams, HairMesh};
 
-use super::{Section, Setup, Table, median, passes_ms, table_section};
+use super::{Section, Setup, Table, median, passes_ms, submissions_ms, table_section};
 
 /// A head turning and nodding about a pivot at the neck (as the scenes' procedural motion).
 fn head_motion(t: f64) -> Affine3A {
@@ -189,15 +189,7 @@ fn crowd_costs(setup: &Setup<'_>, progress: &indicatif::ProgressBar) -> Result<(
             // Motion alone re-bakes nothing (its few µs of bookkeeping are not a re-bake).
             rebake.push(update.filter(|u| u.rebaked > 0).map_or(0.0, |u| u.rebake_ms));
             upload.push(passes_ms(&rendered, &["update hair"]));
-            gpu.push(
-                rendered
-                    .timings
-                    .passes
-                    .iter()
-                    .filter(|p| p.name == "scene frame")
-                    .filter_map(|p| p.gpu_ms)
-                    .sum(),
-            );
+            gpu.push(submissions_ms(&rendered, &["scene frame"]));
             upload_passes = rendered.passes.iter().filter(|p| p.starts_with("update hair")).count();
         }
         rows.push(CrowdCost {

@@ -637,6 +637,19 @@ fn draw_raster_plot(out: &Path, rows: &[(f64, f64)]) -> Result<(String, String)>
     Ok(("plot-raster.png".to_owned(), chart.title.to_owned()))
 }
 
+/// GPU time of a frame's submissions named one of `names` ("scene frame": the frame's
+/// batches; "shadow maps": its maps' submission).
+fn submissions_ms(frame: &render::frame::RenderedFrame, names: &[&str]) -> f64 {
+    frame
+        .timings
+        .passes
+        .iter()
+        .filter(|p| names.contains(&p.name.as_str()))
+        .filter_map(|p| p.gpu_ms)
+        // From +0: an empty f64 sum is -0, printed "-0.00".
+        .fold(0.0, |sum, ms| sum + ms)
+}
+
 /// GPU time of a frame's passes whose names start with one of `prefixes` (top-level passes of
 /// every submission).
 fn passes_ms(frame: &render::frame::RenderedFrame, prefixes: &[&str]) -> f64 {
@@ -777,14 +790,7 @@ fn raster_table(setup: &Setup<'_>, progress: &indicatif::ProgressBar) -> Result<
                 let f = renderer.render(ctx)?;
                 hair.push(passes_ms(&f, &hair_prefixes));
                 // Every submission of the frame (crowds are drawn in batches).
-                total.push(
-                    f.timings
-                        .passes
-                        .iter()
-                        .filter(|p| p.name == "scene frame")
-                        .filter_map(|p| p.gpu_ms)
-                        .sum(),
-                );
+                total.push(submissions_ms(&f, &["scene frame"]));
                 last = Some(f);
             }
             let f = last.context("no frame rendered")?;
@@ -889,8 +895,7 @@ fn timed_frames(
     let mut last = None;
     for _ in 0..frames {
         let f = renderer.render(ctx)?;
-        total
-            .push(f.timings.passes.iter().filter(|p| p.name == "scene frame").filter_map(|p| p.gpu_ms).sum());
+        total.push(submissions_ms(&f, &["scene frame"]));
         last = Some(f);
     }
     Ok((median(total), last.context("no frame rendered")?))
@@ -1164,13 +1169,7 @@ fn crowd_table(
             }
             let frame = renderer.render(ctx)?;
             // Every submission of the frame (characters are drawn in batches).
-            let ms: f64 = frame
-                .timings
-                .passes
-                .iter()
-                .filter(|p| p.name == "scene frame")
-                .filter_map(|p| p.gpu_ms)
-                .sum();
+            let ms = submissions_ms(&frame, &["scene frame"]);
             let flip = reference.as_ref().map_or(0.0, |r| flip_mean(r, &frame.image));
             rows.push(CrowdRow {
                 scene: format!("{count} {name} × {strands} strands"),

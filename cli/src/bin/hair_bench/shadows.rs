@@ -8,7 +8,9 @@ use std::fmt::Write as _;
 use anyhow::{Context as _, Result};
 use gen_gpu::GenerationPath;
 
-use super::{Section, Setup, Table, flip_mean, median, sintel_groom, table_section, write_asset_dir};
+use super::{
+    Section, Setup, Table, flip_mean, median, sintel_groom, submissions_ms, table_section, write_asset_dir,
+};
 
 /// One scene's maps both ways: (maps ms, frame ms) per way, and the FLIP between the images.
 struct ShadowRow {
@@ -80,22 +82,8 @@ fn shadow_rows(setup: &Setup<'_>, progress: &indicatif::ProgressBar) -> Result<V
             for _ in 0..frames {
                 renderer.forget_shadow_maps();
                 let f = renderer.render(ctx)?;
-                maps.push(
-                    f.timings
-                        .passes
-                        .iter()
-                        .filter(|p| p.name == "shadow maps")
-                        .filter_map(|p| p.gpu_ms)
-                        .sum(),
-                );
-                total.push(
-                    f.timings
-                        .passes
-                        .iter()
-                        .filter(|p| p.name == "scene frame" || p.name == "shadow maps")
-                        .filter_map(|p| p.gpu_ms)
-                        .sum(),
-                );
+                maps.push(submissions_ms(&f, &["shadow maps"]));
+                total.push(submissions_ms(&f, &["scene frame", "shadow maps"]));
                 last = Some(f);
             }
             let f = last.context("no frame rendered")?;
