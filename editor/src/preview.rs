@@ -13,7 +13,8 @@
 //!
 //! A **draft** request (sent while a slider or a drag is active) renders at half the
 //! viewport's resolution with [`DRAFT_STRAND_ALPHA`] times the strand LOD (fewer, wider
-//! strands of the same look); the UI asks for the full frame when the interaction ends.
+//! strands of the same look) over the last shadow maps (stale while the hair changes); the UI
+//! asks for the full frame, which makes the maps again, when the interaction ends.
 
 use std::sync::mpsc::{Receiver, Sender, channel};
 use std::sync::{Arc, Condvar, Mutex};
@@ -358,6 +359,9 @@ fn render_request(
     if r.draft {
         view.lod.strand_alpha *= DRAFT_STRAND_ALPHA;
     }
+    // Drafts show the last shadow maps (made again by the refined frame): with self-shadowing
+    // the maps would cost more than the rest of a draft.
+    b.renderer.reuse_stale_shadow_maps(r.draft);
     let frame = b.renderer.render_view(ctx, view).map_err(|e| e.to_string())?;
     Ok(PreviewFrame {
         id: r.id,

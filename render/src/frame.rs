@@ -165,10 +165,14 @@ pub struct SceneRenderer {
     pub(crate) oit: Option<Oit>,
     /// Shadow pipelines, when some light casts shadows.
     pub(crate) shadow: Option<ShadowPipelines>,
-    /// The last shadow maps rendered and the content they were rendered from: reused while
-    /// [`Self::content_version`] is unchanged (hair edits bump their asset's revision, moved
-    /// characters the placement count).
-    shadow_cache: Mutex<Option<(ContentVersion, ShadowAtlas)>>,
+    /// The last shadow maps rendered, the content they were rendered from and the LOD of the
+    /// view they were planned with (the lights' views follow it): reused while
+    /// [`Self::content_version`] and the LOD are unchanged (hair edits bump their asset's
+    /// revision, moved characters the placement count), or whatever changed while
+    /// [`Self::reuse_stale_shadow_maps`] is on.
+    shadow_cache: Mutex<Option<(ContentVersion, LodParams, ShadowAtlas)>>,
+    /// [`Self::reuse_stale_shadow_maps`].
+    stale_shadows_ok: std::sync::atomic::AtomicBool,
     /// The frames' transient resources, reused from frame to frame.
     pool: Mutex<TransientPool>,
     /// Bound at the shadow bindings when the scene has no shadows (never read then).
@@ -585,6 +589,7 @@ impl SceneRenderer {
             oit,
             shadow,
             shadow_cache: Mutex::new(None),
+            stale_shadows_ok: std::sync::atomic::AtomicBool::new(false),
             pool: Mutex::new(TransientPool::default()),
             no_shadow,
             occluder_pipes,
@@ -794,9 +799,22 @@ impl SceneRenderer {
         ContentVersion(self.hairs.iter().map(GpuHair::revision).chain([self.placements]).collect())
     }
 
-    fn shadows_cached(&self) -> bool {
+    /// Whether a frame planned with `lod` reuses the cached shadow maps.
+    fn shadows_cached(&self, lod: &LodParams) -> bool {
         let cache = self.shadow_cache.lock().unwrap_or_else(|e| e.into_inner());
-        cache.as_ref().is_some_and(|(version, _)| *version == self.content_version())
+        let stale_ok = self.stale_shadows_ok.load(std::sync::atomic::Ordering::Relaxed);
+        cache.as_ref().is_some_and(|(version, made_with, _)| {
+            stale_ok || (*version == self.content_version() && made_with == lod)
+        })
+    }
+
+    /// While `reuse` is true, frames show the cached shadow maps even when the hair, the
+    /// placements or the LOD changed since they were made (an editor's drafts while a slider or
+    /// a vertex is dragged: the maps cost more than the rest of such a frame); the first frame
+    /// with it false makes them again if they are stale. Without cached maps a frame makes them
+    /// either way.
+    pub fn reuse_stale_shadow_maps(&self, reuse: bool) {
+        self.stale_shadows_ok.store(reuse, std::sync::atomic::Ordering::Relaxed);
     }
 
     /// Moves scene character `index` (in the scene's order): its hair and its occluder (which
@@ -890,7 +908,7 @@ impl SceneRenderer {
         let strands = (0..self.characters.len()).map(|i| g.buffer(format!("strands {i}"))).collect();
         let stored: Vec<Res> =
             (0..self.stored_characters.len()).map(|i| g.buffer(format!("stored strands {i}"))).collect();
-        let shadow_cached = self.shadows_cached();
+        let shadow_cached = self.shadows_cached(&view.lod);
         let shadow = self
             .shadow
             .as_ref()
@@ -917,7 +935,12 @@ impl SceneRenderer {
             hair_uploads: hair,
             volumes,
         };
-        crate::passes::upload::plan(self, &mut g, &ids);
+        // Staged uploads go first in the frame's first submission: the shadow maps' when they
+        // are made this frame (they read the new texels), else the first batch's.
+        let first_batch_submission = usize::from(ids.shadow.is_some());
+        let upload_submission =
+            if ids.shadow.is_some() && !shadow_cached { 0 } else { first_batch_submission };
+        crate::passes::upload::plan(self, &mut g, &ids, upload_submission);
         if let Some(s) = &ids.shadow {
             crate::passes::shadow::plan(self, &mut g, &ids, s, shadow_cached);
         }
@@ -935,7 +958,6 @@ impl SceneRenderer {
             .map(|v| v.marched.iter().copied().filter(|&i| v.fractions[i] >= 1.0).collect())
             .unwrap_or_default();
         let batches = self.batches(&inputs, &volume_only);
-        let first_batch_submission = usize::from(ids.shadow.is_some());
         for (k, batch) in batches.iter().enumerate() {
             let submission = first_batch_submission + k;
             crate::passes::frame_batch(self, &mut g, &ids, batch, submission, k == 0, k + 1 == batches.len());
@@ -1276,9 +1298,9 @@ impl SceneRenderer {
             shadow_ms = t.pass_ms("shadow maps");
             timings.passes.extend(t.passes);
             timings.cpu_wait_ms += t.cpu_wait_ms;
-            *shadow_cache = Some((self.content_version(), shadow.into_atlas()));
+            *shadow_cache = Some((self.content_version(), plan.view.lod, shadow.into_atlas()));
         }
-        let atlas = shadow_cache.as_ref().map(|(_, atlas)| atlas);
+        let atlas = shadow_cache.as_ref().map(|(_, _, atlas)| atlas);
         let view = plan.view;
         let light_data = self.light_data(atlas);
         let light_bytes: &[u8] = bytemuck::cast_slice(&light_data);

@@ -462,6 +462,39 @@ fn main() -> ExitCode {
                     "the updated scene renders what a fresh set-up of the edit does"
                 );
                 ensure!(renderer.render(ctx)?.shadow_cached, "then the new maps are reused");
+                // A frame of another LOD (an editor's draft) makes maps for it, and the next
+                // frame of the scene's LOD makes its own again.
+                let eye = glam::Vec3::from_array(scene.scene.camera.eye);
+                let target = glam::Vec3::from_array(scene.scene.camera.target);
+                let mut coarse = renderer.frame_view(eye, target);
+                coarse.lod.strand_alpha *= 8.0;
+                ensure!(!renderer.render_view(ctx, coarse)?.shadow_cached, "the maps follow the view's LOD");
+                ensure!(!renderer.render(ctx)?.shadow_cached, "maps of another LOD are not reused");
+                // Drafts over stale maps: a further edit shows (its upload now the first pass of
+                // the first batch), the maps are not made again until reuse ends.
+                let more = hairkit_tests::scenes::pull_tips(&edited);
+                let change = edited.move_vertices(&more)?;
+                renderer.update_hair(ctx, &key, &edited, &change)?;
+                renderer.reuse_stale_shadow_maps(true);
+                let draft = renderer.render(ctx)?;
+                ensure!(draft.shadow_cached, "a draft reuses the stale maps");
+                ensure!(
+                    draft.passes.first().is_some_and(|p| p.starts_with("update hair 0"))
+                        && !draft.passes.iter().any(|p| p.starts_with("shadow")),
+                    "{:?}",
+                    draft.passes
+                );
+                ensure!(draft.image != after.image, "the draft shows the further edit");
+                renderer.reuse_stale_shadow_maps(false);
+                let refined = renderer.render(ctx)?;
+                ensure!(!refined.shadow_cached, "the stale maps are made again once reuse ends");
+                instance.characters[0].hair = CharacterHair::Generated(std::sync::Arc::new(edited.clone()));
+                let fresh =
+                    SceneRenderer::from_instance(ctx, &instance, GenerationPath::Compute)?.render(ctx)?;
+                ensure!(
+                    refined.image == fresh.image,
+                    "then it renders what a fresh set-up of both edits does"
+                );
                 eprintln!(
                     "  {} vertices moved: {} bytes sent ({} texel columns, {} bundles)",
                     moves.len(),

@@ -9,13 +9,13 @@ use super::ScenePass;
 use crate::frame::{FrameIds, SceneRenderer};
 use crate::graph::{Access, FrameGraph};
 
-/// One pass per staged update, in the order they were staged, at the start of submission 0
-/// (the shadow maps' when they are rendered, else the first batch's).
-pub(crate) fn plan(r: &SceneRenderer, g: &mut FrameGraph<ScenePass>, ids: &FrameIds) {
+/// One pass per staged update, in the order they were staged, at the start of `submission`
+/// (the shadow maps' when they are made this frame, else the first batch's).
+pub(crate) fn plan(r: &SceneRenderer, g: &mut FrameGraph<ScenePass>, ids: &FrameIds, submission: usize) {
     for (k, (hair, revision)) in r.staged_hair_updates().into_iter().enumerate() {
         g.pass(format!("update hair {hair} (revision {revision})"))
             .write(ids.hair_uploads[hair], Access::TransferWrite)
-            .submission(0)
+            .submission(submission)
             .add(ScenePass::UpdateHair(k));
     }
 }
