@@ -52,7 +52,7 @@ pub const PRESETS: &[Preset] = &[
     },
     Preset {
         name: "Long wavy",
-        length: 1.1,
+        length: 0.75,
         layers: 6,
         shape: PresetShape::DrapeBack { lift: 0.04 },
         style: Style {
