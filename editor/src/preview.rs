@@ -50,7 +50,9 @@ pub struct PreviewScene {
 impl Default for PreviewScene {
     fn default() -> Self {
         Self {
-            effects: Effects::default(),
+            // Self-shadowing on: with the maps made by the compute rasterizer and drafts over
+            // the last maps, the preview keeps its latency targets with it (README).
+            effects: Effects { shadows: true, ..Effects::default() },
             lights: vec![
                 Light::Directional {
                     direction: [0.5, 0.8, 0.6],
