@@ -17,8 +17,12 @@ const uint SHADOW_MODE_DEPTH = 0u;
 const uint SHADOW_MODE_OPACITY = 1u;
 // Opacity of one strand fragment before coverage (shadow_opacity.frag's).
 const float STRAND_OPACITY = 0.5;
-// Fixed-point units per unit of opacity (4096: a sum overflows past a million fragments).
+// Fixed-point units per unit of opacity.
 const float SHADOW_OPACITY_SCALE = 4096.0;
+// Nothing is added to a layer holding this much (opacity 4096: its transmittance exp(-1.5 × 4096)
+// is 0 long before), so no sum can wrap around however dense the hair; a plain load first, so
+// saturated texels skip their atomics. Racing adds overshoot it by a few fragments at most.
+const uint SHADOW_OPACITY_LIMIT = 1u << 24;
 
 layout(push_constant) uniform ShadowRasterParams {
     mat4 model;            // object -> world (the shared walker's tangents; unused by the maps)
@@ -61,8 +65,9 @@ void shadow_fragment(uint pixel, float coverage, float ndc_z) {
         return;
     }
     for (uint layer = 0u; layer < 3u; ++layer) {
-        if (d <= raster.ends[layer]) {
-            atomicAdd(shadow_opacity_sums[texel * 4u + layer], add);
+        uint word = texel * 4u + layer;
+        if (d <= raster.ends[layer] && shadow_opacity_sums[word] < SHADOW_OPACITY_LIMIT) {
+            atomicAdd(shadow_opacity_sums[word], add);
         }
     }
 }

@@ -783,7 +783,9 @@ pub mod cpu {
                     (coverage.min(1.0) * crate::shadow::STRAND_OPACITY * crate::shadow::SHADOW_OPACITY_SCALE
                         + 0.5) as u32;
                 for layer in 0..3 {
-                    if d <= maps.ends[layer] {
+                    if d <= maps.ends[layer]
+                        && maps.opacity[texel][layer] < crate::shadow::SHADOW_OPACITY_LIMIT
+                    {
                         maps.opacity[texel][layer] += add;
                     }
                 }

@@ -123,6 +123,9 @@ pub struct ShadowPipelines {
 
 /// Fixed-point units per unit of opacity in the compute kernels' sums (`SHADOW_OPACITY_SCALE`).
 pub const SHADOW_OPACITY_SCALE: f32 = 4096.0;
+/// Nothing is added to a layer's sum once it holds this much (`SHADOW_OPACITY_LIMIT`): no sum
+/// wraps around, however dense the hair.
+pub const SHADOW_OPACITY_LIMIT: u32 = 1 << 24;
 /// Opacity of one strand fragment before coverage (`STRAND_OPACITY` of both paths).
 pub const STRAND_OPACITY: f32 = 0.5;
 

@@ -347,6 +347,31 @@ fn main() -> ExitCode {
                 "layers must be cumulative"
             );
             ensure!(opacity.iter().any(|o| o[2] > o[0]), "some hair lies beyond the first layer");
+            // Hair dense beyond any real groom (9,000 wide strands on one spot): the sums stop at
+            // their limit instead of wrapping around.
+            let spot = line(Vec3::new(-0.01, 0.0, 0.0), Vec3::new(0.01, 0.0, 0.0), 3);
+            let points: Vec<Vec3> = (0..9_000).flat_map(|_| spot.iter().copied()).collect();
+            let dense = StoredStrands::upload(ctx, &points, &vec![3; 9_000], 0.05, 1.0)?;
+            let (depth, _) = shadow.rasterize_stored(
+                ctx,
+                &dense,
+                &inputs,
+                &light,
+                render::shadow::ShadowMode::Depth,
+                None,
+            )?;
+            let (_, sums) = shadow.rasterize_stored(
+                ctx,
+                &dense,
+                &inputs,
+                &light,
+                render::shadow::ShadowMode::Opacity,
+                Some(&depth),
+            )?;
+            let limit = render::shadow::SHADOW_OPACITY_LIMIT;
+            let most = sums.iter().map(|o| o[2]).max().unwrap_or(0);
+            eprintln!("  dense spot: largest layer sum {most} (limit {limit})");
+            ensure!(most >= limit && most < limit + (1 << 20), "the sums stop at the limit: {most}");
             // Nothing of a strand behind the light reaches the maps.
             let behind = [(line(Vec3::new(-0.3, 0.0, 1.5), Vec3::new(0.3, 0.1, 2.0), 9), 0.01)];
             let (depth, opacity) = shadow_kernel_vs_port(ctx, &shadow, &inputs, &light, &behind)?;
