@@ -430,25 +430,26 @@ fn demo(o: &DemoOptions, device: &DeviceArgs) -> Result<()> {
         scene_path.display()
     );
     let mut compute_raster_ms = None;
+    // The same people through the triangle raster: the task + mesh path's picture when the
+    // compute rasterizer (which generates its own strands) draws the scene, and the comparison.
+    let mut triangles = scene.clone();
+    triangles.scene.effects.raster = render::scene::Raster::Triangles;
+    let effects = scene.scene.effects;
+    let compute_raster = render::raster::resolve_raster(effects.raster, &effects, ctx.capabilities())?
+        == render::raster::RasterPath::Compute;
     for path in paths {
-        let mut renderer = timed(&format!("{path} path: upload + pipelines"), || {
-            Ok(render::frame::SceneRenderer::new(&ctx, &scene, path)?)
+        let path_scene = if compute_raster && path != GenerationPath::Compute { &triangles } else { &scene };
+        let renderer = timed(&format!("{path} path: upload + pipelines"), || {
+            Ok(render::frame::SceneRenderer::new(&ctx, path_scene, path)?)
         })?;
         if renderer.raster() == render::raster::RasterPath::Compute {
-            if path == GenerationPath::Compute {
-                println!(
-                    "hair in the view and the shadow maps drawn by the compute rasterizer (generation fused into its kernels)"
-                );
-            } else {
-                // The compute rasterizer generates its own strands, so the task + mesh path is
-                // shown through the triangle raster, where it does the generating.
-                let mut triangles = scene.clone();
-                triangles.scene.effects.raster = render::scene::Raster::Triangles;
-                renderer = render::frame::SceneRenderer::new(&ctx, &triangles, path)?;
-                println!(
-                    "{path} path: generating for the triangle raster (the compute rasterizer fuses its own)"
-                );
-            }
+            println!(
+                "hair in the view and the shadow maps drawn by the compute rasterizer (generation fused into its kernels)"
+            );
+        } else if compute_raster {
+            println!(
+                "{path} path: generating for the triangle raster (the compute rasterizer fuses its own)"
+            );
         }
         if path == GenerationPath::Compute {
             println!("frame graph:\n{}", renderer.graph());
@@ -478,8 +479,6 @@ fn demo(o: &DemoOptions, device: &DeviceArgs) -> Result<()> {
     }
     // What the compute rasterizer saves: the same picture through the triangle raster.
     if let Some(compute_ms) = compute_raster_ms {
-        let mut triangles = scene.clone();
-        triangles.scene.effects.raster = render::scene::Raster::Triangles;
         let renderer = render::frame::SceneRenderer::new(&ctx, &triangles, GenerationPath::Compute)?;
         renderer.render(&ctx)?;
         let frame = renderer.render(&ctx)?;
