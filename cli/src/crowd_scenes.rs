@@ -175,7 +175,7 @@ fn crowd_scene(
         ],
         "characters": characters,
         "effects": { "transparency": "blended" },
-        "lod": { "enabled": true }
+        "lod": "auto"
     })
 }
 

@@ -116,7 +116,7 @@ fn main() -> ExitCode {
                 ("bench-stored.csv", 0, 2),
                 ("bench-accuracy.csv", 1, 9),
                 ("bench-effects.csv", 1, 3),
-                ("bench-crowd.csv", 1, 4),
+                ("bench-crowd.csv", 2, 6),
                 ("bench-memory.csv", 1, 5),
                 ("bench-shadows.csv", 1, 6),
             ] {

@@ -150,6 +150,17 @@ fn main() -> ExitCode {
                     Box::new(|v| v["characters"][0]["style"] = serde_json::json!({"curly": 1})),
                     "characters[0].style",
                 ),
+                ("lod_word.json", Box::new(|v| v["lod"] = "fast".into()), "expected \"auto\" or an object"),
+                (
+                    "lod_field.json",
+                    Box::new(|v| v["lod"] = serde_json::json!({ "strand_alfa": 2 })),
+                    "unknown field `strand_alfa`",
+                ),
+                (
+                    "lod_error.json",
+                    Box::new(|v| v["lod"] = serde_json::json!({ "vertex_error_pixels": -1 })),
+                    "lod.vertex_error_pixels",
+                ),
             ];
             for (name, edit, expected) in cases {
                 let mut v = base.clone();

@@ -37,6 +37,7 @@ struct GenParams {
     vec4 stray;          // fraction, amplitude, -, -
     uvec4 seed_info;     // x: style seed; y: triangle set base (index of the first triangle set); z, w: -
     vec4 viewport;       // x: width, y: height in pixels
+    vec4 lod_error;      // x: style-aware vertex LOD's error bound epsilon in pixels (0: off); yzw: -
 };
 
 struct Bundle {
@@ -339,6 +340,42 @@ float detail_level(float h, float d, float alpha) {
     return isnan(l) ? 1.0 : clamp(l, 0.0, 1.0);
 }
 
+// Pixels per object unit at distance d (reference.rs pixels_per_unit); 0 when not measurable.
+float pixels_per_unit(float d) {
+    float half_view = params.projection.z > 0.5 ? params.projection.y : d * params.projection.x;
+    float p = params.eye.w / (2.0 * half_view);
+    return (p > 0.0 && !isinf(p)) ? p : 0.0;
+}
+
+// The vertex-LOD x a periodic style term asks for (reference.rs style_term_level): amplitude
+// and periods along the strand, at `pixels` per unit; NO_STYLE_LEVEL when nothing.
+const float NO_STYLE_LEVEL = -1e30;
+float style_term_level(float amplitude, float periods, float pixels, float error_pixels, float lambda) {
+    float a = abs(amplitude) * pixels;
+    float c = abs(periods);
+    if (!(4.0 * a > error_pixels) || !(error_pixels > 0.0) || isinf(a) || isinf(c) || isnan(c)) {
+        return NO_STYLE_LEVEL;
+    }
+    // Formula from a = eps/2 (n = c there), a ramp from 0 between eps/4 and eps/2.
+    float x = 2.0 * a >= error_pixels ? log2(3.14159265358979 * c / acos(1.0 - error_pixels / a)) + lambda
+                                      : (4.0 * a / error_pixels - 1.0) * (log2(c) + lambda);
+    return (isnan(x) || isinf(x)) ? NO_STYLE_LEVEL : x;
+}
+
+// The vertex-LOD x the style asks for on a strand of length h at distance d (reference.rs
+// style_level): curl, wave and frizz (with the strays' amplitude when there are strays).
+float style_level(float h, float d, float lambda) {
+    float error_pixels = params.lod_error.x;
+    if (!(error_pixels > 0.0)) {
+        return NO_STYLE_LEVEL;
+    }
+    float pixels = pixels_per_unit(d);
+    float frizz = abs(params.wave_frizz.z) + (params.stray.x > 0.0 ? abs(params.stray.y) : 0.0);
+    float x = style_term_level(params.curl.x, params.curl.y * h, pixels, error_pixels, lambda);
+    x = max(x, style_term_level(params.wave_frizz.x, params.wave_frizz.y * h, pixels, error_pixels, lambda));
+    return max(x, style_term_level(frizz, 0.5 * params.wave_frizz.w * h, pixels, error_pixels, lambda));
+}
+
 bool bundle_visible(uint bundle) {
     vec3 lo = bundles[bundle].bounds_min.xyz;
     vec3 hi = bundles[bundle].bounds_max.xyz;
@@ -382,6 +419,10 @@ BundleLod bundle_lod(uint bundle) {
     float lv = detail_level(b.bounds_max.w, d, params.lod.z);
     float x = log2(lv * float(1u << e_max));
     float lambda = max(params.lod.w, 1e-6);
+    float styled = style_level(b.bounds_max.w, d, lambda);
+    if (styled > x || isnan(x)) {
+        x = styled;
+    }
     uint level = isnan(x) ? 0u : uint(clamp(ceil(x), 0.0, float(e_max)));
     uint coarse = isnan(x - lambda) ? 0u : uint(clamp(ceil(x - lambda), 0.0, float(e_max)));
     l.level = level;

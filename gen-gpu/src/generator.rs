@@ -142,6 +142,7 @@ pub(crate) struct GenParams {
     stray: [f32; 4],
     seed_info: [u32; 4],
     viewport: [f32; 4],
+    lod_error: [f32; 4],
 }
 
 pub use crate::contract::{MAX_VERTICES, VERTEX_BYTES};
@@ -783,5 +784,6 @@ fn params(hair: &GpuHair, inputs: &FrameInputs, capacity: u64, chunk_slots: u64)
             chunk_slots as u32,
         ],
         viewport: [inputs.viewport[0] as f32, inputs.viewport[1] as f32, 0.0, 0.0],
+        lod_error: [if lod.enabled { f(lod.vertex_error_pixels) } else { 0.0 }, 0.0, 0.0, 0.0],
     }
 }

@@ -19,6 +19,22 @@
 //! when `e > ē` odd vertices morph `p′_k = (1−γ) p_k + γ (p_{k−1}+p_{k+1})/2`,
 //! `γ = clamp(1 − (x − ē)/λ, 0, 1)`, and tangents blend the same way between the full set's
 //! and the even-only set's tangents.
+//!
+//! **Style-aware vertex LOD** ([`LodParams::vertex_error_pixels`] `ε > 0`): the linear rule
+//! above gives every strand the same number of segments per pixel of its length, which keeps
+//! straight hair but straightens curls and frizz that are still several pixels wide. Each
+//! periodic style term — curl (radius `A`, `f·h` turns along a hair of length `h`), wave
+//! (amplitude, `f·h` waves) and frizz (amplitude, plus the strays' when there are strays; value
+//! noise with `f·h` lattice cells, about `f·h/2` periods) — deviates from a chord spanning a
+//! phase step `φ` by at most `A·(1 − cos(φ/2))`. With `a = A·P` its amplitude in pixels (`P`
+//! pixels per object unit at the bundle's distance: `R / (2·d·tan(θ/2))`), a term needs
+//! `n = π·c / acos(1 − ε/a)` segments for `c` periods to stay within `ε` pixels; a term with
+//! `2a < ε` is within the error whatever is drawn, and its level ramps in from 0 between
+//! `a = ε/4` and `ε/2` so that levels change continuously with distance ([`style_term_level`]). Vertex LOD then takes
+//! `x = max(log2(L·2^E), log2(n) + λ)` over the terms — a strand at `x` is level `⌈x⌉` morphed
+//! toward `⌈x − λ⌉`, so the coarser of the two must already meet the error — and the levels,
+//! the morph band and the cap `E` work as before (a curl finer than `2^E` segments can draw
+//! stays at `E`).
 
 use glam::{DVec2, DVec3};
 use serde::{Deserialize, Serialize};
@@ -63,6 +79,11 @@ pub struct LodParams {
     pub max_segments_log2: u32,
     /// λ: width of the morph band in LOD levels.
     pub morph_band: f64,
+    /// ε: the most, in pixels, a periodic style term (curl, wave, frizz) may deviate from the
+    /// drawn polyline; vertex LOD keeps at least the segments that takes (module docs). 0 (the
+    /// default) is the linear rule alone.
+    #[serde(default)]
+    pub vertex_error_pixels: f64,
 }
 
 impl Default for LodParams {
@@ -73,6 +94,7 @@ impl Default for LodParams {
             vertex_alpha: 1.0,
             max_segments_log2: MAX_SEGMENTS_LOG2,
             morph_band: 1.0,
+            vertex_error_pixels: 0.0,
         }
     }
 }
@@ -111,6 +133,71 @@ pub fn detail_level(h: f64, d: f64, alpha: f64, view: &ViewParams) -> f64 {
     if l.is_nan() { 1.0 } else { l.clamp(0.0, 1.0) }
 }
 
+/// Pixels per object unit at distance `d` (`R / (2·d·tan(θ/2))`, or `R / H` orthographic); 0
+/// when that is not measurable (the eye at the point, a degenerate view).
+pub fn pixels_per_unit(d: f64, view: &ViewParams) -> f64 {
+    let half_view = match view.projection {
+        Projection::Perspective { fov_y } => d * (0.5 * fov_y).tan(),
+        Projection::Orthographic { height } => 0.5 * height,
+    };
+    let p = view.vertical_resolution / (2.0 * half_view);
+    if p.is_finite() && p > 0.0 { p } else { 0.0 }
+}
+
+/// The vertex-LOD `x` a style term of amplitude `amplitude` (object units) with `periods`
+/// periods along the strand asks for at `pixels` pixels per object unit (module docs):
+/// `log2(n) + λ` with `n = π·c / acos(1 − ε/a)` segments while its amplitude `a` in pixels is
+/// at least `ε/2` (below, every polyline is within `2a < ε` of it); between `ε/4` and `ε/2` a
+/// ramp from 0 (one segment) up to that value, so that levels change continuously with
+/// distance (a term switching on would otherwise add `log2(c) + λ` at once); `−∞` (nothing)
+/// under `ε/4` or when not measurable.
+pub fn style_term_level(
+    amplitude: f64,
+    periods: f64,
+    pixels: f64,
+    error_pixels: f64,
+    morph_band: f64,
+) -> f64 {
+    let a = amplitude.abs() * pixels;
+    let c = periods.abs();
+    // An unmeasurable term (NaN, infinite) asks for nothing.
+    let counts = a.is_finite() && c.is_finite() && error_pixels > 0.0 && 4.0 * a > error_pixels;
+    if !counts {
+        return f64::NEG_INFINITY;
+    }
+    let lambda = morph_band.max(1e-6);
+    let x = if 2.0 * a >= error_pixels {
+        (std::f64::consts::PI * c / (1.0 - error_pixels / a).acos()).log2() + lambda
+    } else {
+        // At a = ε/2 the formula gives n = c (acos(−1) = π).
+        (4.0 * a / error_pixels - 1.0) * (c.log2() + lambda)
+    };
+    if x.is_nan() { f64::NEG_INFINITY } else { x }
+}
+
+/// The vertex-LOD `x` the asset's style asks for on a strand of length `length` at `pixels`
+/// pixels per object unit (`−∞`: nothing beyond the linear rule): the largest of its curl,
+/// wave and frizz terms.
+pub fn style_level(
+    style: &crate::style::Style,
+    length: f64,
+    pixels: f64,
+    error_pixels: f64,
+    morph_band: f64,
+) -> f64 {
+    let frizz = style.frizz.amplitude.abs()
+        + if style.stray.fraction > 0.0 { style.stray.amplitude.abs() } else { 0.0 };
+    let terms = [
+        (style.curl.radius, style.curl.frequency * length),
+        (style.wave.amplitude, style.wave.frequency * length),
+        (frizz, 0.5 * style.frizz.frequency * length),
+    ];
+    terms
+        .iter()
+        .map(|&(a, c)| style_term_level(a, c, pixels, error_pixels, morph_band))
+        .fold(f64::NEG_INFINITY, f64::max)
+}
+
 /// LOD of bundle `b` seen from `view`.
 pub fn bundle_lod(asset: &HairAsset, bundle: u32, view: &ViewParams, lod: &LodParams) -> BundleLod {
     let info = &asset.bundles[bundle as usize];
@@ -132,7 +219,17 @@ pub fn bundle_lod(asset: &HairAsset, bundle: u32, view: &ViewParams, lod: &LodPa
     let strands = ((ls * n - bundle_delta(bundle)).ceil()).clamp(1.0, n) as u32;
     let width_scale = if ls > 0.0 { (1.0 / ls).min(n) } else { n };
     let lv = detail_level(info.length, d, lod.vertex_alpha, view);
-    let x = (lv * f64::from(1u32 << e_max)).log2();
+    let mut x = (lv * f64::from(1u32 << e_max)).log2();
+    let styled = style_level(
+        &asset.style,
+        info.length,
+        pixels_per_unit(d, view),
+        lod.vertex_error_pixels,
+        lod.morph_band,
+    );
+    if styled > x || x.is_nan() {
+        x = styled;
+    }
     let lambda = lod.morph_band.max(1e-6);
     let clamp_level = |v: f64| if v.is_nan() { 0 } else { v.ceil().clamp(0.0, f64::from(e_max)) as u32 };
     let level = clamp_level(x);

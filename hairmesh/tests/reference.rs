@@ -4,7 +4,7 @@
 use glam::DVec3;
 use hairmesh::asset::{AssetParams, HairAsset, StrandCount};
 use hairmesh::hair_mesh::{ExtrudeParams, HairMesh};
-use hairmesh::reference::{LodParams, Projection, ViewParams, bundle_lod};
+use hairmesh::reference::{LodParams, Projection, ViewParams, bundle_lod, style_term_level};
 use hairmesh::rng::SplitMix64;
 use hairmesh::style::{Clump, Curl, Frizz, Style, Wave};
 use hairmesh::{BundleFace, ScalpMesh};
@@ -120,13 +120,22 @@ fn lod_extremes_stay_valid() {
 fn vertex_lod_morph_is_continuous() {
     let mut rng = SplitMix64::new(7);
     let asset = asset_of(&patch(2, DVec3::ZERO, 1.0, &mut rng), 4, 2.0, styled(), 60);
-    // Find distances where the vertex level changes, and compare both sides of each change.
-    let lod = LodParams::default();
+    assert_morph_continuous(&asset, &LodParams::default(), 1.003, 5000);
+    // The style-aware rule moves where the levels change, not how they change (its x changes
+    // faster with distance where a curl nears ε: finer steps).
+    let aware = LodParams { vertex_alpha: 1024.0, vertex_error_pixels: 0.5, ..LodParams::default() };
+    assert_morph_continuous(&asset, &aware, 1.0002, 40000);
+}
+
+/// Steps the distance by `ratio` from 1, finds where the vertex level changes and compares both
+/// sides of each change.
+fn assert_morph_continuous(asset: &HairAsset, lod: &LodParams, ratio: f64, steps: i32) {
+    let lod = *lod;
     let mut previous: Option<(f64, hairmesh::reference::BundleLod)> = None;
     let mut transitions = 0;
-    for i in 0..5000 {
-        let d = 1.003f64.powi(i);
-        let l = bundle_lod(&asset, 0, &view_at(d), &lod);
+    for i in 0..steps {
+        let d = ratio.powi(i);
+        let l = bundle_lod(asset, 0, &view_at(d), &lod);
         if let Some((_, prev)) = previous
             && prev.level != l.level
         {
@@ -151,13 +160,104 @@ fn vertex_lod_morph_is_continuous() {
         }
         previous = Some((d, l));
     }
-    assert!(transitions >= 3, "only {transitions} level changes seen");
+    assert!(transitions >= 3, "only {transitions} level changes seen with {lod:?}");
     // γ = 0 is the full set: equal to the unmorphed strand at that level.
-    let mut l = bundle_lod(&asset, 0, &view_at(1.0), &lod);
+    let mut l = bundle_lod(asset, 0, &view_at(1.0), &lod);
     l.gamma = 0.0;
     let unmorphed =
         asset.generate_strand(0, 0, &hairmesh::reference::BundleLod { coarse_level: l.level, ..l });
     assert_eq!(asset.generate_strand(0, 0, &l).positions, unmorphed.positions);
+}
+
+#[test]
+fn style_term_levels_bound_the_chord_error_and_change_continuously() {
+    // A curl of radius `a` pixels and `c` turns drawn with n segments: each chord spans 2πc/n
+    // of phase and its midpoint lies a·(1 − cos(πc/n)) inside the circle, the largest deviation.
+    let chord_error = |a: f64, c: f64, n: f64| a * (1.0 - (std::f64::consts::PI * c / n).cos());
+    let lambda = 1.0;
+    let mut checked = 0;
+    for a in [0.2, 0.3, 0.6, 1.0, 3.0, 20.0, 300.0] {
+        for c in [0.5, 3.0, 12.0] {
+            for eps in [0.25, 0.5, 1.0] {
+                let x = style_term_level(a, c, 1.0, eps, lambda);
+                if 4.0 * a <= eps {
+                    assert_eq!(x, f64::NEG_INFINITY, "a {a}: the whole curl is well within ε {eps}");
+                    continue;
+                }
+                assert!(x.is_finite(), "a {a} c {c} ε {eps}: {x}");
+                if 2.0 * a < eps {
+                    continue; // the ramp: any polyline is within 2a < ε
+                }
+                // The coarser level of the morph band already meets the error.
+                let drawn = 2f64.powf(x - lambda).ceil();
+                assert!(chord_error(a, c, drawn) <= eps + 1e-9, "a {a} c {c} ε {eps}: {drawn} segments");
+                // Tight: half as many segments (while a chord spans at most half a turn) exceed ε.
+                if (drawn / 2.0).floor() >= c {
+                    assert!(chord_error(a, c, (drawn / 2.0).floor()) > eps, "a {a} c {c} ε {eps}: not tight");
+                }
+                checked += 1;
+            }
+        }
+    }
+    assert!(checked > 20, "{checked}");
+    // Continuous in the amplitude: from 0 where the term starts to count (a = ε/4), through the
+    // end of the ramp (a = ε/2), so vertex levels never jump as a character recedes.
+    for c in [0.5, 3.0, 12.0] {
+        let eps = 0.5;
+        let level = |a: f64| style_term_level(a, c, 1.0, eps, lambda);
+        assert!(level(0.25 * eps * (1.0 + 1e-9)).abs() < 1e-6);
+        assert!((level(0.5 * eps * (1.0 - 1e-9)) - level(0.5 * eps)).abs() < 1e-6, "c {c}");
+        let mut previous = level(0.25 * eps * 1.0001);
+        for k in 1..2000 {
+            let x = level(0.25 * eps * (1.0001 + k as f64 * 0.002));
+            assert!(x >= previous - 1e-9 && x - previous < 0.05, "c {c}: {previous} → {x}");
+            previous = x;
+        }
+    }
+    // Scale: amplitude in object units times pixels per unit; a zero error bound or a NaN asks
+    // for nothing.
+    let x = style_term_level(0.01, 4.0, 100.0, 0.5, lambda);
+    assert!((x - style_term_level(1.0, 4.0, 1.0, 0.5, lambda)).abs() < 1e-12);
+    assert_eq!(style_term_level(1.0, 4.0, 1.0, 0.0, lambda), f64::NEG_INFINITY);
+    assert_eq!(style_term_level(f64::NAN, 4.0, 1.0, 0.5, lambda), f64::NEG_INFINITY);
+    assert_eq!(style_term_level(1.0, 4.0, f64::INFINITY, 0.5, lambda), f64::NEG_INFINITY);
+}
+
+#[test]
+fn style_aware_vertex_lod_keeps_curls_a_pixel_wide() {
+    let mut rng = SplitMix64::new(9);
+    let scalp = patch(2, DVec3::ZERO, 1.0, &mut rng);
+    let curly = Style { curl: Curl { radius: 0.02, frequency: 4.0, phase: 0.0 }, ..Style::default() };
+    let straight = Style::default();
+    let linear = LodParams { vertex_alpha: 1024.0, ..LodParams::default() };
+    let aware = LodParams { vertex_error_pixels: 0.5, ..linear };
+    let (mut finer, mut same_far) = (0, false);
+    let mut last_level = u32::MAX;
+    let curly_asset = asset_of(&scalp, 4, 2.0, curly, 20);
+    let straight_asset = asset_of(&scalp, 4, 2.0, straight, 20);
+    for i in 0..400 {
+        let d = 0.5 * 1.02f64.powi(i);
+        let view = view_at(d);
+        let (a, l) =
+            (bundle_lod(&curly_asset, 0, &view, &aware), bundle_lod(&curly_asset, 0, &view, &linear));
+        assert!(a.level >= l.level, "d {d}: the error bound only adds segments");
+        assert!(a.level <= last_level, "d {d}: level {} after {last_level} nearer", a.level);
+        last_level = a.level;
+        finer += usize::from(a.level > l.level);
+        // Straight hair has nothing the rule keeps: the linear rule alone.
+        assert_eq!(
+            bundle_lod(&straight_asset, 0, &view, &aware),
+            bundle_lod(&straight_asset, 0, &view, &linear)
+        );
+        // Far enough that the curl's radius is below ε/4, only the linear rule counts.
+        let pixels = hairmesh::reference::pixels_per_unit(d, &view);
+        if 4.0 * 0.02 * pixels <= 0.5 {
+            assert_eq!(a, l, "d {d}: a sub-pixel curl keeps nothing");
+            same_far = true;
+        }
+    }
+    assert!(finer > 50, "the curl kept extra segments at only {finer} distances");
+    assert!(same_far, "no distance far enough for the curl to vanish");
 }
 
 #[test]

@@ -682,6 +682,17 @@ impl SceneRenderer {
                 shadow.compute = Some(crate::shadow::ComputeShadow::new(ctx)?);
             }
         }
+        // `"lod": "auto"` draws small characters as volumes wherever the compute rasterizer
+        // draws the hair (the volume LOD path writes into its visibility buffer).
+        let mut effects = effects;
+        // Only characters small enough that the volume keeps the image within the LOD's FLIP
+        // (crate::scene::AUTO_VOLUME_PIXELS); a scene that asks for `volume_lod` itself keeps
+        // its own threshold.
+        if raster == RasterPath::Compute && self.scene.scene.lod.auto && !effects.volume_lod {
+            effects.volume_lod = true;
+            effects.volume_lod_pixels = crate::scene::AUTO_VOLUME_PIXELS;
+            self.scene.scene.effects = effects;
+        }
         // AO and volume shadows work on either rasterizer; the volume LOD path needs the
         // compute rasterizer (the scene is refused otherwise).
         if effects.uses_volumes() {
@@ -756,12 +767,7 @@ impl SceneRenderer {
             width: s.output.width,
             height: s.output.height,
             path: self.path,
-            lod: LodParams {
-                enabled: s.lod.enabled,
-                strand_alpha: s.lod.strand_alpha,
-                vertex_alpha: s.lod.vertex_alpha,
-                ..LodParams::default()
-            },
+            lod: s.lod.params(),
         }
     }
 

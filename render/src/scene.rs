@@ -8,7 +8,7 @@
 //!   "characters": [ { "hair": "hair/head_cap_long", "transform": { "translation": [0, 0, 0] },
 //!                     "color": [0.073, 0.027, 0.01], "style": { "curl": { "radius": 0.003 } } } ],
 //!   "effects": { "transparency": "opaque", "shadows": false },
-//!   "lod": { "enabled": true, "strand_alpha": 1, "vertex_alpha": 1 }
+//!   "lod": "auto"
 //! }
 //! ```
 //!
@@ -35,7 +35,8 @@
 //! instead of drawing their strands (needs the compute rasterizer); `volume_resolution` bounds
 //! the volumes (`render::volume`). `dynamics` simulates the hair meshes of the characters with
 //! a `dynamics` block (`crate::animation`; needs `"animation": {"frames": N, "fps": R}`), and a
-//! character's `motion` moves its head (keys and swings about a pivot). Effects that are not
+//! character's `motion` moves its head (keys and swings about a pivot). `lod` is `"auto"` or
+//! explicit α ([`LodDesc`]). Effects that are not
 //! built yet (shadows from a point light inside the casters) are refused with a clear "not
 //! supported yet".
 
@@ -508,17 +509,138 @@ impl Default for Effects {
     }
 }
 
-#[derive(Clone, Copy, Debug, Deserialize, Serialize, PartialEq)]
-#[serde(deny_unknown_fields, default)]
+/// Level of detail: `"lod": "auto"`, or explicit settings
+/// `{"enabled": true, "strand_alpha": 1, "vertex_alpha": 1, "vertex_error_pixels": 0}`.
+///
+/// Explicit settings apply the same α to every character (`hairmesh::reference` has the
+/// formulas). `"auto"` is [`LodDesc::AUTO`]: strand and vertex LOD with the α and the
+/// style-aware vertex error measured to keep a crowd within a mean FLIP of
+/// [`AUTO_LOD_FLIP`] of its full-detail render (docs/benchmarks.md, "Automatic LOD"), and, when
+/// the hair goes through the compute rasterizer, the volume LOD path for characters at most
+/// [`AUTO_VOLUME_PIXELS`] on screen (with its transition band), as if `volume_lod` were on.
+#[derive(Clone, Copy, Debug, PartialEq)]
 pub struct LodDesc {
     pub enabled: bool,
     pub strand_alpha: f64,
     pub vertex_alpha: f64,
+    /// Style-aware vertex LOD: the most a curl, wave or frizz may deviate from the drawn
+    /// polyline, in pixels (`hairmesh::reference::LodParams::vertex_error_pixels`; 0: off).
+    pub vertex_error_pixels: f64,
+    /// Written as `"auto"`: also draws small characters as volumes on the compute rasterizer.
+    pub auto: bool,
+}
+
+/// The image error `"lod": "auto"` is measured to stay within (mean FLIP against LOD off).
+pub const AUTO_LOD_FLIP: f64 = 0.05;
+
+/// `"lod": "auto"` raymarches characters at most this many pixels on screen (the larger side of
+/// their hair's projected bounds; `effects.volume_lod_pixels` when the scene turns
+/// `volume_lod` on itself): a crowd of larger volumes differs visibly from its strands
+/// (measured on the 200 curly teapots of `hairkit crowd` at 1280×720 with auto's strand and
+/// vertex LOD: mean FLIP 0.032 with strands only, 0.036 raymarching the 85 teapots under
+/// 48 pixels, 0.049–0.051 under 64, 0.07–0.10 under 128–256).
+pub const AUTO_VOLUME_PIXELS: f32 = 48.0;
+
+impl LodDesc {
+    /// `"lod": "auto"`.
+    pub const AUTO: Self =
+        Self { enabled: true, strand_alpha: 8.0, vertex_alpha: 1024.0, vertex_error_pixels: 0.5, auto: true };
+
+    /// LOD off: every strand, every vertex.
+    pub const OFF: Self = Self { enabled: false, ..Self::EXPLICIT_DEFAULT };
+
+    const EXPLICIT_DEFAULT: Self =
+        Self { enabled: true, strand_alpha: 1.0, vertex_alpha: 1.0, vertex_error_pixels: 0.0, auto: false };
+
+    /// Explicit strand and vertex α (the linear rule alone).
+    pub fn alphas(strand_alpha: f64, vertex_alpha: f64) -> Self {
+        Self { strand_alpha, vertex_alpha, ..Self::EXPLICIT_DEFAULT }
+    }
+
+    /// The generator's LOD parameters.
+    pub fn params(&self) -> hairmesh::reference::LodParams {
+        hairmesh::reference::LodParams {
+            enabled: self.enabled,
+            strand_alpha: self.strand_alpha,
+            vertex_alpha: self.vertex_alpha,
+            vertex_error_pixels: self.vertex_error_pixels,
+            ..hairmesh::reference::LodParams::default()
+        }
+    }
 }
 
 impl Default for LodDesc {
     fn default() -> Self {
-        Self { enabled: true, strand_alpha: 1.0, vertex_alpha: 1.0 }
+        Self::EXPLICIT_DEFAULT
+    }
+}
+
+/// The explicit form of [`LodDesc`] as written in a file.
+#[derive(Deserialize, Serialize)]
+#[serde(deny_unknown_fields, default)]
+struct ExplicitLod {
+    enabled: bool,
+    strand_alpha: f64,
+    vertex_alpha: f64,
+    vertex_error_pixels: f64,
+}
+
+impl Default for ExplicitLod {
+    fn default() -> Self {
+        let d = LodDesc::default();
+        Self {
+            enabled: d.enabled,
+            strand_alpha: d.strand_alpha,
+            vertex_alpha: d.vertex_alpha,
+            vertex_error_pixels: d.vertex_error_pixels,
+        }
+    }
+}
+
+impl Serialize for LodDesc {
+    fn serialize<S: serde::Serializer>(&self, serializer: S) -> Result<S::Ok, S::Error> {
+        if *self == Self::AUTO {
+            return serializer.serialize_str("auto");
+        }
+        ExplicitLod {
+            enabled: self.enabled,
+            strand_alpha: self.strand_alpha,
+            vertex_alpha: self.vertex_alpha,
+            vertex_error_pixels: self.vertex_error_pixels,
+        }
+        .serialize(serializer)
+    }
+}
+
+impl<'de> Deserialize<'de> for LodDesc {
+    fn deserialize<D: serde::Deserializer<'de>>(deserializer: D) -> Result<Self, D::Error> {
+        struct LodVisitor;
+        impl<'de> serde::de::Visitor<'de> for LodVisitor {
+            type Value = LodDesc;
+            fn expecting(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+                f.write_str(
+                    "\"auto\" or an object with enabled, strand_alpha, vertex_alpha, vertex_error_pixels",
+                )
+            }
+            fn visit_str<E: serde::de::Error>(self, v: &str) -> Result<LodDesc, E> {
+                match v {
+                    "auto" => Ok(LodDesc::AUTO),
+                    other => Err(E::invalid_value(serde::de::Unexpected::Str(other), &self)),
+                }
+            }
+            fn visit_map<A: serde::de::MapAccess<'de>>(self, map: A) -> Result<LodDesc, A::Error> {
+                // The derived struct's errors (unknown fields, types) keep their positions.
+                let e = ExplicitLod::deserialize(serde::de::value::MapAccessDeserializer::new(map))?;
+                Ok(LodDesc {
+                    enabled: e.enabled,
+                    strand_alpha: e.strand_alpha,
+                    vertex_alpha: e.vertex_alpha,
+                    vertex_error_pixels: e.vertex_error_pixels,
+                    auto: false,
+                })
+            }
+        }
+        deserializer.deserialize_any(LodVisitor)
     }
 }
 
@@ -793,6 +915,12 @@ fn validate_with(loaded: &LoadedScene, characters: bool) -> Result<(), SceneErro
     {
         return Err(invalid("lod", "alphas must be positive".into()));
     }
+    if !(l.vertex_error_pixels.is_finite() && l.vertex_error_pixels >= 0.0) {
+        return Err(invalid(
+            "lod.vertex_error_pixels",
+            format!("{} (expected a number of pixels, at least 0)", l.vertex_error_pixels),
+        ));
+    }
     let e = s.effects;
     if ![1, 2, 4, 8].contains(&e.msaa) {
         return Err(invalid("effects.msaa", format!("{} (expected 1, 2, 4 or 8)", e.msaa)));
@@ -957,5 +1085,36 @@ fn merge(base: &mut serde_json::Value, overrides: &serde_json::Value) {
             }
         }
         (b, o) => *b = o.clone(),
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::LodDesc;
+
+    #[test]
+    fn lod_reads_auto_or_explicit_settings_and_writes_them_back() {
+        let auto: LodDesc = serde_json::from_str("\"auto\"").expect("auto");
+        assert_eq!(auto, LodDesc::AUTO);
+        assert_eq!(serde_json::to_string(&auto).expect("write"), "\"auto\"");
+        let explicit: LodDesc = serde_json::from_str(r#"{"strand_alpha": 4}"#).expect("explicit");
+        assert_eq!(explicit, LodDesc { strand_alpha: 4.0, ..LodDesc::default() });
+        assert!(!explicit.auto);
+        let again: LodDesc =
+            serde_json::from_str(&serde_json::to_string(&explicit).expect("write")).expect("read");
+        assert_eq!(again, explicit);
+        // The automatic values written out explicitly are explicit settings (no volumes).
+        let spelled = LodDesc { auto: false, ..LodDesc::AUTO };
+        let read: LodDesc =
+            serde_json::from_str(&serde_json::to_string(&spelled).expect("write")).expect("read");
+        assert_eq!(read, spelled);
+        for (bad, says) in [
+            ("\"fast\"", "expected \"auto\" or an object"),
+            (r#"{"strand_alfa": 2}"#, "unknown field `strand_alfa`"),
+            ("3", "expected \"auto\" or an object"),
+        ] {
+            let e = serde_json::from_str::<LodDesc>(bad).expect_err(bad).to_string();
+            assert!(e.contains(says), "{bad}: {e}");
+        }
     }
 }

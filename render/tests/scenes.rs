@@ -336,8 +336,7 @@ fn main() -> ExitCode {
                 let prepasses = full.passes.iter().filter(|p| p.starts_with("hair depth prepass")).count();
                 ensure!(prepasses == usize::from(mode == "blended"), "{mode}: {:?}", full.passes);
                 ensure!(full.passes.iter().any(|p| p == &format!("raster hair (compute, {mode})")));
-                scene.scene.lod =
-                    render::scene::LodDesc { enabled: true, strand_alpha: 16.0, vertex_alpha: 1.0 };
+                scene.scene.lod = render::scene::LodDesc::alphas(16.0, 1.0);
                 let lod = SceneRenderer::new(ctx, &scene, GenerationPath::Compute)?.render(ctx)?;
                 ensure!(lod.stats.strands * 2 < full.stats.strands, "{:?} vs {:?}", lod.stats, full.stats);
                 let loose = Tolerance { mean: 1.0, percentile: (0.99, 1.0) };

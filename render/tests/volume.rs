@@ -18,7 +18,7 @@ use hairmesh::asset::HairAsset;
 use hairmesh::reference::LodParams;
 use render::frame::{RenderedFrame, SceneRenderer};
 use render::instance::{CharacterHair, SceneInstance};
-use render::scene::{LoadedScene, load_scene};
+use render::scene::{AUTO_LOD_FLIP, LoadedScene, LodDesc, load_scene};
 use render::volume::cpu;
 
 /// `one_character` at `size` with `effects` (the compute rasterizer unless they say otherwise)
@@ -148,6 +148,56 @@ fn main() -> ExitCode {
             ensure!(differ == 0, "{differ} bricks differ");
             Ok(())
         }),
+        GpuTest::new(
+            "lod_auto_stays_within_its_flip_and_raymarches_only_small_characters",
+            Requirements::INT64_ATOMICS,
+            |ctx| {
+                // `"lod": "auto"` against LOD off, near (strands, thinned) and far (the volume).
+                let mut saved = Vec::new();
+                for (distance, volumes) in [(1.0, 0), (2.0, 0), (8.0, 1)] {
+                    let mut auto = scene((256, 192), serde_json::json!({}), distance)?;
+                    auto.scene.lod = LodDesc::AUTO;
+                    let mut off = auto.clone();
+                    off.scene.lod = LodDesc::OFF;
+                    let a = SceneRenderer::new(ctx, &auto, GenerationPath::Compute)?.render(ctx)?;
+                    let o = SceneRenderer::new(ctx, &off, GenerationPath::Compute)?.render(ctx)?;
+                    write(&a, &format!("auto-{distance}"))?;
+                    let any = Tolerance { mean: 1.0, percentile: (0.99, 1.0) };
+                    let flip = compare(&format!("lod_auto_{distance}"), &a.image, &o.image, any)
+                        .map_err(anyhow::Error::msg)?;
+                    eprintln!(
+                        "  {distance}× the distance: auto draws {} strands / {} vertices ({} volumes), LOD off {} / {}; FLIP {:.4}",
+                        a.stats.strands,
+                        a.stats.vertices,
+                        a.volume_characters,
+                        o.stats.strands,
+                        o.stats.vertices,
+                        flip.mean
+                    );
+                    saved.push(a.stats.vertices as f64 / o.stats.vertices as f64);
+                    ensure!(
+                        f64::from(flip.mean) <= AUTO_LOD_FLIP,
+                        "{distance}×: FLIP {} over {AUTO_LOD_FLIP}",
+                        flip.mean
+                    );
+                    ensure!(a.volume_characters == volumes, "{distance}×: {} volumes", a.volume_characters);
+                    let voxelizes = a.passes.iter().any(|p| p.starts_with("voxelize"));
+                    ensure!(voxelizes == (volumes > 0), "{distance}×: {:?}", a.passes);
+                }
+                ensure!(saved[1] < 0.7, "auto should thin the hair at twice the distance: {saved:?}");
+                // On the triangle raster auto keeps strands (the volume path draws through the compute
+                // rasterizer's buffers), and plans no volume at all.
+                let mut triangles = scene((256, 192), serde_json::json!({ "raster": "triangles" }), 8.0)?;
+                triangles.scene.lod = LodDesc::AUTO;
+                let t = SceneRenderer::new(ctx, &triangles, GenerationPath::Compute)?.render(ctx)?;
+                ensure!(
+                    t.volume_characters == 0 && !t.passes.iter().any(|p| p.contains("voxel")),
+                    "{:?}",
+                    t.passes
+                );
+                Ok(())
+            },
+        ),
         GpuTest::new("volume_lod_matches_the_strands_at_a_distance", Requirements::INT64_ATOMICS, |ctx| {
             // The tolerances shrink with distance: up close a voxel is several pixels.
             let mut previous = f32::INFINITY;

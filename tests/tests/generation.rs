@@ -127,9 +127,11 @@ fn check_oracle(
                 let capture = generator.capture(ctx, &hair, &inputs, GenerationPath::Compute)?;
                 let e = compare_to_reference(asset, &inputs, &capture)?;
                 eprintln!(
-                    "  {name} {filtering:?}/{precision:?} eye {eye} lod {}: {} strands, position max {:.4} mean {:.5} widths, tangent max {:.3}°, width {:.1e}",
+                    "  {name} {filtering:?}/{precision:?} eye {eye} lod {} (ε {} px): {} strands, {} vertices, position max {:.4} mean {:.5} widths, tangent max {:.3}°, width {:.1e}",
                     lod.enabled,
+                    lod.vertex_error_pixels,
                     e.strands,
+                    e.vertices,
                     e.max_position_widths,
                     e.mean_position_widths,
                     e.max_tangent_degrees,
@@ -148,11 +150,32 @@ fn check_oracle(
 fn main() -> ExitCode {
     let full = LodParams { enabled: false, ..LodParams::default() };
     let lod = LodParams { strand_alpha: 2.0, vertex_alpha: 2.0, ..LodParams::default() };
+    // `"lod": "auto"`'s vertex rule: the curls keep the segments the error bound asks for, on
+    // the GPU as in the reference (same levels, same strands).
+    let aware = LodParams {
+        strand_alpha: 8.0,
+        vertex_alpha: 1024.0,
+        vertex_error_pixels: 0.5,
+        ..LodParams::default()
+    };
     run_gpu_tests(vec![
         GpuTest::new("gpu_matches_cpu_reference_on_the_head_cap", Requirements::NONE, move |ctx| {
             let asset = head_cap_asset(1500, styled(0.1))?;
             let eyes = [Vec3::new(0.0, 1.7, 0.5), Vec3::new(0.3, 1.8, 3.0)];
-            check_oracle(ctx, "head cap", &asset, &eyes, &[full, lod])
+            // The error bound is what decides here: it keeps more vertices than α alone.
+            let linear = LodParams { vertex_error_pixels: 0.0, ..aware };
+            let vertices = |l: LodParams| {
+                let inputs = inputs_for(&asset, eyes[1], l);
+                asset
+                    .generate_reference(&inputs.view, &inputs.lod)
+                    .iter()
+                    .map(|s| s.positions.len())
+                    .sum::<usize>()
+            };
+            let (with_bound, without) = (vertices(aware), vertices(linear));
+            eprintln!("  head cap, far eye: {with_bound} vertices with the error bound, {without} without");
+            ensure!(with_bound > without + without / 2, "{with_bound} vs {without}");
+            check_oracle(ctx, "head cap", &asset, &eyes, &[full, lod, aware])
         }),
         GpuTest::new("the_vertex_lod_cap_is_one_for_cpu_and_gpu", Requirements::NONE, move |ctx| {
             // At the cap, above it (clamped to it on both sides) and below it: the GPU and the
@@ -185,7 +208,7 @@ fn main() -> ExitCode {
         GpuTest::new("gpu_matches_cpu_reference_on_lee_perry_smith", Requirements::NONE, move |ctx| {
             let asset = lee_perry_smith_asset(2000, styled(1.0))?;
             let eyes = [Vec3::new(0.0, 6.0, 14.0), Vec3::new(5.0, 8.0, -60.0)];
-            check_oracle(ctx, "LeePerrySmith", &asset, &eyes, &[full, lod])
+            check_oracle(ctx, "LeePerrySmith", &asset, &eyes, &[full, lod, aware])
         }),
         GpuTest::new("lattice_and_block_layouts_generate_the_same_strands", Requirements::NONE, move |ctx| {
             // Same hair mesh, same roots; only where the texels sit differs (cells rotated and

@@ -33,6 +33,7 @@ use hairmesh::reference::LodParams;
 use hairmesh::style::{Clump, Style, Wave};
 use hairmesh::texture::SliceLayout;
 use render::RgbaImage;
+use render::scene::LodDesc;
 
 #[derive(Parser, Debug)]
 #[command(name = "hair-bench", version, about = "GPU benchmarks of on-the-fly hair generation")]
@@ -684,9 +685,7 @@ fn heads_crowd(setup: &Setup<'_>, dir: &Path) -> Result<(String, render::scene::
     let name =
         format!("{} heads × {} strands, LOD α 64 / 1024, blended", options.characters, options.strands);
     let mut scene = render::scene::load_scene(&crowd.heads)?;
-    scene.scene.lod.enabled = true;
-    scene.scene.lod.strand_alpha = 64.0;
-    scene.scene.lod.vertex_alpha = 1024.0;
+    scene.scene.lod = LodDesc::alphas(64.0, 1024.0);
     Ok((name, scene))
 }
 
@@ -1139,32 +1138,30 @@ fn crowd_table(
         ("teapots", &scenes.teapots, options.teapots, options.teapot_strands),
     ] {
         let mut reference = None;
-        // (strand α, vertex α). Vertex LOD's h is the hair length, strand LOD's the root face's
-        // size, some 15–30× smaller: a vertex α about 16× the strand α (capped at 1024, below
-        // which strands keep at least 4 segments here) costs about the same image error as the
-        // strand α alone and makes the frame 2–3× cheaper.
-        let alphas: &[Option<(f64, f64)>] = if quick {
-            &[None, Some((16.0, 256.0)), Some((256.0, 1024.0))]
+        // Explicit (strand α, vertex α): vertex LOD's h is the hair length, strand LOD's the root
+        // face's size, some 15–30× smaller: a vertex α about 16× the strand α (capped at 1024,
+        // below which strands keep at least 4 segments here) costs about the same image error as
+        // the strand α alone and makes the frame 2–3× cheaper. Then `"lod": "auto"` (style-aware
+        // vertex LOD, and volumes for the smallest characters on the compute rasterizer).
+        let alphas: &[(f64, f64)] = if quick {
+            &[(16.0, 256.0), (256.0, 1024.0)]
         } else {
-            &[None, Some((16.0, 256.0)), Some((64.0, 1024.0)), Some((128.0, 1024.0)), Some((256.0, 1024.0))]
+            &[(16.0, 256.0), (64.0, 1024.0), (128.0, 1024.0), (256.0, 1024.0)]
         };
+        let lods: Vec<LodDesc> = std::iter::once(LodDesc::OFF)
+            .chain(alphas.iter().map(|&(s, v)| LodDesc::alphas(s, v)))
+            .chain([LodDesc::AUTO])
+            .collect();
         let loaded = render::scene::load_scene(path)?;
-        for &alpha in alphas {
-            progress.set_message(format!(
-                "crowd: {count} {name}, LOD {}",
-                alpha.map_or("off".to_owned(), lod_label)
-            ));
+        for &lod in &lods {
+            progress.set_message(format!("crowd: {count} {name}, LOD {}", lod_label(&lod)));
             let mut scene = loaded.clone();
             scene.scene.effects.raster = raster;
-            scene.scene.lod.enabled = alpha.is_some();
-            if let Some((strand, vertex)) = alpha {
-                scene.scene.lod.strand_alpha = strand;
-                scene.scene.lod.vertex_alpha = vertex;
-            }
+            scene.scene.lod = lod;
             let renderer = render::frame::SceneRenderer::new(ctx, &scene, GenerationPath::Compute)?;
-            // A warm-up frame (shader JIT, first-touch allocation) except for the full crowd at
-            // (nearly) full detail, whose minutes-long frame dwarfs that.
-            if quick || alpha.is_some() {
+            // A warm-up frame (shader JIT, first-touch allocation; the volumes of `auto`) except
+            // for the full crowd at full detail, whose minutes-long frame dwarfs that.
+            if quick || lod.enabled {
                 renderer.render(ctx)?;
             }
             let frame = renderer.render(ctx)?;
@@ -1173,9 +1170,10 @@ fn crowd_table(
             let flip = reference.as_ref().map_or(0.0, |r| flip_mean(r, &frame.image));
             rows.push(CrowdRow {
                 scene: format!("{count} {name} × {strands} strands"),
-                alpha,
+                lod,
                 strands: frame.stats.strands,
                 segments: frame.stats.vertices.saturating_sub(frame.stats.strands),
+                volumes: frame.volume_characters as u64,
                 frame_ms: ms,
                 flip,
             });
@@ -1190,36 +1188,51 @@ fn crowd_table(
     let _ = writeln!(md, "\n### Crowds: LOD off vs on\n");
     let _ = writeln!(
         md,
-        "Scenes written by `hairkit crowd` (seed {}), {w}×{h}, blended transparency (coverage AA; only strands a pixel wide write depth, so thinner ones keep their density under LOD), scalp occluders, compute path, from the first key of each camera path; one frame each (GPU timestamps of every batch). Image error: mean FLIP of the LOD render against the LOD-off render. LOD α_s / α_v (strand / vertex α) trade detail for time: L = h·R/(α·d·tan(θ/2)) with h the root face's size for strand LOD (α_s = 1 keeps every strand of a bundle taller than about two pixels) and the hair length for vertex LOD, some 15–30× longer, so α_v is set 16× α_s (at most 1024). Goal: ≥ 30× faster with LOD at mean FLIP ≤ 0.05.\n",
-        options.seed
+        "Scenes written by `hairkit crowd` (seed {}), {w}×{h}, blended transparency (coverage AA; only strands a pixel wide write depth, so thinner ones keep their density under LOD), scalp occluders, compute path, from the first key of each camera path; one frame each (GPU timestamps of every batch). Image error: mean FLIP of the LOD render against the LOD-off render. LOD α_s / α_v (strand / vertex α) trade detail for time: L = h·R/(α·d·tan(θ/2)) with h the root face's size for strand LOD (α_s = 1 keeps every strand of a bundle taller than about two pixels) and the hair length for vertex LOD, some 15–30× longer, so α_v is set 16× α_s (at most 1024). *auto*: `\"lod\": \"auto\"` — α_s = {} / α_v = {} with style-aware vertex LOD (no curl, wave or frizz deviates more than {} px from its polyline) and, on the compute rasterizer, the volume LOD path for characters at most `volume_lod_pixels` on screen (*volumes*: characters raymarched, wholly or in the transition band). Goal: ≥ 30× faster with LOD at mean FLIP ≤ 0.05.\n",
+        options.seed,
+        LodDesc::AUTO.strand_alpha,
+        LodDesc::AUTO.vertex_alpha,
+        LodDesc::AUTO.vertex_error_pixels,
     );
     let _ = writeln!(
         md,
-        "| scene | LOD | strands drawn | segments drawn | frame (ms) | speed-up | FLIP vs LOD off |\n|---|---|---|---|---|---|---|"
+        "| scene | LOD | strands drawn | segments drawn | volumes | frame (ms) | speed-up | FLIP vs LOD off |\n|---|---|---|---|---|---|---|---|"
     );
-    let mut csv = String::from("scene,strand_alpha,vertex_alpha,strands,segments,frame_ms,flip\n");
+    let mut csv = String::from(
+        "scene,lod,strand_alpha,vertex_alpha,vertex_error_pixels,strands,segments,volumes,frame_ms,flip\n",
+    );
     for group in rows.chunk_by(|a, b| a.scene == b.scene) {
         for r in group {
             let speedup = group[0].frame_ms / r.frame_ms;
             let _ = writeln!(
                 md,
-                "| {} | {} | {} | {} | {:.0} | {:.1}× | {} |",
+                "| {} | {} | {} | {} | {} | {:.0} | {:.1}× | {} |",
                 r.scene,
-                r.alpha.map_or("off".to_owned(), lod_label),
+                lod_label(&r.lod),
                 r.strands,
                 r.segments,
+                r.volumes,
                 r.frame_ms,
                 speedup,
-                if r.alpha.is_some() { format!("{:.3}", r.flip) } else { "—".into() }
+                if r.lod.enabled { format!("{:.3}", r.flip) } else { "—".into() }
             );
             let _ = writeln!(
                 csv,
-                "{},{},{},{},{},{:.3},{:.4}",
+                "{},{},{},{},{},{},{},{},{:.3},{:.4}",
                 r.scene.replace(',', ""),
-                r.alpha.map_or(0.0, |a| a.0),
-                r.alpha.map_or(0.0, |a| a.1),
+                if !r.lod.enabled {
+                    "off"
+                } else if r.lod.auto {
+                    "auto"
+                } else {
+                    "explicit"
+                },
+                if r.lod.enabled { r.lod.strand_alpha } else { 0.0 },
+                if r.lod.enabled { r.lod.vertex_alpha } else { 0.0 },
+                if r.lod.enabled { r.lod.vertex_error_pixels } else { 0.0 },
                 r.strands,
                 r.segments,
+                r.volumes,
                 r.frame_ms,
                 r.flip
             );
@@ -1227,14 +1240,14 @@ fn crowd_table(
         // The fastest α within the image-error goal.
         if let Some(best) = group
             .iter()
-            .filter(|r| r.alpha.is_some() && r.flip <= 0.05)
+            .filter(|r| r.lod.enabled && r.flip <= 0.05)
             .max_by(|a, b| (group[0].frame_ms / a.frame_ms).total_cmp(&(group[0].frame_ms / b.frame_ms)))
         {
             let _ = writeln!(
                 md,
-                "| **{}: best within FLIP ≤ 0.05** | {} | | | | **{:.1}×** | {:.3} |",
+                "| **{}: best within FLIP ≤ 0.05** | {} | | | | | **{:.1}×** | {:.3} |",
                 best.scene,
-                best.alpha.map_or("off".to_owned(), lod_label),
+                lod_label(&best.lod),
                 group[0].frame_ms / best.frame_ms,
                 best.flip
             );
@@ -1298,17 +1311,19 @@ fn draw_accuracy_plot(out: &Path, accuracy_csv: &str) -> Result<(String, String)
 
 fn draw_crowd_plot(out: &Path, crowd: &[CrowdRow]) -> Result<(String, String)> {
     use hairkit_cli::plots::{Chart, Series, draw};
-    let crowd_series: Vec<Series> = crowd
-        .chunk_by(|a, b| a.scene == b.scene)
-        .map(|group| Series {
+    let mut crowd_series: Vec<Series> = Vec::new();
+    for group in crowd.chunk_by(|a, b| a.scene == b.scene) {
+        let point = |r: &CrowdRow| (r.flip.max(1e-4), group[0].frame_ms / r.frame_ms);
+        crowd_series.push(Series {
             name: format!("{} (strand LOD α = 16 … 256)", group[0].scene),
-            points: group
-                .iter()
-                .filter(|r| r.alpha.is_some())
-                .map(|r| (r.flip.max(1e-4), group[0].frame_ms / r.frame_ms))
-                .collect(),
-        })
-        .collect();
+            points: group.iter().filter(|r| r.lod.enabled && !r.lod.auto).map(point).collect(),
+        });
+        // A point of its own: auto is not on the α line.
+        crowd_series.push(Series {
+            name: format!("{}: \"lod\": \"auto\"", group[0].scene),
+            points: group.iter().filter(|r| r.lod.auto).map(point).collect(),
+        });
+    }
     let chart = Chart {
         title: "Crowds: LOD speed-up vs image error",
         x_label: "mean FLIP against LOD off",
@@ -1321,17 +1336,24 @@ fn draw_crowd_plot(out: &Path, crowd: &[CrowdRow]) -> Result<(String, String)> {
     Ok(("plot-crowd.png".to_owned(), chart.title.to_owned()))
 }
 
-/// `α_s = 64 / α_v = 1024`.
-fn lod_label((strand, vertex): (f64, f64)) -> String {
-    format!("α_s = {strand} / α_v = {vertex}")
+/// `off`, `auto` or `α_s = 64 / α_v = 1024`.
+fn lod_label(lod: &LodDesc) -> String {
+    if !lod.enabled {
+        "off".to_owned()
+    } else if lod.auto {
+        "auto".to_owned()
+    } else {
+        format!("α_s = {} / α_v = {}", lod.strand_alpha, lod.vertex_alpha)
+    }
 }
 
 struct CrowdRow {
     scene: String,
-    /// (strand α, vertex α), `None` with LOD off.
-    alpha: Option<(f64, f64)>,
+    lod: LodDesc,
     strands: u64,
     segments: u64,
+    /// Characters drawn as volumes (`auto` on the compute rasterizer).
+    volumes: u64,
     frame_ms: f64,
     flip: f64,
 }
