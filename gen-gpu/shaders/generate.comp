@@ -13,9 +13,8 @@ layout(push_constant) uniform ChunkParams {
 
 // Strand-coherent variant: one invocation per strand slot.
 void generate_per_invocation() {
-    uint group = gl_WorkGroupID.y * DISPATCH_ROW + gl_WorkGroupID.x;
-    uint local_slot = group * STRANDS_PER_GROUP + gl_LocalInvocationID.x;
-    if (local_slot >= chunk_size(chunk_params.chunk)) {
+    uint local_slot;
+    if (!invocation_slot(chunk_params.chunk, local_slot)) {
         return;
     }
     uint slot = chunk_params.chunk * chunk_slots() + local_slot;
@@ -24,17 +23,7 @@ void generate_per_invocation() {
     BundleLod l = lods[bundle];
     uint segments = 1u << l.level;
     // The mesh path's rule for short strands, so both paths generate the same strands.
-    bool from_control = strand_coherent(strands_per_mesh_group(l.level));
-    vec2 root = root_parameter(bundle, strand);
-    SegmentControl c;
-    c.segment = -1;
-    uint seed = strand_seed(bundle, strand);
-    float scale = length_scale(seed);
-    for (uint k = 0u; k <= segments; ++k) {
-        float tau = float(k) / float(segments);
-        thread_positions[k] = from_control ? thread_strand_point(bundle, seed, scale, root, tau, c)
-                                           : strand_point(bundle, strand, root, tau);
-    }
+    generate_thread_strand(bundle, strand, l.level, strand_coherent(strands_per_mesh_group(l.level)));
     for (uint k = 0u; k <= segments; ++k) {
         store_vertex(local_slot, k, strand_vertex_of_thread(bundle, strand, l, 0u, k));
     }

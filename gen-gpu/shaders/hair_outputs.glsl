@@ -63,6 +63,33 @@ uint slot_bundle(uint slot) {
     return lo;
 }
 
+#ifndef HAIR_GEN_NO_WORKGROUP
+// The slot, relative to chunk `chunk`'s window, of this invocation in a one-strand-per-
+// invocation dispatch (generate.comp's strand-coherent variant and the fused kernels of
+// render/shaders); false past the chunk's last slot.
+bool invocation_slot(uint chunk, out uint local_slot) {
+    uint group = gl_WorkGroupID.y * DISPATCH_ROW + gl_WorkGroupID.x;
+    local_slot = group * STRANDS_PER_GROUP + gl_LocalInvocationID.x;
+    return local_slot < chunk_size(chunk);
+}
+
+// Generates strand `strand` of `bundle` at vertex level `level` into thread_positions: from its
+// control data (strand-coherent) or, with `from_control` false, sampling every vertex.
+void generate_thread_strand(uint bundle, uint strand, uint level, bool from_control) {
+    uint segments = 1u << level;
+    vec2 root = root_parameter(bundle, strand);
+    SegmentControl c;
+    c.segment = -1;
+    uint seed = strand_seed(bundle, strand);
+    float scale = length_scale(seed);
+    for (uint k = 0u; k <= segments; ++k) {
+        float tau = float(k) / float(segments);
+        thread_positions[k] = from_control ? thread_strand_point(bundle, seed, scale, root, tau, c)
+                                           : strand_point(bundle, strand, root, tau);
+    }
+}
+#endif
+
 // `slot` is relative to the bound chunk window.
 void store_vertex(uint slot, uint k, StrandVertex v) {
     uint base = (slot * MAX_VERTICES + k) * 2u;

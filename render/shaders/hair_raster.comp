@@ -11,9 +11,8 @@
 layout(local_size_x = 32) in;
 
 void main() {
-    uint group = gl_WorkGroupID.y * DISPATCH_ROW + gl_WorkGroupID.x;
-    uint slot = group * STRANDS_PER_GROUP + gl_LocalInvocationID.x;
-    if (slot >= chunk_size(0u)) {
+    uint slot;
+    if (!invocation_slot(0u, slot)) {
         return;
     }
     uint bundle = slot_bundle(slot);
@@ -26,17 +25,8 @@ void main() {
     // Every strand from its control data, short ones too: the generator samples strands of
     // fewer than 17 vertices per vertex (so its compute and mesh paths agree), which equals this
     // to f32 rounding and costs more (measured: the LOD'd crowd 15 % faster this way).
-    bool from_control = PER_VERTEX_FETCH == 0u;
-    vec2 root = root_parameter(bundle, strand);
-    SegmentControl c;
-    c.segment = -1;
+    generate_thread_strand(bundle, strand, l.level, PER_VERTEX_FETCH == 0u);
     uint seed = strand_seed(bundle, strand);
-    float scale = length_scale(seed);
-    for (uint k = 0u; k <= segments; ++k) {
-        float tau = float(k) / float(segments);
-        thread_positions[k] = from_control ? thread_strand_point(bundle, seed, scale, root, tau, c)
-                                           : strand_point(bundle, strand, root, tau);
-    }
     float random = seeded_random(seed, 7u);
     RasterVertex previous = raster_vertex(strand_vertex_of_thread(bundle, strand, l, 0u, 0u));
     for (uint k = 1u; k <= segments; ++k) {

@@ -10,26 +10,15 @@
 layout(local_size_x = 32) in;
 
 void main() {
-    uint group = gl_WorkGroupID.y * DISPATCH_ROW + gl_WorkGroupID.x;
-    uint slot = group * STRANDS_PER_GROUP + gl_LocalInvocationID.x;
-    if (slot >= chunk_size(0u)) {
+    uint slot;
+    if (!invocation_slot(0u, slot)) {
         return;
     }
     uint bundle = slot_bundle(slot);
     uint strand = slot - offsets[bundle];
     BundleLod l = lods[bundle];
     uint segments = 1u << l.level;
-    bool from_control = PER_VERTEX_FETCH == 0u;
-    vec2 root = root_parameter(bundle, strand);
-    SegmentControl c;
-    c.segment = -1;
-    uint seed = strand_seed(bundle, strand);
-    float scale = length_scale(seed);
-    for (uint k = 0u; k <= segments; ++k) {
-        float tau = float(k) / float(segments);
-        thread_positions[k] = from_control ? thread_strand_point(bundle, seed, scale, root, tau, c)
-                                           : strand_point(bundle, strand, root, tau);
-    }
+    generate_thread_strand(bundle, strand, l.level, PER_VERTEX_FETCH == 0u);
     RasterVertex previous = raster_vertex(strand_vertex_of_thread(bundle, strand, l, 0u, 0u));
     for (uint k = 1u; k <= segments; ++k) {
         RasterVertex next = raster_vertex(strand_vertex_of_thread(bundle, strand, l, 0u, k));

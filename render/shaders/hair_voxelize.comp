@@ -18,29 +18,21 @@ layout(local_size_x = 32) in;
 #include "voxelize_common.glsl"
 
 void main() {
-    uint group = gl_WorkGroupID.y * DISPATCH_ROW + gl_WorkGroupID.x;
-    uint slot = group * STRANDS_PER_GROUP + gl_LocalInvocationID.x;
-    if (slot >= chunk_size(0u)) {
+    uint slot;
+    if (!invocation_slot(0u, slot)) {
         return;
     }
     uint bundle = slot_bundle(slot);
     uint strand = slot - offsets[bundle];
     BundleLod l = lods[bundle];
     uint segments = 1u << l.level;
-    bool from_control = PER_VERTEX_FETCH == 0u;
-    vec2 root = root_parameter(bundle, strand);
-    SegmentControl c;
-    c.segment = -1;
-    uint seed = strand_seed(bundle, strand);
-    float scale = length_scale(seed);
+    generate_thread_strand(bundle, strand, l.level, PER_VERTEX_FETCH == 0u);
     float to_voxels = length(vox.object_to_voxel[0].xyz);
     vec3 previous = vec3(0.0);
     float previous_width = 0.0;
     for (uint k = 0u; k <= segments; ++k) {
         float tau = float(k) / float(segments);
-        vec3 p = from_control ? thread_strand_point(bundle, seed, scale, root, tau, c)
-                              : strand_point(bundle, strand, root, tau);
-        vec3 q = (vox.object_to_voxel * vec4(p, 1.0)).xyz;
+        vec3 q = (vox.object_to_voxel * vec4(thread_positions[k], 1.0)).xyz;
         float width = width_at(tau) * l.width_scale * to_voxels;
         if (k > 0u) {
             voxelize_segment(previous, q, previous_width, width);

@@ -36,7 +36,6 @@ pub struct Camera {
 pub const NEAR: f32 = 0.01;
 pub const FAR: f32 = 1000.0;
 
-/// World space → Vulkan clip space (y down, depth in [0, 1]) of `camera`.
 /// The eight corners of the box `lo`–`hi` (corner k takes `hi` on axis i when bit i of k is set).
 pub fn box_corners(lo: Vec3, hi: Vec3) -> [Vec3; 8] {
     std::array::from_fn(|k| {
@@ -48,6 +47,45 @@ pub fn box_corners(lo: Vec3, hi: Vec3) -> [Vec3; 8] {
     })
 }
 
+/// Where a box lands on a `width`×`height` screen.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum BoxOnScreen {
+    /// Every corner in front of the near plane: the bounds of their projections in pixels
+    /// (x right, y down; not clamped to the screen).
+    InFront { lo: glam::Vec2, hi: glam::Vec2 },
+    /// Corners on both sides of the near plane, or a non-finite one: its projection is
+    /// unbounded, so a caller must assume it may cover the whole screen.
+    Straddling,
+    /// Every corner behind the near plane: nothing of it is visible.
+    Behind,
+}
+
+/// Projects the box `lo`–`hi` through `object_to_clip` (the one rule the raster's dispatch
+/// rectangles, the raymarch rectangles and the volume LOD's sizes share).
+pub fn project_box(object_to_clip: Mat4, lo: Vec3, hi: Vec3, width: u32, height: u32) -> BoxOnScreen {
+    let size = glam::Vec2::new(width as f32, height as f32);
+    let mut bounds = (glam::Vec2::splat(f32::INFINITY), glam::Vec2::splat(f32::NEG_INFINITY));
+    let mut behind = 0;
+    for corner in box_corners(lo, hi) {
+        let clip = object_to_clip * corner.extend(1.0);
+        if !clip.is_finite() {
+            return BoxOnScreen::Straddling;
+        }
+        if clip.w <= NEAR {
+            behind += 1;
+            continue;
+        }
+        let p = (glam::Vec2::new(clip.x, clip.y) / clip.w * 0.5 + 0.5) * size;
+        bounds = (bounds.0.min(p), bounds.1.max(p));
+    }
+    match behind {
+        0 => BoxOnScreen::InFront { lo: bounds.0, hi: bounds.1 },
+        8 => BoxOnScreen::Behind,
+        _ => BoxOnScreen::Straddling,
+    }
+}
+
+/// World space → Vulkan clip space (y down, depth in [0, 1]) of `camera`.
 pub fn view_proj(camera: &Camera, width: u32, height: u32) -> Mat4 {
     let aspect = width as f32 / height.max(1) as f32;
     let proj = Mat4::perspective_rh(camera.fov_y, aspect, NEAR, FAR);
@@ -75,5 +113,33 @@ pub fn character_inputs(
         lod,
         viewport: [width, height],
         cull: true,
+    }
+}
+
+#[cfg(test)]
+mod box_tests {
+    use super::{BoxOnScreen, Camera, project_box, view_proj};
+    use glam::{Mat4, Vec3};
+
+    #[test]
+    fn boxes_project_in_front_straddling_or_behind() {
+        let camera = Camera { eye: Vec3::new(0.0, 0.0, 5.0), target: Vec3::ZERO, fov_y: 0.8 };
+        let m = view_proj(&camera, 200, 100);
+        let unit = |c: Vec3| (c - Vec3::splat(0.5), c + Vec3::splat(0.5));
+        let (lo, hi) = unit(Vec3::ZERO);
+        match project_box(m, lo, hi, 200, 100) {
+            BoxOnScreen::InFront { lo, hi } => {
+                // Centred on the screen, a few dozen pixels across.
+                assert!((0.5 * (lo + hi) - glam::Vec2::new(100.0, 50.0)).length() < 1e-3, "{lo} {hi}");
+                assert!((hi - lo).min_element() > 10.0 && (hi - lo).max_element() < 60.0, "{lo} {hi}");
+            }
+            other => panic!("{other:?}"),
+        }
+        let (lo, hi) = unit(Vec3::new(0.0, 0.0, 5.0));
+        assert_eq!(project_box(m, lo, hi, 200, 100), BoxOnScreen::Straddling, "around the eye");
+        let (lo, hi) = unit(Vec3::new(0.0, 0.0, 9.0));
+        assert_eq!(project_box(m, lo, hi, 200, 100), BoxOnScreen::Behind);
+        let nan = Mat4::from_cols_array(&[f32::NAN; 16]);
+        assert_eq!(project_box(nan, Vec3::ZERO, Vec3::ONE, 200, 100), BoxOnScreen::Straddling);
     }
 }

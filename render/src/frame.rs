@@ -1009,20 +1009,11 @@ impl SceneRenderer {
         let (lo, hi) = self.hairs[c.hair].asset.bounds();
         let (lo, hi) = (lo.as_vec3(), hi.as_vec3());
         let m = crate::camera::view_proj(&view.camera, view.width, view.height) * c.transform;
-        let size = glam::Vec2::new(view.width as f32, view.height as f32);
-        let mut a = glam::Vec2::splat(f32::INFINITY);
-        let mut b = glam::Vec2::splat(f32::NEG_INFINITY);
-        for corner in crate::camera::box_corners(lo, hi) {
-            let clip = m * corner.extend(1.0);
-            // (A NaN fails the comparison too.)
-            if !clip.is_finite() || clip.w <= crate::camera::NEAR {
-                return f32::INFINITY;
-            }
-            let p = glam::Vec2::new(clip.x, clip.y) / clip.w * 0.5 * size;
-            a = a.min(p);
-            b = b.max(p);
+        match crate::camera::project_box(m, lo, hi, view.width, view.height) {
+            crate::camera::BoxOnScreen::InFront { lo, hi } => (hi - lo).max_element(),
+            // Unbounded (or invisible behind the camera): never small enough for a volume.
+            crate::camera::BoxOnScreen::Straddling | crate::camera::BoxOnScreen::Behind => f32::INFINITY,
         }
-        (b - a).max_element()
     }
 
     /// Which characters the frame raymarches (`"volume_lod"`: at most `volume_lod_pixels` on

@@ -195,11 +195,8 @@ pub struct ComputeRaster {
 
 impl ComputeRaster {
     pub fn new(ctx: &Context) -> gen_gpu::Result<Self> {
-        let compute = |name, shader, bindings: &[Binding], push_constant_size| {
-            Pipeline::compute(
-                ctx,
-                &ComputePipelineDesc { name, shader, bindings, push_constant_size, specialization: &[] },
-            )
+        let compute = |name, shader, bindings: &[Binding], push| {
+            Pipeline::compute(ctx, &ComputePipelineDesc::new(name, shader, bindings, push))
         };
         let strand = gen_gpu::strand_bindings(&RASTER_BINDINGS);
         let push = size_of::<RasterPush>() as u32;
@@ -413,19 +410,15 @@ pub fn screen_rect(
     height: u32,
     boxes: impl IntoIterator<Item = (Mat4, (Vec3, Vec3))>,
 ) -> [u32; 4] {
+    use crate::camera::BoxOnScreen;
     let mut lo = glam::Vec2::splat(f32::INFINITY);
     let mut hi = glam::Vec2::splat(f32::NEG_INFINITY);
     let size = glam::Vec2::new(width as f32, height as f32);
     for (transform, (a, b)) in boxes {
-        let m = view_proj * transform;
-        for corner in crate::camera::box_corners(a, b) {
-            let clip = m * corner.extend(1.0);
-            if !clip.is_finite() || clip.w <= crate::camera::NEAR {
-                return [0, 0, width, height];
-            }
-            let p = (glam::Vec2::new(clip.x, clip.y) / clip.w * 0.5 + 0.5) * size;
-            lo = lo.min(p);
-            hi = hi.max(p);
+        match crate::camera::project_box(view_proj * transform, a, b, width, height) {
+            BoxOnScreen::InFront { lo: l, hi: h } => (lo, hi) = (lo.min(l), hi.max(h)),
+            // Conservative: a box behind the camera is rare enough not to special-case.
+            BoxOnScreen::Straddling | BoxOnScreen::Behind => return [0, 0, width, height],
         }
     }
     if lo.x > hi.x {

@@ -188,17 +188,8 @@ impl std::fmt::Debug for ComputeShadow {
 impl ComputeShadow {
     pub fn new(ctx: &Context) -> gen_gpu::Result<Self> {
         use crate::contract::binding;
-        let compute = |name, shader, bindings: &[gen_gpu::Binding], push_constant_size| {
-            gen_gpu::Pipeline::compute(
-                ctx,
-                &gen_gpu::ComputePipelineDesc {
-                    name,
-                    shader,
-                    bindings,
-                    push_constant_size,
-                    specialization: &[],
-                },
-            )
+        let compute = |name, shader, bindings: &[gen_gpu::Binding], push| {
+            gen_gpu::Pipeline::compute(ctx, &gen_gpu::ComputePipelineDesc::new(name, shader, bindings, push))
         };
         let maps = [binding::SHADOW_DEPTH, binding::SHADOW_OPACITY];
         let strand = gen_gpu::strand_bindings(&maps);

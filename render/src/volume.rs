@@ -166,33 +166,16 @@ pub fn ao_radius_voxels(grid: &VolumeGrid, ao_radius: f32) -> u32 {
 /// `view_proj` in a `width × height` frame: its projected grid box plus a pixel; empty when the
 /// box lies wholly behind the camera, the whole frame when it reaches behind it.
 pub fn march_rect(view_proj: Mat4, width: u32, height: u32, model: Mat4, grid: &VolumeGrid) -> [u32; 4] {
-    let m = view_proj * model;
-    let size = glam::Vec2::new(width as f32, height as f32);
     let extent = Vec3::new(grid.dims[0] as f32, grid.dims[1] as f32, grid.dims[2] as f32) * grid.voxel;
-    let mut lo = glam::Vec2::splat(f32::INFINITY);
-    let mut hi = glam::Vec2::splat(f32::NEG_INFINITY);
-    let mut behind = 0;
-    for corner in crate::camera::box_corners(grid.origin, grid.origin + extent) {
-        let clip = m * corner.extend(1.0);
-        if !clip.is_finite() {
-            return [0, 0, width, height];
-        }
-        if clip.w <= crate::camera::NEAR {
-            behind += 1;
-            continue;
-        }
-        let p = (glam::Vec2::new(clip.x, clip.y) / clip.w * 0.5 + 0.5) * size;
-        lo = lo.min(p);
-        hi = hi.max(p);
-    }
-    match behind {
-        8 => [0, 0, 0, 0],
-        0 => {
+    let size = glam::Vec2::new(width as f32, height as f32);
+    match crate::camera::project_box(view_proj * model, grid.origin, grid.origin + extent, width, height) {
+        crate::camera::BoxOnScreen::Behind => [0, 0, 0, 0],
+        crate::camera::BoxOnScreen::InFront { lo, hi } => {
             let lo = (lo - 1.0).floor().clamp(glam::Vec2::ZERO, size);
             let hi = (hi + 1.0).ceil().clamp(glam::Vec2::ZERO, size);
             [lo.x as u32, lo.y as u32, hi.x as u32, hi.y as u32]
         }
-        _ => [0, 0, width, height],
+        crate::camera::BoxOnScreen::Straddling => [0, 0, width, height],
     }
 }
 
@@ -268,11 +251,8 @@ impl VolumePipelines {
             VOXELIZE_BINDINGS,
         };
         use crate::shaders;
-        let compute = |name, shader, bindings: &[gen_gpu::Binding], push_constant_size| {
-            Pipeline::compute(
-                ctx,
-                &ComputePipelineDesc { name, shader, bindings, push_constant_size, specialization: &[] },
-            )
+        let compute = |name, shader, bindings: &[gen_gpu::Binding], push| {
+            Pipeline::compute(ctx, &ComputePipelineDesc::new(name, shader, bindings, push))
         };
         let stage = vk::ShaderStageFlags::COMPUTE;
         let voxelize = compute(

@@ -37,6 +37,18 @@ pub struct ComputePipelineDesc<'a> {
     pub specialization: &'a [(u32, u32)],
 }
 
+impl<'a> ComputePipelineDesc<'a> {
+    /// A kernel without specialization constants (most of them).
+    pub fn new(
+        name: &'a str,
+        shader: &'a ShaderSpirv,
+        bindings: &'a [Binding],
+        push_constant_size: u32,
+    ) -> Self {
+        Self { name, shader, bindings, push_constant_size, specialization: &[] }
+    }
+}
+
 /// The stages before rasterization.
 #[derive(Clone, Copy, Debug)]
 pub enum GraphicsStages<'a> {
