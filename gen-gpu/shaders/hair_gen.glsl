@@ -331,19 +331,23 @@ float width_at(float tau) {
 
 // ---------------------------------------------------------------- LOD (reference.rs)
 
+// Half the view's height in object units at distance d (reference.rs half_view).
+float half_view(float d) {
+    return params.projection.z > 0.5 ? params.projection.y : d * params.projection.x;
+}
+
 float detail_level(float h, float d, float alpha) {
-    float half_view = params.projection.z > 0.5 ? params.projection.y : d * params.projection.x;
-    if (!(half_view > 0.0) || !(alpha > 0.0)) {
+    float half_height = half_view(d);
+    if (!(half_height > 0.0) || !(alpha > 0.0)) {
         return 1.0;
     }
-    float l = h * params.eye.w / (alpha * half_view);
+    float l = h * params.eye.w / (alpha * half_height);
     return isnan(l) ? 1.0 : clamp(l, 0.0, 1.0);
 }
 
 // Pixels per object unit at distance d (reference.rs pixels_per_unit); 0 when not measurable.
 float pixels_per_unit(float d) {
-    float half_view = params.projection.z > 0.5 ? params.projection.y : d * params.projection.x;
-    float p = params.eye.w / (2.0 * half_view);
+    float p = params.eye.w / (2.0 * half_view(d));
     return (p > 0.0 && !isinf(p)) ? p : 0.0;
 }
 

@@ -784,6 +784,6 @@ fn params(hair: &GpuHair, inputs: &FrameInputs, capacity: u64, chunk_slots: u64)
             chunk_slots as u32,
         ],
         viewport: [inputs.viewport[0] as f32, inputs.viewport[1] as f32, 0.0, 0.0],
-        lod_error: [if lod.enabled { f(lod.vertex_error_pixels) } else { 0.0 }, 0.0, 0.0, 0.0],
+        lod_error: [f(lod.vertex_error_pixels), 0.0, 0.0, 0.0],
     }
 }

@@ -118,29 +118,31 @@ pub fn bundle_delta(bundle: u32) -> f64 {
     f64::from(pcg_hash(bundle ^ 0x5bd1_e995)) / 4_294_967_296.0
 }
 
-/// `L` for a world size `h` at distance `d`.
-pub fn detail_level(h: f64, d: f64, alpha: f64, view: &ViewParams) -> f64 {
-    let half_view = match view.projection {
+/// Half the view's height in object units at distance `d` (`d·tan(θ/2)`, or `H/2`
+/// orthographic): what both LOD rules measure sizes against.
+fn half_view(d: f64, view: &ViewParams) -> f64 {
+    match view.projection {
         Projection::Perspective { fov_y } => d * (0.5 * fov_y).tan(),
         Projection::Orthographic { height } => 0.5 * height,
-    };
+    }
+}
+
+/// `L` for a world size `h` at distance `d`.
+pub fn detail_level(h: f64, d: f64, alpha: f64, view: &ViewParams) -> f64 {
+    let half_height = half_view(d, view);
     // NaN fails both comparisons, so a NaN input also means full detail.
-    let measurable = half_view > 0.0 && alpha > 0.0;
+    let measurable = half_height > 0.0 && alpha > 0.0;
     if !measurable {
         return 1.0;
     }
-    let l = h * view.vertical_resolution / (alpha * half_view);
+    let l = h * view.vertical_resolution / (alpha * half_height);
     if l.is_nan() { 1.0 } else { l.clamp(0.0, 1.0) }
 }
 
 /// Pixels per object unit at distance `d` (`R / (2·d·tan(θ/2))`, or `R / H` orthographic); 0
 /// when that is not measurable (the eye at the point, a degenerate view).
 pub fn pixels_per_unit(d: f64, view: &ViewParams) -> f64 {
-    let half_view = match view.projection {
-        Projection::Perspective { fov_y } => d * (0.5 * fov_y).tan(),
-        Projection::Orthographic { height } => 0.5 * height,
-    };
-    let p = view.vertical_resolution / (2.0 * half_view);
+    let p = view.vertical_resolution / (2.0 * half_view(d, view));
     if p.is_finite() && p > 0.0 { p } else { 0.0 }
 }
 

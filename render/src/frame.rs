@@ -682,12 +682,11 @@ impl SceneRenderer {
                 shadow.compute = Some(crate::shadow::ComputeShadow::new(ctx)?);
             }
         }
-        // `"lod": "auto"` draws small characters as volumes wherever the compute rasterizer
-        // draws the hair (the volume LOD path writes into its visibility buffer).
+        // `"lod": "auto"` draws characters small enough that the volume keeps the image within
+        // its FLIP (crate::scene::AUTO_VOLUME_PIXELS) as volumes wherever the compute rasterizer
+        // draws the hair (the volume LOD path writes into its visibility buffer); a scene that
+        // asks for `volume_lod` itself keeps its own threshold.
         let mut effects = effects;
-        // Only characters small enough that the volume keeps the image within the LOD's FLIP
-        // (crate::scene::AUTO_VOLUME_PIXELS); a scene that asks for `volume_lod` itself keeps
-        // its own threshold.
         if raster == RasterPath::Compute && self.scene.scene.lod.auto && !effects.volume_lod {
             effects.volume_lod = true;
             effects.volume_lod_pixels = crate::scene::AUTO_VOLUME_PIXELS;

@@ -515,7 +515,8 @@ impl Default for Effects {
 /// Explicit settings apply the same α to every character (`hairmesh::reference` has the
 /// formulas). `"auto"` is [`LodDesc::AUTO`]: strand and vertex LOD with the α and the
 /// style-aware vertex error measured to keep a crowd within a mean FLIP of
-/// [`AUTO_LOD_FLIP`] of its full-detail render (docs/benchmarks.md, "Automatic LOD"), and, when
+/// [`AUTO_LOD_FLIP`] of its full-detail render (docs/benchmarks.md, "Crowds: LOD off vs on";
+/// README, "Level of detail"), and, when
 /// the hair goes through the compute rasterizer, the volume LOD path for characters at most
 /// [`AUTO_VOLUME_PIXELS`] on screen (with its transition band), as if `volume_lod` were on.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -536,9 +537,10 @@ pub const AUTO_LOD_FLIP: f64 = 0.05;
 /// `"lod": "auto"` raymarches characters at most this many pixels on screen (the larger side of
 /// their hair's projected bounds; `effects.volume_lod_pixels` when the scene turns
 /// `volume_lod` on itself): a crowd of larger volumes differs visibly from its strands
-/// (measured on the 200 curly teapots of `hairkit crowd` at 1280×720 with auto's strand and
-/// vertex LOD: mean FLIP 0.032 with strands only, 0.036 raymarching the 85 teapots under
-/// 48 pixels, 0.049–0.051 under 64, 0.07–0.10 under 128–256).
+/// (measured on the 200 curly teapots of `hairkit crowd` at 1280×720 while choosing it, with
+/// auto's strand and vertex LOD before the style rule's ramp: mean FLIP 0.032 with strands
+/// only, 0.036 raymarching the teapots under 48 pixels, 0.049–0.051 under 64, 0.07–0.10 under
+/// 128–256; with the final rule the benchmark's auto row is 0.033, 72 teapots raymarched).
 pub const AUTO_VOLUME_PIXELS: f32 = 48.0;
 
 impl LodDesc {
@@ -585,30 +587,41 @@ struct ExplicitLod {
     vertex_error_pixels: f64,
 }
 
+impl From<&LodDesc> for ExplicitLod {
+    fn from(l: &LodDesc) -> Self {
+        Self {
+            enabled: l.enabled,
+            strand_alpha: l.strand_alpha,
+            vertex_alpha: l.vertex_alpha,
+            vertex_error_pixels: l.vertex_error_pixels,
+        }
+    }
+}
+
+impl From<ExplicitLod> for LodDesc {
+    fn from(e: ExplicitLod) -> Self {
+        Self {
+            enabled: e.enabled,
+            strand_alpha: e.strand_alpha,
+            vertex_alpha: e.vertex_alpha,
+            vertex_error_pixels: e.vertex_error_pixels,
+            auto: false,
+        }
+    }
+}
+
 impl Default for ExplicitLod {
     fn default() -> Self {
-        let d = LodDesc::default();
-        Self {
-            enabled: d.enabled,
-            strand_alpha: d.strand_alpha,
-            vertex_alpha: d.vertex_alpha,
-            vertex_error_pixels: d.vertex_error_pixels,
-        }
+        (&LodDesc::default()).into()
     }
 }
 
 impl Serialize for LodDesc {
     fn serialize<S: serde::Serializer>(&self, serializer: S) -> Result<S::Ok, S::Error> {
-        if *self == Self::AUTO {
+        if self.auto {
             return serializer.serialize_str("auto");
         }
-        ExplicitLod {
-            enabled: self.enabled,
-            strand_alpha: self.strand_alpha,
-            vertex_alpha: self.vertex_alpha,
-            vertex_error_pixels: self.vertex_error_pixels,
-        }
-        .serialize(serializer)
+        ExplicitLod::from(self).serialize(serializer)
     }
 }
 
@@ -630,14 +643,7 @@ impl<'de> Deserialize<'de> for LodDesc {
             }
             fn visit_map<A: serde::de::MapAccess<'de>>(self, map: A) -> Result<LodDesc, A::Error> {
                 // The derived struct's errors (unknown fields, types) keep their positions.
-                let e = ExplicitLod::deserialize(serde::de::value::MapAccessDeserializer::new(map))?;
-                Ok(LodDesc {
-                    enabled: e.enabled,
-                    strand_alpha: e.strand_alpha,
-                    vertex_alpha: e.vertex_alpha,
-                    vertex_error_pixels: e.vertex_error_pixels,
-                    auto: false,
-                })
+                Ok(ExplicitLod::deserialize(serde::de::value::MapAccessDeserializer::new(map))?.into())
             }
         }
         deserializer.deserialize_any(LodVisitor)

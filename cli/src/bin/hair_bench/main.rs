@@ -1220,13 +1220,7 @@ fn crowd_table(
                 csv,
                 "{},{},{},{},{},{},{},{},{:.3},{:.4}",
                 r.scene.replace(',', ""),
-                if !r.lod.enabled {
-                    "off"
-                } else if r.lod.auto {
-                    "auto"
-                } else {
-                    "explicit"
-                },
+                lod_kind(&r.lod),
                 if r.lod.enabled { r.lod.strand_alpha } else { 0.0 },
                 if r.lod.enabled { r.lod.vertex_alpha } else { 0.0 },
                 if r.lod.enabled { r.lod.vertex_error_pixels } else { 0.0 },
@@ -1336,14 +1330,22 @@ fn draw_crowd_plot(out: &Path, crowd: &[CrowdRow]) -> Result<(String, String)> {
     Ok(("plot-crowd.png".to_owned(), chart.title.to_owned()))
 }
 
+/// `off`, `auto` or `explicit`.
+fn lod_kind(lod: &LodDesc) -> &'static str {
+    if !lod.enabled {
+        "off"
+    } else if lod.auto {
+        "auto"
+    } else {
+        "explicit"
+    }
+}
+
 /// `off`, `auto` or `α_s = 64 / α_v = 1024`.
 fn lod_label(lod: &LodDesc) -> String {
-    if !lod.enabled {
-        "off".to_owned()
-    } else if lod.auto {
-        "auto".to_owned()
-    } else {
-        format!("α_s = {} / α_v = {}", lod.strand_alpha, lod.vertex_alpha)
+    match lod_kind(lod) {
+        "explicit" => format!("α_s = {} / α_v = {}", lod.strand_alpha, lod.vertex_alpha),
+        kind => kind.to_owned(),
     }
 }
 
