@@ -1,7 +1,7 @@
 #version 460
 // Voxelization fused with generation (render/src/volume.rs): one invocation generates a strand
 // (gen-gpu's strand-coherent evaluation, as the compute rasterizer's hair_raster.comp) at full
-// detail and samples each of its segments twice per voxel it crosses; each sample adds its share
+// detail and samples each of its segments once per voxel of its length; each sample adds its share
 // of the segment's projected area (length × width, voxel units) and that area times the
 // segment's direction to the voxel it falls in, as 64-bit fixed point (exact sums in any order).
 // Dispatched over the strands of a LOD pass without culling (volume.rs voxelization_inputs). CPU port:
@@ -40,4 +40,5 @@ void main() {
         previous = q;
         previous_width = width;
     }
+    flush_voxel();
 }

@@ -33,4 +33,5 @@ void main() {
         previous = q;
         previous_width = width;
     }
+    flush_voxel();
 }

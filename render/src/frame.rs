@@ -110,9 +110,9 @@ pub(crate) struct VolumeIds {
     pub(crate) lod: Vec<Res>,
     pub(crate) sums: Vec<Res>,
     pub(crate) hairs: Vec<Option<HairVolumePlan>>,
-    /// Characters raymarched this frame.
+    /// Characters raymarched this frame ([`SceneRenderer::volume_character`]'s numbers).
     pub(crate) marched: Vec<usize>,
-    /// Per character: the share of its pixels its volume draws (1: all, in no strand batch;
+    /// Per character (the same numbers): the share of its pixels its volume draws (1: all, in no strand batch;
     /// between 0 and 1: the transition band, drawn by both).
     pub(crate) fractions: Vec<f32>,
 }
@@ -266,8 +266,9 @@ pub struct RenderedFrame {
     /// Characters drawn as volumes (the volume LOD path) this frame, wholly or in the transition
     /// band.
     pub volume_characters: usize,
-    /// Per generated character: the share of its pixels its volume drew (0: strands only, 1:
-    /// volume only, between: the transition band).
+    /// Per character, generated ones first, then those drawing stored strands (each in scene
+    /// order): the share of its pixels its volume drew (0: strands only, 1: volume only,
+    /// between: the transition band).
     pub volume_fractions: Vec<f32>,
     /// Hairs voxelized this frame (the others' volumes were cached).
     pub volumes_voxelized: usize,
@@ -1001,13 +1002,28 @@ impl SceneRenderer {
         self.hairs.get(v).map_or(0, GpuHair::revision)
     }
 
-    /// The projected size in pixels of `c`'s hair in `view`: the larger side of the screen
-    /// rectangle of its bounds' corners (unclipped; infinite when a corner lies behind the near
-    /// plane, the eye inside the bounds included).
-    pub(crate) fn projected_pixels(&self, c: &SceneCharacter, view: &FrameView) -> f32 {
-        let (lo, hi) = self.hairs[c.hair].asset.bounds();
-        let (lo, hi) = (lo.as_vec3(), hi.as_vec3());
-        let m = crate::camera::view_proj(&view.camera, view.width, view.height) * c.transform;
+    /// Characters the volume planning numbers: the generated ones, then the stored ones (the
+    /// order of the compute rasterizer's materials).
+    pub(crate) fn volume_character_count(&self) -> usize {
+        self.characters.len() + self.stored_characters.len()
+    }
+
+    /// Character `i` of [`Self::volume_character_count`]: its placement and its volume source
+    /// ([`Self::volume_sources`]).
+    pub(crate) fn volume_character(&self, i: usize) -> Option<(&SceneCharacter, usize)> {
+        match i.checked_sub(self.characters.len()) {
+            None => self.characters.get(i).map(|c| (c, c.hair)),
+            Some(j) => self.stored_characters.get(j).map(|c| (c, self.hairs.len() + c.hair)),
+        }
+    }
+
+    /// The projected size in pixels in `view` of a character placed at `transform` with volume
+    /// source `v`'s hair: the larger side of the screen rectangle of its bounds' corners
+    /// (unclipped; infinite when a corner lies behind the near plane, the eye inside the bounds
+    /// included).
+    pub(crate) fn projected_pixels(&self, transform: Mat4, v: usize, view: &FrameView) -> f32 {
+        let (lo, hi) = self.volume_bounds(v);
+        let m = crate::camera::view_proj(&view.camera, view.width, view.height) * transform;
         match crate::camera::project_box(m, lo, hi, view.width, view.height) {
             crate::camera::BoxOnScreen::InFront { lo, hi } => (hi - lo).max_element(),
             // Unbounded (or invisible behind the camera): never small enough for a volume.
@@ -1016,7 +1032,8 @@ impl SceneRenderer {
     }
 
     /// Which characters the frame raymarches (`"volume_lod"`: at most `volume_lod_pixels` on
-    /// screen) and each volume source's volume: the resolution its raymarched characters' sizes
+    /// screen; generated and stored alike, numbered as [`Self::volume_character`]) and each
+    /// volume source's volume: the resolution its raymarched characters' sizes
     /// ask for, at least [`crate::volume::AO_RESOLUTION`] with AO or volume shadows; cached when
     /// its region holds a grid at least that fine of the source's current revision.
     fn plan_volumes(
@@ -1027,7 +1044,10 @@ impl SceneRenderer {
         let Some(volumes) = &self.volumes else { return (None, Vec::new()) };
         let effects = self.scene.scene.effects;
         let max = volumes.store.max_resolution;
-        let pixels: Vec<f32> = self.characters.iter().map(|c| self.projected_pixels(c, view)).collect();
+        let placed: Vec<(Mat4, usize)> = (0..self.volume_character_count())
+            .filter_map(|i| self.volume_character(i).map(|(c, v)| (c.transform, v)))
+            .collect();
+        let pixels: Vec<f32> = placed.iter().map(|&(t, v)| self.projected_pixels(t, v, view)).collect();
         // A volume is drawn only where its voxels are at most about two pixels: never beyond
         // twice the resolution the scene's volumes get (lowered when many hairs share the
         // buffers).
@@ -1040,15 +1060,8 @@ impl SceneRenderer {
                 (true, false) => crate::volume::volume_fraction(p, threshold),
             })
             .collect();
-        let marched: Vec<usize> = (0..self.characters.len()).filter(|&i| fractions[i] > 0.0).collect();
+        let marched: Vec<usize> = (0..placed.len()).filter(|&i| fractions[i] > 0.0).collect();
         let cache = volumes.cache.lock().unwrap_or_else(|e| e.into_inner());
-        let stored_volumes = (0..self.stored.len()).map(|s| {
-            // Strand files: AO and volume shadows (no volume LOD yet).
-            let used = self.stored_characters.iter().any(|c| c.hair == s);
-            let want = (used && (effects.ao || effects.volume_shadows))
-                .then(|| crate::volume::AO_RESOLUTION.min(max));
-            (self.hairs.len() + s, want)
-        });
         let cache_plan = |v: usize, want: Option<u32>| -> Option<HairVolumePlan> {
             let want = want?;
             let revision = self.volume_revision(v);
@@ -1068,10 +1081,10 @@ impl SceneRenderer {
             }
             Some(HairVolumePlan { grid, cached: false })
         };
-        let hairs = (0..self.hairs.len())
-            .map(|h| {
+        let hairs = (0..self.volume_sources())
+            .map(|v| {
                 let mut want: Option<u32> = None;
-                for (i, _) in self.characters.iter().enumerate().filter(|(_, c)| c.hair == h) {
+                for (i, _) in placed.iter().enumerate().filter(|(_, p)| p.1 == v) {
                     if marched.contains(&i) {
                         let r = crate::volume::resolution_for_pixels(pixels[i], max);
                         want = Some(want.map_or(r, |w| w.max(r)));
@@ -1081,14 +1094,11 @@ impl SceneRenderer {
                         want = Some(want.map_or(r, |w| w.max(r)));
                     }
                 }
-                (h, want)
+                cache_plan(v, want)
             })
-            .chain(stored_volumes)
-            .map(|(v, want)| cache_plan(v, want))
             .collect::<Vec<_>>();
         // Characters whose hair got no volume (an unfinite box) keep their strands.
-        let marched: Vec<usize> =
-            marched.into_iter().filter(|&i| hairs[self.characters[i].hair].is_some()).collect();
+        let marched: Vec<usize> = marched.into_iter().filter(|&i| hairs[placed[i].1].is_some()).collect();
         for (i, f) in fractions.iter_mut().enumerate() {
             if !marched.contains(&i) {
                 *f = 0.0;
@@ -1409,7 +1419,12 @@ impl SceneRenderer {
             images.insert(d, di);
         }
         let mut stats = GenerationStats::default();
-        stats.strands += self.stored_characters.iter().map(|c| self.stored[c.hair].strands).sum::<u64>();
+        // Stored characters drawn by their volume alone rasterize no strand.
+        let n = self.characters.len();
+        stats.strands += (self.stored_characters.iter().enumerate())
+            .filter(|&(j, _)| plan.volume_fraction(n + j) < 1.0)
+            .map(|(_, c)| self.stored[c.hair].strands)
+            .sum::<u64>();
         let batch_count = plan.batches.len();
         for (k, batch) in plan.batches.iter().enumerate() {
             let frames = batch
@@ -1503,7 +1518,7 @@ impl SceneRenderer {
             raster_overflow,
             raster_slots,
             volume_characters: plan.volume_characters.len(),
-            volume_fractions: (0..self.characters.len()).map(|i| plan.volume_fraction(i)).collect(),
+            volume_fractions: (0..self.volume_character_count()).map(|i| plan.volume_fraction(i)).collect(),
             volumes_voxelized,
             shadow_cached: plan.shadow_cached,
             shadow_ms,
@@ -1589,9 +1604,9 @@ impl SceneRenderer {
         let Some(raster) = raster else { return Ok(Some(frame)) };
         let view_proj = crate::camera::view_proj(&view.camera, view.width, view.height);
         for &i in &plan.volume_characters {
-            let c = &self.characters[i];
-            let Some(Some(p)) = ids.hairs.get(c.hair) else { continue };
-            let address = volumes.store.address(c.hair, &p.grid);
+            let Some((c, v)) = self.volume_character(i) else { continue };
+            let Some(Some(p)) = ids.hairs.get(v) else { continue };
+            let address = volumes.store.address(v, &p.grid);
             let material = self.character_materials.get(i).copied().unwrap_or(0);
             let flags = u32::from(!self.occluders.is_empty());
             frame.marches.push(MarchJob {

@@ -9,7 +9,8 @@
 //!    per pixel would apply it at α [`VOXELIZE_STRAND_ALPHA`]: a bundle covering few voxels
 //!    keeps fewer strands, widened to keep its projected area — a tenth of the strands of the
 //!    example hair at 64³ for 1.001 of the area) and samples each
-//!    segment twice per voxel it crosses; each sample adds its share of the strand's projected
+//!    segment once per voxel of its length (a strand's consecutive samples in one voxel summed
+//!    before its atomics); each sample adds its share of the strand's projected
 //!    area (length × width, in voxel units) and that area times the segment direction to its
 //!    voxel with 64-bit fixed-point atomics. Sampling at the voxel frequency leaves no gaps
 //!    (vkhr splats vertices only and mends the gaps with a filter).
@@ -409,10 +410,12 @@ pub mod cpu {
         pub direction: Vec<DVec3>,
     }
 
-    /// Samples per segment: two per voxel its length crosses, at least one
-    /// (`segment_samples` in `hair_voxelize.comp`).
+    /// Samples per segment: one per voxel of its length, at least one (`segment_samples` in
+    /// `voxelize_common.glsl`). Two per voxel cost 1.4× the voxelization time for the same
+    /// images (mean FLIP of the volume vs the strands at 3×, 6×, 12× the distance 0.0104 /
+    /// 0.0029 / 0.0009 with either; `render/tests/volume.rs`).
     pub fn segment_samples(length_voxels: f64) -> u32 {
-        (2.0 * length_voxels).ceil().clamp(1.0, 4096.0) as u32
+        length_voxels.ceil().clamp(1.0, 4096.0) as u32
     }
 
     /// `hair_voxelize.comp` on strands given as object-space points and full widths: each

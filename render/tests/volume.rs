@@ -576,6 +576,90 @@ fn main() -> ExitCode {
             }
             Ok(())
         }),
+        GpuTest::new("strand_files_take_the_volume_lod_path", Requirements::INT64_ATOMICS, |ctx| {
+            // The artist's Sintel groom (TressFX, stored strands) on its bust, far away: raymarched
+            // through its volume instead of rasterized strand by strand, within FLIP tolerances
+            // that shrink with distance; across the transition band drawn by both, each on its
+            // share of the pixels; and `"lod": "auto"` raymarches it once it is small.
+            let dir = tempfile::tempdir()?;
+            let sintel = |effects: serde_json::Value, distance: f32| -> anyhow::Result<LoadedScene> {
+                let mut scene =
+                    load_scene(&hairkit_tests::scenes::sintel_scene(dir.path(), "sintel", effects)?)?;
+                let c = &mut scene.scene.camera;
+                let (eye, target) = (Vec3::from_array(c.eye), Vec3::from_array(c.target));
+                c.eye = (target + (eye - target) * distance).to_array();
+                Ok(scene)
+            };
+            let mut previous = f32::INFINITY;
+            for (distance, tolerance) in [(3.0, 0.01), (6.0, 0.005), (12.0, 0.0025)] {
+                let strands = sintel(serde_json::json!({ "raster": "compute" }), distance)?;
+                let volume = sintel(
+                    serde_json::json!({ "raster": "compute", "volume_lod": true, "volume_lod_pixels": 1.0e6 }),
+                    distance,
+                )?;
+                let s = SceneRenderer::new(ctx, &strands, GenerationPath::Compute)?.render(ctx)?;
+                let v = SceneRenderer::new(ctx, &volume, GenerationPath::Compute)?.render(ctx)?;
+                write(&v, &format!("sintel-far-{distance}"))?;
+                write(&s, &format!("sintel-far-{distance}-strands"))?;
+                ensure!(
+                    v.volume_characters == 1
+                        && v.volume_fractions == [1.0]
+                        && v.passes.iter().any(|p| p.starts_with("raymarch stored character 0"))
+                        && v.passes.iter().any(|p| p.contains("stored strands)")),
+                    "{:?} {:?}",
+                    v.volume_fractions,
+                    v.passes
+                );
+                ensure!(v.stats.strands == 0, "a raymarched groom rasterizes {} strands", v.stats.strands);
+                let any = Tolerance { mean: 1.0, percentile: (0.99, 1.0) };
+                let flip = compare(&format!("volume_sintel_far_{distance}"), &v.image, &s.image, any)
+                    .map_err(anyhow::Error::msg)?;
+                eprintln!(
+                    "  groom at {distance}× the distance: FLIP mean {:.4} (allowed {tolerance})",
+                    flip.mean
+                );
+                ensure!(flip.mean <= tolerance, "FLIP {} over {tolerance}", flip.mean);
+                ensure!(flip.mean <= previous * 1.1, "the error should fall with distance");
+                previous = flip.mean;
+            }
+            // A dolly across the band: strands, both, then the volume.
+            let band = sintel(
+                serde_json::json!({ "raster": "compute", "volume_lod": true, "volume_lod_pixels": 40 }),
+                1.0,
+            )?;
+            let renderer = SceneRenderer::new(ctx, &band, GenerationPath::Compute)?;
+            let (eye, target) =
+                (Vec3::from_array(band.scene.camera.eye), Vec3::from_array(band.scene.camera.target));
+            let mut fractions = Vec::new();
+            let mut both = 0;
+            for k in 0..=12 {
+                let distance = 2.0 * 4f32.powf(k as f32 / 12.0);
+                let f = renderer.render_camera(ctx, target + (eye - target) * distance, target)?;
+                let fraction = f.volume_fractions[0];
+                let marched = f.passes.iter().any(|p| p.starts_with("raymarch stored character 0"));
+                ensure!(marched == (fraction > 0.0), "{fraction}: {:?}", f.passes);
+                if fraction > 0.0 && fraction < 1.0 {
+                    ensure!(f.stats.strands > 0, "inside the band the strands draw their share too");
+                    both += 1;
+                }
+                fractions.push(fraction);
+            }
+            eprintln!("  groom's volume fractions along the dolly: {fractions:.2?}");
+            ensure!(fractions.windows(2).all(|w| w[1] >= w[0]), "{fractions:?}");
+            ensure!(fractions[0] == 0.0 && fractions[12] == 1.0 && both >= 2, "{fractions:?}");
+            // `"lod": "auto"` on the compute rasterizer: strands up close, the volume when small.
+            for (distance, volumes) in [(1.0, 0), (16.0, 1)] {
+                let mut auto = sintel(serde_json::json!({ "raster": "compute" }), distance)?;
+                auto.scene.lod = LodDesc::AUTO;
+                let f = SceneRenderer::new(ctx, &auto, GenerationPath::Compute)?.render(ctx)?;
+                ensure!(
+                    f.volume_characters == volumes,
+                    "auto at {distance}×: {} volumes",
+                    f.volume_characters
+                );
+            }
+            Ok(())
+        }),
         GpuTest::new("the_hair_ao_darkens_the_occluders", Requirements::INT64_ATOMICS, |ctx| {
             // The Sintel bust where no hair covers it (the same pixel with the groom in place and
             // moved far away) gets darker with AO near the hair, as skin beside dense hair does.

@@ -158,12 +158,18 @@ pub(crate) fn record_raster(
         Generator::record_fused_dispatch(rec, frame);
     }
     let stored_materials = &state.materials[r.characters.len()..];
-    for ((c, params), &material) in r.stored_characters.iter().zip(state.stored_params).zip(stored_materials)
-    {
+    let stored = r.stored_characters.iter().zip(state.stored_params).zip(stored_materials).enumerate();
+    for (j, ((c, params), &material)) in stored {
+        // The volume LOD path numbers stored characters after the generated ones.
+        let volume_fraction = state.plan.volume_fraction(r.characters.len() + j);
+        if volume_fraction >= 1.0 {
+            continue;
+        }
         let pipeline = &cr.raster_stored;
         let opacity = r.raster_opacity(material);
         r.stored[c.hair].record_compute(rec, pipeline, params, &extra, stored_group_size(), |rec, slots| {
-            let push = raster_push(c.transform, material, slots, occluders, phase, tiles_x, b.k, opacity);
+            let mut push = raster_push(c.transform, material, slots, occluders, phase, tiles_x, b.k, opacity);
+            push.volume_fraction = volume_fraction;
             rec.push_constants(pipeline, &push);
         });
     }

@@ -99,10 +99,15 @@ pub(crate) fn plan_march(
     submission: usize,
 ) {
     let Some(v) = ids.volumes.as_ref() else { return };
-    let Some(plan) = v.hairs[r.characters[i].hair] else { return };
+    let Some((_, source)) = r.volume_character(i) else { return };
+    let Some(plan) = v.hairs[source] else { return };
     let n = plan.grid.dims;
+    let name = match i.checked_sub(r.characters.len()) {
+        None => format!("raymarch character {i}"),
+        Some(j) => format!("raymarch stored character {j}"),
+    };
     let mut pass = g
-        .pass(format!("raymarch character {i} (volume {}×{}×{})", n[0], n[1], n[2]))
+        .pass(format!("{name} (volume {}×{}×{})", n[0], n[1], n[2]))
         .read(v.volume, Access::ComputeRead)
         .read(v.bricks, Access::ComputeRead)
         .read(ids.raster_frame, Access::ComputeRead);

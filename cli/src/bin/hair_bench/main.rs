@@ -900,9 +900,46 @@ fn timed_frames(
     Ok((median(total), last.context("no frame rendered")?))
 }
 
+/// The GPU time of re-voxelizing the first character's hair after an edit (one outer hair-mesh
+/// vertex nudged, then back: the whole hair is voxelized again, as after restyling or a
+/// simulation step): median of three edits on `renderer`, warm.
+fn revoxelize_ms(
+    ctx: &Context,
+    renderer: &mut render::frame::SceneRenderer,
+    instance: &render::instance::SceneInstance,
+) -> Result<f64> {
+    let character = instance.characters.first().context("no character")?;
+    let render::instance::CharacterHair::Generated(asset) = &character.hair else {
+        anyhow::bail!("the volume table's character is generated hair")
+    };
+    let mut edited = (**asset).clone();
+    let mut times = Vec::new();
+    for edit in 0..3 {
+        let mesh = edited.mesh();
+        let top = mesh.layers.len().checked_sub(1).context("a hair mesh without layers")?;
+        let position = mesh.layers[top].first().context("an empty hair-mesh layer")?;
+        let nudge = if edit % 2 == 0 { 1e-3 } else { -1e-3 };
+        let moves = [hairmesh::asset::VertexMove {
+            layer: top as u32,
+            vertex: 0,
+            position: *position + glam::DVec3::new(nudge, 0.0, 0.0),
+        }];
+        let change = edited.move_vertices(&moves)?;
+        renderer.update_hair(ctx, &character.key, &edited, &change)?;
+        let frame = renderer.render(ctx)?;
+        anyhow::ensure!(frame.volumes_voxelized == 1, "an edit did not re-voxelize: {:?}", frame.passes);
+        times.push(passes_ms(
+            &frame,
+            &["lod hair", "clear voxel", "voxelize", "resolve volume", "volume bricks"],
+        ));
+    }
+    Ok(median(times))
+}
+
 /// The volume LOD path against the strands (compute rasterizer) for the largest character at
 /// about 30 %, 5 %, 1 % and 0.4 % of the screen, opaque, in one run: frame times (the volume
-/// cached, as for static hair), FLIP, the voxelization's cost, and AO's cost on the strands.
+/// cached, as for static hair), FLIP, the voxelization's cost on the first frame and after an
+/// edit (warm: restyled or simulated hair), and AO's cost on the strands.
 fn volume_table(setup: &Setup<'_>, progress: &indicatif::ProgressBar) -> Result<(Table, Vec<CoverageTimes>)> {
     let Setup { ctx, width, height, frames, .. } = *setup;
     if !ctx.capabilities().buffer_int64_atomics {
@@ -934,14 +971,14 @@ fn volume_table(setup: &Setup<'_>, progress: &indicatif::ProgressBar) -> Result<
     let _ = writeln!(md, "\n### Volume LOD path vs strands\n");
     let _ = writeln!(
         md,
-        "One {strands}-strand character, {width}×{height}, opaque, LOD on, GPU timestamps, median of {frames} frames after a warm-up, in one run. *strands*: the compute rasterizer (fused generation); *volume*: the same character raymarched through its density volume (`\"volume_lod\"`, every distance forced), the volume voxelized on the first frame and cached (static hair); *voxelize*: that first frame's LOD, clear, voxelization, resolve passes. Coverage: pixels the strand image covers. FLIP: mean, volume image against the strand image.\n"
+        "One {strands}-strand character, {width}×{height}, opaque, LOD on, GPU timestamps, median of {frames} frames after a warm-up, in one run. *strands*: the compute rasterizer (fused generation); *volume*: the same character raymarched through its density volume (`\"volume_lod\"`, every distance forced), the volume voxelized on the first frame and cached (static hair); *voxelize*: that first frame's LOD, clear, voxelization, resolve passes; *re-voxelize*: the same passes and the bricks' after an edit of the hair mesh (one vertex moved, so the whole hair is voxelized again, as after restyling or a simulation step), median of three edits on the warm renderer. Coverage: pixels the strand image covers. FLIP: mean, volume image against the strand image.\n"
     );
     let _ = writeln!(
         md,
-        "| distance | coverage | strands: frame (ms) | volume: frame (ms) | speed-up | FLIP | volume grid | voxelize (ms) |\n|---|---|---|---|---|---|---|---|"
+        "| distance | coverage | strands: frame (ms) | volume: frame (ms) | speed-up | FLIP | volume grid | voxelize (ms) | re-voxelize (ms) |\n|---|---|---|---|---|---|---|---|---|"
     );
     let mut csv = String::from(
-        "distance,coverage_percent,strands_frame_ms,volume_frame_ms,speedup,flip,grid,voxelize_ms\n",
+        "distance,coverage_percent,strands_frame_ms,volume_frame_ms,speedup,flip,grid,voxelize_ms,revoxelize_ms\n",
     );
     let mut rows = Vec::new();
     let mut pictures: Vec<(RgbaImage, RgbaImage, [u32; 4])> = Vec::new();
@@ -958,8 +995,10 @@ fn volume_table(setup: &Setup<'_>, progress: &indicatif::ProgressBar) -> Result<
             / f64::from(width * height)
             * 100.0;
         let volume_scene = scene_at(distance, volume_effects.clone())?;
-        let volume_renderer = render::frame::SceneRenderer::new(ctx, &volume_scene, GenerationPath::Compute)?
-            .with_volumes_everywhere(true);
+        let instance = render::instance::SceneInstance::load(&volume_scene)?;
+        let mut volume_renderer =
+            render::frame::SceneRenderer::from_instance(ctx, &instance, GenerationPath::Compute)?
+                .with_volumes_everywhere(true);
         let first = volume_renderer.render(ctx)?;
         let voxelize_ms = passes_ms(&first, &["lod hair", "clear voxel", "voxelize", "resolve volume"]);
         let grid = first
@@ -970,6 +1009,7 @@ fn volume_table(setup: &Setup<'_>, progress: &indicatif::ProgressBar) -> Result<
             .unwrap_or("?")
             .to_owned();
         let (volume_ms, volume_frame) = timed_frames(ctx, &volume_renderer, frames)?;
+        let revoxelize_ms = revoxelize_ms(ctx, &mut volume_renderer, &instance)?;
         let flip = flip_mean(&strand_frame.image, &volume_frame.image);
         let speedup = strand_ms / volume_ms;
         if let Some(square) = covered_square(&strand_frame) {
@@ -977,11 +1017,11 @@ fn volume_table(setup: &Setup<'_>, progress: &indicatif::ProgressBar) -> Result<
         }
         let _ = writeln!(
             md,
-            "| {distance}× | {coverage:.2} % | {strand_ms:.1} | {volume_ms:.1} | {speedup:.1}× | {flip:.4} | {grid} | {voxelize_ms:.1} |"
+            "| {distance}× | {coverage:.2} % | {strand_ms:.1} | {volume_ms:.1} | {speedup:.1}× | {flip:.4} | {grid} | {voxelize_ms:.1} | {revoxelize_ms:.1} |"
         );
         let _ = writeln!(
             csv,
-            "{distance},{coverage:.3},{strand_ms:.3},{volume_ms:.3},{speedup:.3},{flip:.5},{grid},{voxelize_ms:.3}"
+            "{distance},{coverage:.3},{strand_ms:.3},{volume_ms:.3},{speedup:.3},{flip:.5},{grid},{voxelize_ms:.3},{revoxelize_ms:.3}"
         );
         rows.push((coverage, strand_ms, volume_ms));
     }
