@@ -1050,6 +1050,25 @@ fn volume_table(setup: &Setup<'_>, progress: &indicatif::ProgressBar) -> Result<
         "\nThe volume is faster at every coverage up to {} in this run.",
         crossover.map_or("none of them".to_owned(), |c| format!("{c:.1} % of the screen"))
     );
+    // Re-voxelization at the coarser grids small characters get (`"lod": "auto"` raymarches
+    // characters of at most 48 pixels: 64³ or less).
+    progress.set_message("volume: re-voxelization at coarser grids");
+    let mut coarse = Vec::new();
+    for resolution in [64u32, 32] {
+        let mut effects = volume_effects.clone();
+        effects["volume_resolution"] = serde_json::json!(resolution);
+        let instance = render::instance::SceneInstance::load(&scene_at(10.6, effects)?)?;
+        let mut renderer = render::frame::SceneRenderer::from_instance(ctx, &instance, GenerationPath::Compute)?
+            .with_volumes_everywhere(true);
+        renderer.render(ctx)?;
+        timed_frames(ctx, &renderer, 1)?;
+        coarse.push(format!("{resolution}³ {:.1} ms", revoxelize_ms(ctx, &mut renderer, &instance)?));
+    }
+    let _ = writeln!(
+        md,
+        "\nRe-voxelization after an edit on coarser grids (the farthest distance, `volume_resolution` lowered): {}.",
+        coarse.join(", ")
+    );
     // AO's cost on the strands, the close-up (the AO volume cached).
     progress.set_message("volume: AO on the close-up");
     let mut ao_rows = Vec::new();
