@@ -344,6 +344,45 @@ fn main() -> ExitCode {
             ensure!(json["strands"].as_u64().is_some_and(|s| s > 0), "{json}");
             Ok(())
         }),
+        GpuTest::new("hair_render_warns_when_the_oit_pool_overflows", Requirements::NONE, |_| {
+            // A pool far too small: the image keeps its hair (the overflow is blended), and the
+            // user is told what happened and which setting to raise; the stats count it.
+            let dir = tempfile::tempdir()?;
+            let effects = serde_json::json!({ "transparency": "oit", "oit_nodes_per_pixel": 0.05 });
+            let scene = hairkit_tests::scenes::scene_with(dir.path(), "one_character", 64, 48, effects)?;
+            let (out, stats) = (dir.path().join("oit.png"), dir.path().join("stats.json"));
+            let arg = |p: &Path| p.to_str().map(str::to_owned).context("utf-8");
+            let (ok, stdout, stderr) = hair_render_output(&[
+                &arg(&scene)?,
+                "-o",
+                &arg(&out)?,
+                "--stats",
+                "--stats-json",
+                &arg(&stats)?,
+            ]);
+            ensure!(ok, "{stderr}");
+            ensure!(
+                stderr.contains("warning")
+                    && stderr.contains("oit.png")
+                    && stderr.contains("oit_nodes_per_pixel"),
+                "{stderr}"
+            );
+            ensure!(stdout.contains("OIT:"), "{stdout}");
+            let json: serde_json::Value = serde_json::from_slice(&std::fs::read(&stats)?)?;
+            ensure!(json["oit_overflow"].as_u64().is_some_and(|n| n > 0), "{json}");
+            ensure!(json["oit_pool"].as_u64().is_some_and(|n| n > 0), "{json}");
+            // With a pool that holds the frame, no warning.
+            let scene = hairkit_tests::scenes::scene_with(
+                dir.path(),
+                "one_character",
+                64,
+                48,
+                serde_json::json!({ "transparency": "oit", "oit_nodes_per_pixel": 256 }),
+            )?;
+            let (ok, stderr) = hair_render(&[&arg(&scene)?, "-o", &arg(&out)?]);
+            ensure!(ok && !stderr.contains("warning"), "{stderr}");
+            Ok(())
+        }),
         GpuTest::new("hair_render_raster_option_picks_the_rasterizer", Requirements::INT64_ATOMICS, |_| {
             let dir = tempfile::tempdir()?;
             let scene = small_scene(dir.path(), "one_character", 64, 48)?;

@@ -1,6 +1,7 @@
 // Per-pixel linked lists of hair fragments (order-independent transparency, as TressFX): the
 // fill pass appends shaded fragments; the resolve pass keeps the nearest K sorted and blends the
-// rest order-independently.
+// rest order-independently. Fragments that find the node pool full go to their pixel's overflow
+// tail instead, blended with the rest.
 
 #include "hk_render_contract.glsl"
 
@@ -16,7 +17,29 @@ struct OitNode {
     uint color_ba;
 };
 
+// Per pixel OIT_PIXEL_WORDS words: the list's head, then the overflow tail — the premultiplied
+// colour and alpha of the fragments that found the pool full and their alpha-weighted depth
+// (OIT_TAIL_SCALE units), and their optical depth Σ −ln(1 − α) (OIT_DEPTH_SCALE units), summed
+// in any order. Each tail word holds
+// the bitwise complement of its sum, so the clear's all-ones fill (OIT_END heads) zeroes them.
+// (frame.rs OIT_PIXEL_WORDS)
+const uint OIT_PIXEL_WORDS = 7u;
+const float OIT_TAIL_SCALE = 65536.0;
+const float OIT_DEPTH_SCALE = 4096.0;
+// The sums stop growing there (an alpha sum of 16,384 opaque fragments; transmittance e^−32),
+// far from wrapping around.
+const uint OIT_TAIL_ALPHA_LIMIT = 1u << 30;
+const uint OIT_TAIL_DEPTH_LIMIT = 32u * 4096u;
 layout(std430, set = 0, binding = HK_BINDING_OIT_HEADS) coherent buffer OitHeads { uint oit_heads[]; };
 layout(std430, set = 0, binding = HK_BINDING_OIT_NODES) buffer OitNodes { OitNode oit_nodes[]; };
-// x: next free node; y: pool size; z: fragments dropped because the pool was full; w: width.
-layout(std430, set = 0, binding = HK_BINDING_OIT_COUNTERS) coherent buffer OitCounters { uvec4 oit_counters; };
+// x: next free node; y: pool size; z: fragments that found the pool full; w: width. Then words per
+// pixel of oit_heads: OIT_PIXEL_WORDS, or 1 (no overflow tail: the output is too large for it).
+layout(std430, set = 0, binding = HK_BINDING_OIT_COUNTERS) coherent buffer OitCounters {
+    uvec4 oit_counters;
+    uint oit_pixel_words;
+};
+
+// The sum held in tail word `w` (the complement of the word).
+uint oit_tail_sum(uint w) {
+    return ~oit_heads[w];
+}

@@ -1,7 +1,8 @@
 #version 460
 // OIT resolve: walk the pixel's list, keep the K nearest fragments sorted (k-buffer), blend
-// the others order-independently (their premultiplied average weighted by their combined
-// coverage), then composite front to back; the output is premultiplied and blended over the
+// the others and the pixel's overflow tail (fragments that found the pool full) order-
+// independently (their premultiplied average weighted by their combined coverage), then
+// composite front to back; the output is premultiplied and blended over the
 // opaque image, and the nearest fragment's depth goes to the depth buffer (depth output).
 #extension GL_GOOGLE_include_directive : require
 #include "oit.glsl"
@@ -20,7 +21,8 @@ void main() {
     uint count = 0u;
     vec4 tail_sum = vec4(0.0);
     float tail_transmittance = 1.0;
-    uint node = oit_heads[pixel];
+    uint base = pixel * oit_pixel_words;
+    uint node = oit_heads[base];
     for (uint walked = 0u; node != OIT_END && walked < OIT_MAX_WALK && node < oit_counters.y; ++walked) {
         float depth = uintBitsToFloat(oit_nodes[node].depth);
         vec4 color = vec4(unpackHalf2x16(oit_nodes[node].color_rg), unpackHalf2x16(oit_nodes[node].color_ba));
@@ -47,6 +49,20 @@ void main() {
         colors[i] = color;
         count += 1u;
     }
+    vec4 overflow = oit_pixel_words == OIT_PIXEL_WORDS
+        ? vec4(oit_tail_sum(base + 1u), oit_tail_sum(base + 2u), oit_tail_sum(base + 3u), oit_tail_sum(base + 4u)) /
+              OIT_TAIL_SCALE
+        : vec4(0.0);
+    // Where every fragment overflowed, the tail's alpha-weighted mean depth stands for the
+    // nearest one (the fill depth-tested them all against the occluders already).
+    float nearest = count > 0u ? depths[0] : 1.0;
+    if (overflow.a > 0.0) {
+        if (count == 0u) {
+            nearest = min(float(oit_tail_sum(base + 6u)) / OIT_TAIL_SCALE / overflow.a, uintBitsToFloat(0x3f7fffffu));
+        }
+        tail_sum += overflow;
+        tail_transmittance *= exp(-float(oit_tail_sum(base + 5u)) / OIT_DEPTH_SCALE);
+    }
     vec3 result = vec3(0.0);
     float transmittance = 1.0;
     for (uint i = 0u; i < count; ++i) {
@@ -59,6 +75,6 @@ void main() {
     }
     out_color = vec4(result, 1.0 - transmittance);
     // The nearest hair becomes the pixel's depth (the depth test keeps a nearer occluder's);
-    // an empty list writes the far plane, which never passes.
-    gl_FragDepth = count > 0u ? depths[0] : 1.0;
+    // a pixel without hair writes the far plane, which never passes.
+    gl_FragDepth = nearest;
 }

@@ -65,6 +65,9 @@ struct GpuLight {
 }
 
 pub(crate) const OIT_NODE_BYTES: u64 = 16;
+/// Words per pixel of the OIT heads buffer: the list's head and the overflow tail's six sums
+/// (`oit.glsl`; 1, the head alone, when the output is too large for them).
+pub(crate) const OIT_PIXEL_WORDS: u64 = 7;
 /// Strand-buffer bytes one submission of a frame may hold (characters beyond it go to the next
 /// batch): a 100-character crowd with LOD off needs gigabytes otherwise.
 pub const BATCH_BYTES: u64 = 1 << 30;
@@ -254,7 +257,9 @@ pub struct RenderedFrame {
     pub passes: Vec<String>,
     /// The graph this frame ran (its runnable passes are [`Self::passes`]).
     pub graph: FrameGraph<()>,
-    /// OIT: fragments dropped because the node pool was full (`None` in opaque mode).
+    /// OIT: fragments that found the node pool full (`None` in opaque mode): blended into their
+    /// pixel's overflow tail, order-independently behind its nearest ones (dropped only when the
+    /// output is too large for the tail's words in one storage buffer).
     pub oit_overflow: Option<u64>,
     /// OIT: nodes in the pool.
     pub oit_pool: Option<u64>,
@@ -402,6 +407,8 @@ pub(crate) struct OitBuffers {
     pub(crate) nodes: Buffer,
     pub(crate) counters: Buffer,
     pub(crate) pool: u64,
+    /// Words per pixel of `heads`: [`OIT_PIXEL_WORDS`] with the overflow tail, 1 without.
+    pub(crate) pixel_words: u32,
 }
 
 impl SceneRenderer {
@@ -1363,11 +1370,17 @@ impl SceneRenderer {
                 let range = u64::from(ctx.capabilities().max_storage_buffer_range) / OIT_NODE_BYTES;
                 let nodes = ((pixels as f64 * f64::from(oit.nodes_per_pixel)) as u64)
                     .clamp(1, range.min(u64::from(u32::MAX - 1)));
+                // The overflow tail when its words fit one storage buffer (not at 4K on lavapipe's
+                // 128 MiB: there a full pool drops fragments, counted).
+                let fits =
+                    pixels * 4 * OIT_PIXEL_WORDS <= u64::from(ctx.capabilities().max_storage_buffer_range);
+                let pixel_words = if fits { OIT_PIXEL_WORDS } else { 1 };
                 Some(OitBuffers {
-                    heads: pool.buffer(ctx, "OIT heads", BufferDesc::storage(pixels * 4))?,
+                    heads: pool.buffer(ctx, "OIT heads", BufferDesc::storage(pixels * 4 * pixel_words))?,
                     nodes: pool.buffer(ctx, "OIT nodes", BufferDesc::storage(nodes * OIT_NODE_BYTES))?,
-                    counters: pool.buffer(ctx, "OIT counters", BufferDesc::storage(16))?,
+                    counters: pool.buffer(ctx, "OIT counters", BufferDesc::storage(32))?,
                     pool: nodes,
+                    pixel_words: pixel_words as u32,
                 })
             }
             _ => None,

@@ -275,6 +275,9 @@ fn run(cli: &Cli) -> Result<()> {
             renderer.raster(),
             frame.timings.cpu_wait_ms
         );
+        if let Some(warning) = budget_warning(&frame) {
+            eprintln!("warning: {}: {warning}", file.display());
+        }
         last = Some(frame);
     }
     let Some(frame) = last else { return Ok(()) };
@@ -289,6 +292,16 @@ fn run(cli: &Cli) -> Result<()> {
             frame.volume_characters,
             frame.volumes_voxelized
         );
+        if let (Some(overflow), Some(pool)) = (frame.oit_overflow, frame.oit_pool) {
+            println!(
+                "OIT: {pool} nodes, {overflow} fragments beyond them (blended into their pixels' overflow tails)"
+            );
+        }
+        if let (Some(overflow), Some(slots)) = (frame.raster_overflow, frame.raster_slots) {
+            println!(
+                "compute raster: {slots} visibility slots per pixel, {overflow} pixels with more fragments"
+            );
+        }
     }
     if let Some(json_path) = &cli.stats_json {
         let passes: Vec<serde_json::Value> = frame
@@ -308,10 +321,27 @@ fn run(cli: &Cli) -> Result<()> {
             "bundles_culled": frame.stats.bundles_culled,
             "volume_characters": frame.volume_characters,
             "volumes_voxelized": frame.volumes_voxelized,
+            "oit_overflow": frame.oit_overflow,
+            "oit_pool": frame.oit_pool,
+            "raster_overflow": frame.raster_overflow,
+            "raster_slots": frame.raster_slots,
         });
         let text = serde_json::to_string_pretty(&json)?;
         hairmesh::atomic::write_file_atomic(json_path, |w| w.write_all(text.as_bytes()))
             .with_context(|| format!("writing {}", json_path.display()))?;
     }
     Ok(())
+}
+
+/// What a user should know when a frame outgrew a budget: the OIT node pool (its overflow is
+/// blended order-independently, so the hair's layering is approximate where it happened).
+fn budget_warning(frame: &render::frame::RenderedFrame) -> Option<String> {
+    let (overflow, pool) = (frame.oit_overflow?, frame.oit_pool?);
+    (overflow > 0).then(|| {
+        format!(
+            "{overflow} hair fragments found the OIT node pool ({pool} nodes) full and were blended \
+             order-independently; raise effects.oit_nodes_per_pixel (the pool is also capped by \
+             the device's storage-buffer size) or use \"raster\": \"compute\""
+        )
+    })
 }

@@ -1,7 +1,7 @@
 //! Order-independent transparency (per-pixel linked lists with a k-buffer resolve, as TressFX):
 //! clear the lists, fill them with shaded fragments (depth-tested against the occluders, nothing
-//! written to the target), resolve them over the target. A full node pool drops fragments and
-//! counts them.
+//! written to the target), resolve them over the target. Fragments that find the node pool full
+//! go to their pixel's overflow tail (`oit.glsl`), counted.
 
 use gen_gpu::Recorder;
 
@@ -46,7 +46,7 @@ pub(crate) fn plan_resolve(g: &mut FrameGraph<ScenePass>, ids: &FrameIds, submis
 pub(crate) fn record_clear(rec: &mut Recorder<'_>, state: &FrameState<'_>) -> gen_gpu::Result<()> {
     let Some(oit) = state.oit else { return Ok(()) };
     rec.fill_buffer(&oit.heads, u32::MAX);
-    let init = [0u32, oit.pool as u32, 0, state.plan.view.width];
+    let init = [0u32, oit.pool as u32, 0, state.plan.view.width, oit.pixel_words, 0, 0, 0];
     rec.update_buffer(&oit.counters, 0, bytemuck::cast_slice(&init))
 }
 
