@@ -106,7 +106,11 @@ fn style(rng: &mut SplitMix64, scale: f64) -> Style {
         } else {
             Curl::default()
         },
-        wave: Wave { amplitude: scale * uniform(rng, 0.0, 0.06), frequency: uniform(rng, 2.0, 10.0) },
+        wave: Wave {
+            amplitude: scale * uniform(rng, 0.0, 0.06),
+            frequency: uniform(rng, 2.0, 10.0),
+            coherence: 0.0,
+        },
         frizz: Frizz { amplitude: scale * uniform(rng, 0.0, 0.01), frequency: 20.0, exponent: 2.0 },
         clump: Clump { strength: uniform(rng, 0.0, 0.7), exponent: uniform(rng, 0.5, 2.0) },
         twist: uniform(rng, -0.3, 0.3),

@@ -114,6 +114,10 @@ pub struct EditorApp {
     pub scene: PreviewScene,
     /// Conversion settings shown in the panel (those of the open scalp, or the next one).
     pub convert: ConvertSettings,
+    /// The centre of the open head's skull when it is known (the sample head's), for draped
+    /// presets: the estimate from the scalp's bounds sits too low on a scan with a high forehead
+    /// and combs the hairline bald.
+    pub head_centre: Option<DVec3>,
     pub conversion: Option<ConversionJob>,
     preview: Option<PreviewWorker>,
     texture: Option<egui::TextureHandle>,
@@ -198,6 +202,7 @@ impl EditorApp {
             camera: OrbitCamera::default(),
             scene: PreviewScene::default(),
             convert: ConvertSettings::default(),
+            head_centre: None,
             conversion: None,
             preview: Some(preview),
             texture: None,
@@ -240,6 +245,10 @@ impl EditorApp {
     }
 
     fn open_now(&mut self, path: &Path) {
+        // The sample head's skull centre is known, whichever way it was opened.
+        let sample = Path::new(hairmesh::convert::sample_head::PATH);
+        self.head_centre =
+            path.ends_with(sample).then(|| DVec3::from_array(hairmesh::convert::sample_head::SKULL_CENTRE));
         let ext = path.extension().and_then(|e| e.to_str()).unwrap_or_default().to_ascii_lowercase();
         if matches!(ext.as_str(), "glb" | "gltf" | "obj") {
             self.start_conversion(path.to_owned());
@@ -452,13 +461,14 @@ impl EditorApp {
         let Some(doc) = &mut self.doc else { return };
         let (lo, hi) = point_bounds(&doc.asset().mesh().layers[0]);
         let (length, mut shape) = preset.layers_for(lo, hi);
-        // A head centre already set in the panel (the sample head's skull, or the artist's) is
-        // better than the estimate from the scalp's bounds.
-        if let (LayerShape::Drape { centre, .. }, LayerShape::Drape { centre: set, .. }) =
-            (&mut shape, &self.convert.shape)
-            && *set != DVec3::ZERO
-        {
-            *centre = *set;
+        // A head centre already set in the panel (the artist's), else the known skull centre of
+        // the open head, is better than the estimate from the scalp's bounds.
+        if let LayerShape::Drape { centre, .. } = &mut shape {
+            match (&self.convert.shape, self.head_centre) {
+                (LayerShape::Drape { centre: set, .. }, _) if *set != DVec3::ZERO => *centre = *set,
+                (_, Some(known)) => *centre = known,
+                _ => {}
+            }
         }
         let rescale = if let Source::Scalp { file, .. } = &doc.source { Some(file.clone()) } else { None };
         let style_length = if rescale.is_some() { length } else { doc.hair_length() };
@@ -953,6 +963,7 @@ impl EditorApp {
             slider(ui, "Curl phase", &mut style.curl.phase, 1.0);
             slider(ui, "Wave amplitude", &mut style.wave.amplitude, 0.1 * h);
             slider(ui, "Wave frequency", &mut style.wave.frequency, 20.0 / h);
+            slider(ui, "Wave coherence", &mut style.wave.coherence, 1.0);
             slider(ui, "Frizz amplitude", &mut style.frizz.amplitude, 0.1 * h);
             slider(ui, "Frizz frequency", &mut style.frizz.frequency, 40.0 / h);
             slider(ui, "Frizz exponent", &mut style.frizz.exponent, 4.0);
@@ -1347,6 +1358,7 @@ fn sanitized(mut s: Style) -> Style {
         (&mut s.curl.frequency, d.curl.frequency),
         (&mut s.wave.amplitude, 0.0),
         (&mut s.wave.frequency, d.wave.frequency),
+        (&mut s.wave.coherence, 0.0),
         (&mut s.frizz.amplitude, 0.0),
         (&mut s.frizz.frequency, d.frizz.frequency),
         (&mut s.frizz.exponent, d.frizz.exponent),
@@ -1363,6 +1375,7 @@ fn sanitized(mut s: Style) -> Style {
     s.root_fade = s.root_fade.min(1.0);
     s.length_variation = s.length_variation.min(1.0);
     s.clump.strength = s.clump.strength.min(1.0);
+    s.wave.coherence = s.wave.coherence.min(1.0);
     s.stray.fraction = s.stray.fraction.min(1.0);
     if !s.twist.is_finite() {
         s.twist = 0.0;

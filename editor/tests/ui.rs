@@ -361,10 +361,44 @@ fn presets_convert_and_render(_: &gen_gpu::Context) -> Result<()> {
     Ok(())
 }
 
+/// Draped presets on the sample head flow around its skull's centre, not the estimate from the
+/// scalp's bounds (which sits too low on the scan and combs the hairline bald); on a scalp
+/// without a known centre the estimate stands.
+fn draped_presets_use_the_sample_heads_skull_centre(_: &gen_gpu::Context) -> Result<()> {
+    use hairmesh::convert::{LayerShape, sample_head};
+    let long_wavy = editor::presets::PRESETS.iter().find(|p| p.name == "Long wavy").context("preset")?;
+    let mut h = builder().build_ui_state(|ui, app: &mut EditorApp| app.ui(ui), app());
+    h.state_mut().open_sample_head(&Path::new(env!("CARGO_MANIFEST_DIR")).join(".."));
+    settle(&mut h)?;
+    h.state_mut().apply_preset(long_wavy);
+    settle(&mut h)?;
+    let skull = glam::DVec3::from_array(sample_head::SKULL_CENTRE);
+    ensure!(
+        matches!(h.state().convert.shape, LayerShape::Drape { centre, .. } if centre == skull),
+        "{:?}",
+        h.state().convert.shape
+    );
+    let mut h = builder().build_ui_state(|ui, app: &mut EditorApp| app.ui(ui), app());
+    open_sample(&mut h)?;
+    h.state_mut().apply_preset(long_wavy);
+    settle(&mut h)?;
+    ensure!(h.state().head_centre.is_none());
+    ensure!(
+        matches!(h.state().convert.shape, LayerShape::Drape { centre, .. } if centre != skull),
+        "{:?}",
+        h.state().convert.shape
+    );
+    Ok(())
+}
+
 fn main() -> std::process::ExitCode {
     let t = |name: &str, f: fn(&gen_gpu::Context) -> Result<()>| GpuTest::new(name, Requirements::NONE, f);
     run_gpu_tests(vec![
         t("presets_convert_and_render", presets_convert_and_render),
+        t(
+            "draped_presets_use_the_sample_heads_skull_centre",
+            draped_presets_use_the_sample_heads_skull_centre,
+        ),
         t("real_window_under_xvfb_shows_hair", real_window_under_xvfb_shows_hair),
         t("window_snapshot_shows_the_preview", window_snapshot_shows_the_preview),
         t(

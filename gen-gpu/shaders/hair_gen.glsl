@@ -34,7 +34,7 @@ struct GenParams {
     vec4 curl;           // radius, frequency, phase, -
     vec4 wave_frizz;     // wave amplitude, wave frequency, frizz amplitude, frizz frequency
     vec4 frizz_clump;    // frizz exponent, clump strength, clump exponent, twist
-    vec4 stray;          // fraction, amplitude, -, -
+    vec4 stray;          // stray fraction, stray amplitude; z: wave coherence (clamped to 0..1); w: -
     uvec4 seed_info;     // x: style seed; y: triangle set base (index of the first triangle set); z, w: -
     vec4 viewport;       // x: width, y: height in pixels
     vec4 lod_error;      // x: style-aware vertex LOD's error bound epsilon in pixels (0: off); yzw: -
@@ -264,7 +264,18 @@ vec3 any_orthonormal(vec3 v) {
     return vec3(b, s + v.y * v.y * a, -v.y);
 }
 
-vec3 style_apply(uint seed, float tau, vec3 position, vec3 centre, vec3 fu, vec3 fv, vec3 fw, float w) {
+// style.rs Style::wave_random.
+float wave_random(uint bundle, uint seed) {
+    float own = seeded_random(seed, 2u);
+    float c = params.stray.z;
+    if (!(c > 0.0)) {
+        return own;
+    }
+    c = min(c, 1.0);
+    return own * (1.0 - c) + seeded_random(strand_seed(bundle, 0xffffffffu), 2u) * c;  // BUNDLE_RANDOM
+}
+
+vec3 style_apply(uint bundle, uint seed, float tau, vec3 position, vec3 centre, vec3 fu, vec3 fv, vec3 fw, float w) {
     float fade = smoothstep_safe(0.0, params.style0.z, tau);
     if (fade == 0.0) {
         return position;
@@ -280,7 +291,7 @@ vec3 style_apply(uint seed, float tau, vec3 position, vec3 centre, vec3 fu, vec3
         d.xy = params.curl.x * vec2(cos(curl_phase), sin(curl_phase));
     }
     if (params.wave_frizz.x != 0.0) {
-        float wave_phase = TURN * (params.wave_frizz.y * w + seeded_random(seed, 2u));
+        float wave_phase = TURN * (params.wave_frizz.y * w + wave_random(bundle, seed));
         d.x += params.wave_frizz.x * sin(wave_phase);
     }
     float frizz_amplitude = params.wave_frizz.z + (stray ? params.stray.y : 0.0);
@@ -322,7 +333,7 @@ vec3 strand_point(uint bundle, uint strand, vec2 root, float tau) {
     vec3 fv;
     vec3 fw;
     styling_frame(fetch(u_tex, z).xyz, fetch(v_tex, z).xyz, fu, fv, fw);
-    return style_apply(seed, tau, position, centre, fu, fv, fw, fetch(w_tex, z).x);
+    return style_apply(bundle, seed, tau, position, centre, fu, fv, fw, fetch(w_tex, z).x);
 }
 
 float width_at(float tau) {
@@ -547,7 +558,7 @@ vec3 window_curve_position(vec3 w[4], int segment, float t_curve) {
 }
 
 // strand_point() from the control data of the segment t_curve = tau * length_scale lies in.
-vec3 control_strand_point(uint seed, float tau, float t_curve, SegmentControl c) {
+vec3 control_strand_point(uint bundle, uint seed, float tau, float t_curve, SegmentControl c) {
     vec3 position = window_curve_position(c.strand, c.segment, t_curve);
     if (tau <= 0.0) {
         return position;
@@ -562,7 +573,7 @@ vec3 control_strand_point(uint seed, float tau, float t_curve, SegmentControl c)
     vec3 fv;
     vec3 fw;
     styling_frame(u_w.xyz, mix(c.v[a], c.v[b], f - i0), fu, fv, fw);
-    return style_apply(seed, tau, position, centre, fu, fv, fw, u_w.w);
+    return style_apply(bundle, seed, tau, position, centre, fu, fv, fw, u_w.w);
 }
 
 // strand_point() from the workgroup's control data (strand_load_control).
@@ -570,7 +581,7 @@ vec3 coherent_strand_point(uint bundle, uint strand, float tau) {
     uint seed = strand_seed(bundle, strand);
     float t_curve = tau * length_scale(seed);
     float local;
-    return control_strand_point(seed, tau, t_curve, shared_segment(int(curve_segment(t_curve, local))));
+    return control_strand_point(bundle, seed, tau, t_curve, shared_segment(int(curve_segment(t_curve, local))));
 }
 
 // Whether a workgroup evaluates its strand from control data: when a strand has a mesh
@@ -677,7 +688,7 @@ vec3 thread_strand_point(uint bundle, uint seed, float scale, vec2 root, float t
     if (segment != c.segment) {
         load_segment(bundle, root, segment, c);
     }
-    return control_strand_point(seed, tau, t_curve, c);
+    return control_strand_point(bundle, seed, tau, t_curve, c);
 }
 
 HK_STRAND_VERTEX_FUNCTIONS(_of_thread, thread_positions)

@@ -139,6 +139,7 @@ pub(crate) struct GenParams {
     curl: [f32; 4],
     wave_frizz: [f32; 4],
     frizz_clump: [f32; 4],
+    /// Stray fraction, stray amplitude, wave coherence, -.
     stray: [f32; 4],
     seed_info: [u32; 4],
     viewport: [f32; 4],
@@ -776,7 +777,7 @@ fn params(hair: &GpuHair, inputs: &FrameInputs, capacity: u64, chunk_slots: u64)
         curl: [f(s.curl.radius), f(s.curl.frequency), f(s.curl.phase), 0.0],
         wave_frizz: [f(s.wave.amplitude), f(s.wave.frequency), f(s.frizz.amplitude), f(s.frizz.frequency)],
         frizz_clump: [f(s.frizz.exponent), f(s.clump.strength), f(s.clump.exponent), f(s.twist)],
-        stray: [f(s.stray.fraction), f(s.stray.amplitude), 0.0, 0.0],
+        stray: [f(s.stray.fraction), f(s.stray.amplitude), f(s.wave.coherence), 0.0],
         seed_info: [
             s.seed,
             asset.square_sets.len() as u32,

@@ -49,13 +49,27 @@ pub struct Wave {
     pub amplitude: f64,
     /// Waves per object unit of `w`.
     pub frequency: f64,
+    /// How much of the wave's random phase a bundle's strands share, 0..=1: 0 (the default)
+    /// gives every strand its own phase (a fine crimp where strands cross), 1 puts the whole
+    /// bundle in step, so it waves as one lock (long wavy hair). The phase's random number is
+    /// `(1 − c)·rand(b, j, 2) + c·rand(b, BUNDLE_RANDOM, 2)`. Written only when set, so assets
+    /// without it stay readable by builds that predate it.
+    #[serde(skip_serializing_if = "is_zero")]
+    pub coherence: f64,
 }
 
 impl Default for Wave {
     fn default() -> Self {
-        Self { amplitude: 0.0, frequency: 1.0 }
+        Self { amplitude: 0.0, frequency: 1.0, coherence: 0.0 }
     }
 }
+
+fn is_zero(x: &f64) -> bool {
+    *x == 0.0
+}
+
+/// The strand index whose random numbers are a bundle's own ([`Wave::coherence`]).
+pub const BUNDLE_RANDOM: u32 = u32::MAX;
 
 /// Smooth per-strand noise growing toward the tip.
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
@@ -217,7 +231,7 @@ impl Style {
         let turn = std::f64::consts::TAU;
         let curl_phase =
             turn * (self.curl.frequency * w + self.curl.phase + strand_random(self.seed, bundle, strand, 1));
-        let wave_phase = turn * (self.wave.frequency * w + strand_random(self.seed, bundle, strand, 2));
+        let wave_phase = turn * (self.wave.frequency * w + self.wave_random(bundle, strand));
         let frizz_amplitude = self.frizz.amplitude + if stray { self.stray.amplitude } else { 0.0 };
         let frizz = self.frizz_noise(bundle, strand, w * self.frizz.frequency)
             * (frizz_amplitude * tau.powf(self.frizz.exponent.max(0.0)));
@@ -239,6 +253,19 @@ impl Style {
             p = p.lerp(centre, amount);
         }
         p
+    }
+
+    /// The random number of the wave's phase ([`Wave::coherence`]; out-of-range coherences
+    /// clamped, NaN taken as 0).
+    pub fn wave_random(&self, bundle: u32, strand: u32) -> f64 {
+        let own = strand_random(self.seed, bundle, strand, 2);
+        // NaN and values ≤ 0 fail the comparison: independent phases.
+        let c = self.wave.coherence;
+        if c.partial_cmp(&0.0) != Some(std::cmp::Ordering::Greater) {
+            return own;
+        }
+        let c = c.min(1.0);
+        own * (1.0 - c) + strand_random(self.seed, bundle, BUNDLE_RANDOM, 2) * c
     }
 
     /// Strand width at τ (before LOD compensation).
@@ -265,6 +292,37 @@ pub fn rotate_about(v: DVec3, axis: DVec3, angle: f64) -> DVec3 {
 mod tests {
     use super::*;
 
+    #[test]
+    fn wave_coherence_puts_a_bundle_in_step() {
+        let style = |coherence: f64| Style {
+            wave: Wave { amplitude: 0.05, frequency: 2.0, coherence },
+            ..Style::default()
+        };
+        let randoms = |s: &Style, bundle: u32| (0..8).map(|j| s.wave_random(bundle, j)).collect::<Vec<_>>();
+        // 0: every strand its own phase (today's default and older files).
+        let own = randoms(&style(0.0), 5);
+        assert!(own.windows(2).all(|w| w[0] != w[1]));
+        assert_eq!(own[3], strand_random(style(0.0).seed, 5, 3, 2));
+        // 1: the whole bundle in step, bundles apart from each other.
+        let locked = randoms(&style(1.0), 5);
+        assert!(locked.iter().all(|&r| r == locked[0]));
+        assert_ne!(locked[0], randoms(&style(1.0), 6)[0]);
+        // Between: nearer the bundle's phase; out of range clamped, NaN taken as 0.
+        let half = randoms(&style(0.5), 5);
+        assert!(half.iter().zip(&own).all(|(h, o)| (h - locked[0]).abs() <= (o - locked[0]).abs() + 1e-12));
+        assert_eq!(randoms(&style(3.0), 5), locked);
+        assert_eq!(randoms(&style(f64::NAN), 5), own);
+        // Old style files without the field read as 0, and 0 is not written (older builds read
+        // the file); a set coherence round-trips.
+        let old: Style =
+            serde_json::from_str(r#"{"wave": {"amplitude": 0.1, "frequency": 3.0}}"#).expect("old style");
+        assert_eq!(old.wave.coherence, 0.0);
+        assert!(!serde_json::to_string(&old).expect("json").contains("coherence"));
+        let text = serde_json::to_string(&style(0.75)).expect("json");
+        let back: Style = serde_json::from_str(&text).expect("round trip");
+        assert_eq!(back.wave.coherence, 0.75);
+    }
+
     fn input(tau: f64) -> StyleInput {
         StyleInput {
             bundle: 3,
@@ -280,7 +338,7 @@ mod tests {
     fn busy_style() -> Style {
         Style {
             curl: Curl { radius: 0.1, frequency: 3.0, phase: 0.2 },
-            wave: Wave { amplitude: 0.05, frequency: 2.0 },
+            wave: Wave { amplitude: 0.05, frequency: 2.0, coherence: 0.0 },
             frizz: Frizz { amplitude: 0.02, frequency: 5.0, exponent: 1.5 },
             clump: Clump { strength: 0.5, exponent: 1.0 },
             twist: 0.5,

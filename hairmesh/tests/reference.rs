@@ -15,7 +15,7 @@ use common::patch;
 fn styled() -> Style {
     Style {
         curl: Curl { radius: 0.05, frequency: 2.0, phase: 0.0 },
-        wave: Wave { amplitude: 0.03, frequency: 1.0 },
+        wave: Wave { amplitude: 0.03, frequency: 1.0, coherence: 0.0 },
         frizz: Frizz { amplitude: 0.01, frequency: 6.0, exponent: 2.0 },
         clump: Clump { strength: 0.4, exponent: 1.5 },
         twist: 0.25,

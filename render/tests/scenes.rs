@@ -279,7 +279,7 @@ fn main() -> ExitCode {
                 )?;
                 let style = hairmesh::style::Style {
                     width: 0.012,
-                    wave: hairmesh::style::Wave { amplitude: 0.08, frequency: 1.5 },
+                    wave: hairmesh::style::Wave { amplitude: 0.08, frequency: 1.5, coherence: 0.0 },
                     clump: hairmesh::style::Clump { strength: 0.4, exponent: 1.5 },
                     length_variation: 0.2,
                     ..hairmesh::style::Style::default()

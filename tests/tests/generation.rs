@@ -53,7 +53,7 @@ fn styled(scale: f64) -> Style {
     Style {
         width: 0.002 * scale,
         curl: Curl { radius: 0.02 * scale, frequency: 3.0 / scale, phase: 0.1 },
-        wave: Wave { amplitude: 0.01 * scale, frequency: 2.0 / scale },
+        wave: Wave { amplitude: 0.01 * scale, frequency: 2.0 / scale, coherence: 0.6 },
         frizz: Frizz { amplitude: 0.005 * scale, frequency: 8.0 / scale, exponent: 2.0 },
         clump: Clump { strength: 0.4, exponent: 1.5 },
         twist: 0.2,

@@ -286,7 +286,7 @@ fn demo(o: &DemoOptions, device: &DeviceArgs) -> Result<()> {
             long,
             Style {
                 width: 0.008,
-                wave: Wave { amplitude: 0.06, frequency: 1.2 },
+                wave: Wave { amplitude: 0.06, frequency: 1.2, coherence: 0.0 },
                 clump: Clump { strength: 0.45, exponent: 1.2 },
                 length_variation: 0.2,
                 seed: 7,

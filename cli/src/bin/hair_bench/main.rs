@@ -76,7 +76,7 @@ fn asset(strands: u64) -> Result<HairAsset> {
     )?;
     let style = Style {
         width: 0.0015,
-        wave: Wave { amplitude: 0.008, frequency: 8.0 },
+        wave: Wave { amplitude: 0.008, frequency: 8.0, coherence: 0.0 },
         clump: Clump { strength: 0.5, exponent: 1.0 },
         ..Style::default()
     };
