@@ -61,6 +61,36 @@ fn mean_covered_luminance(frame: &RenderedFrame) -> f64 {
     sum / f64::max(n, 1.0)
 }
 
+/// The same character drawn by its strands and raymarched through its volume at each distance
+/// (`load(volume, distance)`): `check` passes on the volume frame, no strand is rasterized, and
+/// the mean FLIP stays within each distance's tolerance and falls with distance. Images go to
+/// `volume-{name}-{distance}[-strands].png`.
+fn strands_against_volume(
+    ctx: &gen_gpu::Context,
+    name: &str,
+    tolerances: [(f32, f32); 3],
+    load: impl Fn(bool, f32) -> anyhow::Result<LoadedScene>,
+    check: impl Fn(&RenderedFrame) -> anyhow::Result<()>,
+) -> anyhow::Result<()> {
+    let mut previous = f32::INFINITY;
+    for (distance, tolerance) in tolerances {
+        let s = SceneRenderer::new(ctx, &load(false, distance)?, GenerationPath::Compute)?.render(ctx)?;
+        let v = SceneRenderer::new(ctx, &load(true, distance)?, GenerationPath::Compute)?.render(ctx)?;
+        write(&v, &format!("{name}-{distance}"))?;
+        write(&s, &format!("{name}-{distance}-strands"))?;
+        check(&v)?;
+        ensure!(v.stats.strands == 0, "a raymarched character rasterizes {} strands", v.stats.strands);
+        let any = Tolerance { mean: 1.0, percentile: (0.99, 1.0) };
+        let flip = compare(&format!("volume_{name}_{distance}"), &v.image, &s.image, any)
+            .map_err(anyhow::Error::msg)?;
+        eprintln!("  {name}, {distance}× the distance: FLIP mean {:.4} (allowed {tolerance})", flip.mean);
+        ensure!(flip.mean <= tolerance, "FLIP {} over {tolerance}", flip.mean);
+        ensure!(flip.mean <= previous * 1.1, "the error should fall with distance");
+        previous = flip.mean;
+    }
+    Ok(())
+}
+
 fn main() -> ExitCode {
     run_gpu_tests(vec![
         GpuTest::new("voxelization_and_ao_match_their_cpu_ports", Requirements::INT64_ATOMICS, |ctx| {
@@ -200,31 +230,21 @@ fn main() -> ExitCode {
         ),
         GpuTest::new("volume_lod_matches_the_strands_at_a_distance", Requirements::INT64_ATOMICS, |ctx| {
             // The tolerances shrink with distance: up close a voxel is several pixels.
-            let mut previous = f32::INFINITY;
-            for (distance, tolerance) in [(3.0, 0.02), (6.0, 0.01), (12.0, 0.005)] {
-                let strands = scene((256, 192), serde_json::json!({}), distance)?;
-                let volume = scene(
-                    (256, 192),
-                    serde_json::json!({ "volume_lod": true, "volume_lod_pixels": 1.0e6 }),
-                    distance,
-                )?;
-                let s = SceneRenderer::new(ctx, &strands, GenerationPath::Compute)?.render(ctx)?;
-                let v = SceneRenderer::new(ctx, &volume, GenerationPath::Compute)?.render(ctx)?;
-                write(&v, &format!("far-{distance}"))?;
-                write(&s, &format!("far-{distance}-strands"))?;
+            let load = |volume: bool, distance: f32| {
+                let effects = if volume {
+                    serde_json::json!({ "volume_lod": true, "volume_lod_pixels": 1.0e6 })
+                } else {
+                    serde_json::json!({})
+                };
+                scene((256, 192), effects, distance)
+            };
+            strands_against_volume(ctx, "far", [(3.0, 0.02), (6.0, 0.01), (12.0, 0.005)], load, |v| {
                 ensure!(
                     v.volume_characters == 1
                         && v.passes.iter().any(|p| p.starts_with("raymarch character 0"))
                 );
-                ensure!(v.stats.strands == 0, "a raymarched character generates no strands for the raster");
-                let any = Tolerance { mean: 1.0, percentile: (0.99, 1.0) };
-                let flip = compare(&format!("volume_far_{distance}"), &v.image, &s.image, any)
-                    .map_err(anyhow::Error::msg)?;
-                eprintln!("  {distance}× the distance: FLIP mean {:.4} (allowed {tolerance})", flip.mean);
-                ensure!(flip.mean <= tolerance, "FLIP {} over {tolerance}", flip.mean);
-                ensure!(flip.mean <= previous * 1.1, "the error should fall with distance");
-                previous = flip.mean;
-            }
+                Ok(())
+            })?;
             Ok(())
         }),
         GpuTest::new(
@@ -590,38 +610,32 @@ fn main() -> ExitCode {
                 c.eye = (target + (eye - target) * distance).to_array();
                 Ok(scene)
             };
-            let mut previous = f32::INFINITY;
-            for (distance, tolerance) in [(3.0, 0.01), (6.0, 0.005), (12.0, 0.0025)] {
-                let strands = sintel(serde_json::json!({ "raster": "compute" }), distance)?;
-                let volume = sintel(
-                    serde_json::json!({ "raster": "compute", "volume_lod": true, "volume_lod_pixels": 1.0e6 }),
-                    distance,
-                )?;
-                let s = SceneRenderer::new(ctx, &strands, GenerationPath::Compute)?.render(ctx)?;
-                let v = SceneRenderer::new(ctx, &volume, GenerationPath::Compute)?.render(ctx)?;
-                write(&v, &format!("sintel-far-{distance}"))?;
-                write(&s, &format!("sintel-far-{distance}-strands"))?;
-                ensure!(
-                    v.volume_characters == 1
-                        && v.volume_fractions == [1.0]
-                        && v.passes.iter().any(|p| p.starts_with("raymarch stored character 0"))
-                        && v.passes.iter().any(|p| p.contains("stored strands)")),
-                    "{:?} {:?}",
-                    v.volume_fractions,
-                    v.passes
-                );
-                ensure!(v.stats.strands == 0, "a raymarched groom rasterizes {} strands", v.stats.strands);
-                let any = Tolerance { mean: 1.0, percentile: (0.99, 1.0) };
-                let flip = compare(&format!("volume_sintel_far_{distance}"), &v.image, &s.image, any)
-                    .map_err(anyhow::Error::msg)?;
-                eprintln!(
-                    "  groom at {distance}× the distance: FLIP mean {:.4} (allowed {tolerance})",
-                    flip.mean
-                );
-                ensure!(flip.mean <= tolerance, "FLIP {} over {tolerance}", flip.mean);
-                ensure!(flip.mean <= previous * 1.1, "the error should fall with distance");
-                previous = flip.mean;
-            }
+            let load = |volume: bool, distance: f32| {
+                let effects = if volume {
+                    serde_json::json!({ "raster": "compute", "volume_lod": true, "volume_lod_pixels": 1.0e6 })
+                } else {
+                    serde_json::json!({ "raster": "compute" })
+                };
+                sintel(effects, distance)
+            };
+            strands_against_volume(
+                ctx,
+                "sintel-far",
+                [(3.0, 0.01), (6.0, 0.005), (12.0, 0.0025)],
+                load,
+                |v| {
+                    ensure!(
+                        v.volume_characters == 1
+                            && v.volume_fractions == [1.0]
+                            && v.passes.iter().any(|p| p.starts_with("raymarch stored character 0"))
+                            && v.passes.iter().any(|p| p.contains("stored strands)")),
+                        "{:?} {:?}",
+                        v.volume_fractions,
+                        v.passes
+                    );
+                    Ok(())
+                },
+            )?;
             // A dolly across the band: strands, both, then the volume.
             let band = sintel(
                 serde_json::json!({ "raster": "compute", "volume_lod": true, "volume_lod_pixels": 40 }),

@@ -555,7 +555,85 @@ fn stored_section(setup: &Setup<'_>, progress: &indicatif::ProgressBar) -> Resul
             live_per_vertex / stored
         );
     }
-    Ok(Section { name: "stored", markdown: md, csv: vec![("bench-stored.csv", csv)] })
+    let mut csv_files = vec![("bench-stored.csv", csv)];
+    if ctx.capabilities().buffer_int64_atomics {
+        let (table, raster_csv) = stored_compute_raster_table(setup, progress)?;
+        md.push_str(&table);
+        csv_files.push(("bench-stored-compute.csv", raster_csv));
+    }
+    Ok(Section { name: "stored", markdown: md, csv: csv_files })
+}
+
+/// On the fly vs stored through the compute rasterizer (the default on CPU devices): the hair
+/// generated inside the raster kernel every frame, against the same strands (the CPU
+/// reference's, LOD off) uploaded once and drawn by the rasterizer's stored-strand kernel.
+fn stored_compute_raster_table(
+    setup: &Setup<'_>,
+    progress: &indicatif::ProgressBar,
+) -> Result<(String, String)> {
+    let Setup { ctx, width, height, frames, camera, .. } = *setup;
+    let mut md = String::new();
+    let _ = writeln!(
+        md,
+        "\nThrough the compute rasterizer (opaque, LOD off): *on the fly* generates every strand inside the raster kernel each frame; *stored* draws the same strands (the CPU reference's, uploaded once, root width tapering to 0.3 at the tip) with the rasterizer's stored-strand kernel. Medians of {frames} frames after a warm-up, GPU timestamps.\n"
+    );
+    let _ = writeln!(
+        md,
+        "| strands | on the fly, fused (ms) | stored (ms) | ratio (goal ≤ 1.05×) |\n|---|---|---|---|"
+    );
+    let mut csv = String::from("strands,on_the_fly_ms,stored_ms,ratio\n");
+    let json = serde_json::json!({
+        "output": { "width": width, "height": height },
+        "camera": { "eye": camera.eye.to_array(), "target": camera.target.to_array(), "fov_y_degrees": camera.fov_y.to_degrees() },
+        "lights": [ { "directional": { "direction": [0.5, 0.8, 0.6] } } ],
+        "characters": [],
+        "effects": { "transparency": "opaque", "raster": "compute" }
+    });
+    let mut settings = render::scene::LoadedScene {
+        path: PathBuf::from("stored-vs-fused.json"),
+        scene: serde_json::from_value(json)?,
+    };
+    settings.scene.lod = LodDesc::OFF;
+    settings.validate_settings()?;
+    for &strands in setup.sizes {
+        progress.set_message(format!("on the fly vs stored, compute rasterizer: {strands} strands"));
+        let hair = asset(strands)?;
+        let inputs = gen_gpu::FrameInputs::looking_at(&hair, camera.eye, width, height);
+        let reference =
+            hair.generate_reference(&inputs.view, &LodParams { enabled: false, ..LodParams::default() });
+        let set = hairmesh::strands::StrandSet {
+            format: "hairkit reference strands".into(),
+            points: reference.iter().flat_map(|s| s.positions.iter().map(|p| p.as_vec3())).collect(),
+            strand_points: reference.iter().map(|s| s.positions.len() as u32).collect(),
+            thickness: None,
+            root_uv: None,
+        };
+        let width_at_root = hair.style.width as f32;
+        let time = |character: render::instance::CharacterInstance| -> Result<f64> {
+            let mut instance = render::instance::SceneInstance::new(settings.clone());
+            instance.characters.push(character);
+            let renderer =
+                render::frame::SceneRenderer::from_instance(ctx, &instance, GenerationPath::Compute)?;
+            renderer.render(ctx)?;
+            Ok(timed_frames(ctx, &renderer, frames)?.0)
+        };
+        let live = time(render::instance::CharacterInstance::generated("hair", hair))?;
+        let stored = time(render::instance::CharacterInstance {
+            key: "stored".into(),
+            hair: render::instance::CharacterHair::Stored {
+                strands: std::sync::Arc::new(set),
+                width: width_at_root,
+            },
+            transform: Mat4::IDENTITY,
+            color: render::scene::DEFAULT_HAIR_COLOR,
+            color_variation: render::scene::DEFAULT_COLOR_VARIATION,
+            occluder: None,
+        })?;
+        let n = reference.len();
+        let _ = writeln!(md, "| {n} | {live:.1} | {stored:.1} | **{:.2}×** |", live / stored);
+        let _ = writeln!(csv, "{n},{live:.3},{stored:.3},{:.4}", live / stored);
+    }
+    Ok((md, csv))
 }
 
 /// A table's section: its markdown, the command and device that measured it, its plot.
