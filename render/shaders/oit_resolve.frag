@@ -49,16 +49,20 @@ void main() {
         colors[i] = color;
         count += 1u;
     }
-    vec4 overflow = oit_pixel_words == OIT_PIXEL_WORDS
-        ? vec4(oit_tail_sum(base + 1u), oit_tail_sum(base + 2u), oit_tail_sum(base + 3u), oit_tail_sum(base + 4u)) /
-              OIT_TAIL_SCALE
-        : vec4(0.0);
+    vec4 overflow = vec4(0.0);
+    if (oit_pixel_words == OIT_PIXEL_WORDS) {
+        uvec4 sums = uvec4(oit_tail_sum(base + 1u), oit_tail_sum(base + 2u), oit_tail_sum(base + 3u),
+                           oit_tail_sum(base + 4u));
+        overflow = vec4(sums) / OIT_TAIL_SCALE;
+    }
     // Where every fragment overflowed, the tail's alpha-weighted mean depth stands for the
     // nearest one (the fill depth-tested them all against the occluders already).
     float nearest = count > 0u ? depths[0] : 1.0;
     if (overflow.a > 0.0) {
         if (count == 0u) {
-            nearest = min(float(oit_tail_sum(base + 6u)) / OIT_TAIL_SCALE / overflow.a, uintBitsToFloat(0x3f7fffffu));
+            // (Below 1, the far plane, so it passes the depth test.)
+            float mean_depth = float(oit_tail_sum(base + 6u)) / OIT_TAIL_SCALE / overflow.a;
+            nearest = min(mean_depth, uintBitsToFloat(0x3f7fffffu));
         }
         tail_sum += overflow;
         tail_transmittance *= exp(-float(oit_tail_sum(base + 5u)) / OIT_DEPTH_SCALE);

@@ -115,8 +115,8 @@ pub(crate) struct VolumeIds {
     pub(crate) hairs: Vec<Option<HairVolumePlan>>,
     /// Characters raymarched this frame ([`SceneRenderer::volume_character`]'s numbers).
     pub(crate) marched: Vec<usize>,
-    /// Per character (the same numbers): the share of its pixels its volume draws (1: all, in no strand batch;
-    /// between 0 and 1: the transition band, drawn by both).
+    /// Per character (the same numbers): the share of its pixels its volume draws (1: all, in
+    /// no strand batch; between 0 and 1: the transition band, drawn by both).
     pub(crate) fractions: Vec<f32>,
 }
 

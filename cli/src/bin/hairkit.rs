@@ -465,7 +465,7 @@ fn demo(o: &DemoOptions, device: &DeviceArgs) -> Result<()> {
             first.shadow_ms.unwrap_or(0.0)
         );
         println!(
-            "  strands {} ({} of {} bundles culled), vertices {}, OIT fragments dropped {}",
+            "  strands {} ({} of {} bundles culled), vertices {}, OIT fragments beyond the node pool (blended order-independently) {}",
             frame.stats.strands,
             frame.stats.bundles_culled,
             frame.stats.bundles,
