@@ -509,7 +509,7 @@ fn stored_section(setup: &Setup<'_>, progress: &indicatif::ProgressBar) -> Resul
     let _ = writeln!(md, "### On-the-fly vs stored strands\n");
     let _ = writeln!(
         md,
-        "{}; {width}×{height}, compute path; \"stored\" draws the strand buffers an earlier frame generated (vertex pulling, same shading), so only generation differs. Medians of {frames} frames.\n",
+        "{}; {width}×{height}, compute generation path, triangle raster; \"stored\" draws the strand buffers an earlier frame generated (vertex pulling, same shading), so only generation differs. Medians of {frames} frames.\n",
         setup.provenance
     );
     let _ = writeln!(
