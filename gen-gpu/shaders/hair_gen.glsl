@@ -264,6 +264,9 @@ vec3 any_orthonormal(vec3 v) {
     return vec3(b, s + v.y * v.y * a, -v.y);
 }
 
+// The strand index whose random numbers are a bundle's own (style.rs BUNDLE_RANDOM).
+const uint BUNDLE_RANDOM = 0xffffffffu;
+
 // style.rs Style::wave_random.
 float wave_random(uint bundle, uint seed) {
     float own = seeded_random(seed, 2u);
@@ -272,7 +275,7 @@ float wave_random(uint bundle, uint seed) {
         return own;
     }
     c = min(c, 1.0);
-    return own * (1.0 - c) + seeded_random(strand_seed(bundle, 0xffffffffu), 2u) * c;  // BUNDLE_RANDOM
+    return own * (1.0 - c) + seeded_random(strand_seed(bundle, BUNDLE_RANDOM), 2u) * c;
 }
 
 vec3 style_apply(uint bundle, uint seed, float tau, vec3 position, vec3 centre, vec3 fu, vec3 fv, vec3 fw, float w) {

@@ -16,13 +16,15 @@ void main() {
     }
     uint pixel = uint(gl_FragCoord.y) * oit_counters.w + uint(gl_FragCoord.x);
     uint base = pixel * oit_pixel_words;
-    bool tail = oit_pixel_words == OIT_PIXEL_WORDS;
     uint index = atomicAdd(oit_counters.x, 1u);
     if (index >= oit_counters.y) {
         atomicAdd(oit_counters.z, 1u);
+        if (oit_pixel_words != OIT_PIXEL_WORDS) {
+            return;  // no tail at this output size: dropped, counted
+        }
         // Subtracting from the complemented words adds to their sums; plain loads first, so a
         // saturated tail takes no atomics.
-        if (tail && oit_tail_sum(base + 4u) < OIT_TAIL_ALPHA_LIMIT) {
+        if (oit_tail_sum(base + 4u) < OIT_TAIL_ALPHA_LIMIT) {
             uvec4 q = uvec4(clamp(color, 0.0, 1.0) * OIT_TAIL_SCALE + 0.5);
             atomicAdd(oit_heads[base + 1u], ~q.r + 1u);
             atomicAdd(oit_heads[base + 2u], ~q.g + 1u);
@@ -31,7 +33,7 @@ void main() {
             uint depth = uint(clamp(color.a, 0.0, 1.0) * gl_FragCoord.z * OIT_TAIL_SCALE + 0.5);
             atomicAdd(oit_heads[base + 6u], ~depth + 1u);
         }
-        if (tail && oit_tail_sum(base + 5u) < OIT_TAIL_DEPTH_LIMIT) {
+        if (oit_tail_sum(base + 5u) < OIT_TAIL_DEPTH_LIMIT) {
             uint tau = uint(-log(1.0 - min(color.a, 0.999)) * OIT_DEPTH_SCALE + 0.5);
             atomicAdd(oit_heads[base + 5u], ~tau + 1u);
         }

@@ -21,10 +21,11 @@ int64_t fixed_signed(float x) {
     return int64_t(round(x * AREA_SCALE));
 }
 
-// A strand's consecutive samples in one voxel (two or more per voxel it crosses, and the ends of
-// consecutive segments) are summed here and added with one set of atomics when the strand leaves
+// A strand's consecutive samples in one voxel (a strand runs about a voxel's length through each
+// voxel it crosses, segments shorter than a voxel add one each, consecutive segments meet in
+// one) are summed here and added with one set of atomics when the strand leaves
 // the voxel: integer sums, so the voxel's totals are the same bits as one atomic per sample, with
-// a half to a third of the atomics (the voxelization's largest cost on lavapipe). Every kernel
+// fewer atomics (the voxelization's largest cost on lavapipe). Every kernel
 // calls flush_voxel() after its strand's last segment.
 const uint NO_VOXEL = 0xffffffffu;
 uint run_voxel = NO_VOXEL;

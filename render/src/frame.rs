@@ -1015,13 +1015,18 @@ impl SceneRenderer {
         self.characters.len() + self.stored_characters.len()
     }
 
-    /// Character `i` of [`Self::volume_character_count`]: its placement and its volume source
-    /// ([`Self::volume_sources`]).
+    /// Character `i` in that order, with its volume source ([`Self::volume_sources`]: stored
+    /// sets follow the uploaded hairs).
     pub(crate) fn volume_character(&self, i: usize) -> Option<(&SceneCharacter, usize)> {
         match i.checked_sub(self.characters.len()) {
             None => self.characters.get(i).map(|c| (c, c.hair)),
             Some(j) => self.stored_characters.get(j).map(|c| (c, self.hairs.len() + c.hair)),
         }
+    }
+
+    /// Every character in that order ([`Self::volume_character`]).
+    pub(crate) fn volume_characters(&self) -> impl Iterator<Item = (&SceneCharacter, usize)> {
+        (0..self.volume_character_count()).filter_map(|i| self.volume_character(i))
     }
 
     /// The projected size in pixels in `view` of a character placed at `transform` with volume
@@ -1051,9 +1056,7 @@ impl SceneRenderer {
         let Some(volumes) = &self.volumes else { return (None, Vec::new()) };
         let effects = self.scene.scene.effects;
         let max = volumes.store.max_resolution;
-        let placed: Vec<(Mat4, usize)> = (0..self.volume_character_count())
-            .filter_map(|i| self.volume_character(i).map(|(c, v)| (c.transform, v)))
-            .collect();
+        let placed: Vec<(Mat4, usize)> = self.volume_characters().map(|(c, v)| (c.transform, v)).collect();
         let pixels: Vec<f32> = placed.iter().map(|&(t, v)| self.projected_pixels(t, v, view)).collect();
         // A volume is drawn only where its voxels are at most about two pixels: never beyond
         // twice the resolution the scene's volumes get (lowered when many hairs share the
@@ -1546,13 +1549,8 @@ impl SceneRenderer {
         let (Some(volumes), Some(ids), true) = (&self.volumes, &plan.ids.volumes, flags != 0) else {
             return materials;
         };
-        // Generated characters, then stored ones (whose volumes follow the hairs').
-        let sources = self
-            .characters
-            .iter()
-            .map(|c| (c, c.hair))
-            .chain(self.stored_characters.iter().map(|c| (c, self.hairs.len() + c.hair)));
-        for ((c, v), &m) in sources.zip(&self.character_materials) {
+        // Generated characters, then stored ones, as the materials are numbered.
+        for ((c, v), &m) in self.volume_characters().zip(&self.character_materials) {
             if let (Some(Some(p)), Some(material)) = (ids.hairs.get(v), materials.get_mut(m as usize)) {
                 let address = volumes.store.address(v, &p.grid);
                 material.world_to_voxel = p.grid.world_to_voxel(c.transform).to_cols_array();
