@@ -69,6 +69,8 @@ layout(set = 0, binding = HK_BINDING_U_TEXTURE) uniform sampler3D u_tex;
 layout(set = 0, binding = HK_BINDING_V_TEXTURE) uniform sampler3D v_tex;
 layout(set = 0, binding = HK_BINDING_W_TEXTURE) uniform sampler3D w_tex;
 
+#include "float_int.glsl"
+
 // ---------------------------------------------------------------- hashing (style.rs)
 
 uint pcg_hash(uint v) {
@@ -105,8 +107,8 @@ vec4 fetch(sampler3D tex, vec3 coord) {
         return textureLod(tex, coord / size, 0.0);
     }
     vec3 f = clamp(coord - 0.5, vec3(0.0), size - 1.0);
-    ivec3 i0 = ivec3(floor(f));
-    ivec3 i1 = min(i0 + 1, ivec3(size) - 1);
+    ivec3 i0 = ivec3(floor_int(f.x), floor_int(f.y), floor_int(f.z));
+    ivec3 i1 = min(i0 + 1, textureSize(tex, 0) - 1);
     vec3 w = f - vec3(i0);
     vec4 c00 = mix(texelFetch(tex, ivec3(i0.x, i0.y, i0.z), 0), texelFetch(tex, ivec3(i1.x, i0.y, i0.z), 0), w.x);
     vec4 c10 = mix(texelFetch(tex, ivec3(i0.x, i1.y, i0.z), 0), texelFetch(tex, ivec3(i1.x, i1.y, i0.z), 0), w.x);
@@ -236,7 +238,7 @@ vec3 frizz_noise(uint seed, float x) {
     float i = floor(x);
     float f = x - i;
     float blend = f * f * (3.0 - 2.0 * f);
-    uint cell = uint(i - 1048576.0 * floor(i / 1048576.0));
+    uint cell = uint(floor_int(i - 1048576.0 * floor(i / 1048576.0)));
     uint next = (cell + 1u) % 1048576u;
     vec3 a = vec3(seeded_random(seed, 16u + 3u * cell), seeded_random(seed, 17u + 3u * cell),
                   seeded_random(seed, 18u + 3u * cell)) * 2.0 - 1.0;
@@ -540,7 +542,7 @@ SegmentControl shared_segment(int segment) {
 vec3 window_at(vec3 w[4], int first, float zc) {
     float f = clamp(zc - 0.5, 0.0, float(3u * coherent_layers()));
     float i0 = floor(f);
-    int a = int(i0) - first;
+    int a = floor_int(i0) - first;
     return mix(w[clamp(a, 0, 3)], w[clamp(a + 1, 0, 3)], f - i0);
 }
 
@@ -569,8 +571,8 @@ vec3 control_strand_point(uint bundle, uint seed, float tau, float t_curve, Segm
     vec3 centre = window_curve_position(c.centre, c.segment, t_curve);
     float f = clamp(t_curve * float(params.layout_info.w), 0.0, float(coherent_layers()));
     float i0 = floor(f);
-    int a = clamp(int(i0) - c.segment, 0, 1);
-    int b = clamp(int(i0) + 1 - c.segment, 0, 1);
+    int a = clamp(floor_int(i0) - c.segment, 0, 1);
+    int b = clamp(floor_int(i0) + 1 - c.segment, 0, 1);
     vec4 u_w = mix(c.u_w[a], c.u_w[b], f - i0);
     vec3 fu;
     vec3 fv;
@@ -584,7 +586,7 @@ vec3 coherent_strand_point(uint bundle, uint strand, float tau) {
     uint seed = strand_seed(bundle, strand);
     float t_curve = tau * length_scale(seed);
     float local;
-    return control_strand_point(bundle, seed, tau, t_curve, shared_segment(int(curve_segment(t_curve, local))));
+    return control_strand_point(bundle, seed, tau, t_curve, shared_segment(floor_int(curve_segment(t_curve, local))));
 }
 
 // Whether a workgroup evaluates its strand from control data: when a strand has a mesh
@@ -687,7 +689,7 @@ void load_segment(uint bundle, vec2 root, int segment, inout SegmentControl c) {
 vec3 thread_strand_point(uint bundle, uint seed, float scale, vec2 root, float tau, inout SegmentControl c) {
     float t_curve = tau * scale;
     float local;
-    int segment = int(curve_segment(t_curve, local));
+    int segment = floor_int(curve_segment(t_curve, local));
     if (segment != c.segment) {
         load_segment(bundle, root, segment, c);
     }

@@ -28,6 +28,7 @@
 #extension GL_EXT_shader_explicit_arithmetic_types_int64 : require
 
 #include "hk_render_contract.glsl"
+#include "float_int.glsl"
 
 const uint64_t VISIBILITY_EMPTY = 0xffffffffffffffffUL;
 const float COVERAGE_SCALE = 256.0;          // fixed-point units per unit of optical depth
@@ -117,7 +118,7 @@ VisibleFragment decode_visibility(uint64_t word) {
 
 // The coverage increment of a fragment of alpha `a` (0 when it adds nothing).
 uint coverage_increment(float a) {
-    return uint(-log(1.0 - min(a, MAX_FRAGMENT_COVERAGE)) * COVERAGE_SCALE + 0.5);
+    return uint(max(floor_int(-log(1.0 - min(a, MAX_FRAGMENT_COVERAGE)) * COVERAGE_SCALE + 0.5), 0));
 }
 
 // The alpha of a coverage sum (the complemented coverage word, ~word).

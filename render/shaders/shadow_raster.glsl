@@ -60,7 +60,7 @@ void shadow_fragment(uint pixel, float coverage, float ndc_z) {
         return;
     }
     float d = shadow_linear_depth(ndc_z) - shadow_linear_depth(uintBitsToFloat(shadow_depth_bits[texel]));
-    uint add = uint(min(coverage, 1.0) * STRAND_OPACITY * SHADOW_OPACITY_SCALE + 0.5);
+    uint add = uint(max(floor_int(min(coverage, 1.0) * STRAND_OPACITY * SHADOW_OPACITY_SCALE + 0.5), 0));
     if (add == 0u) {
         return;
     }

@@ -139,7 +139,11 @@ void raster_fragment(uint pixel, float coverage, float ndc_z, inout ColumnAttrib
         }
         insert_visibility(first, k, a.word | uint64_t(coverage_bits(coverage)));
     }
-    add_coverage(first + k, coverage_increment(coverage * raster.opacity));
+    // The increment (a logarithm: dear on CPU devices) only for pixels not yet opaque.
+    uint64_t cover = pixel_words[first + k];
+    if (~cover < uint64_t(COVERAGE_LIMIT)) {
+        atomicAdd(pixel_words[first + k], ~uint64_t(coverage_increment(coverage * raster.opacity)) + 1UL);
+    }
 }
 
 #endif
@@ -173,13 +177,17 @@ void raster_segment(RasterVertex a, RasterVertex b, uint material, float random)
     float a_minor = x_major ? sp.y : sp.x;
     float d_major = x_major ? d.x : d.y;
     float d_minor = x_major ? d.y : d.x;
-    int size_major = int(x_major ? size.x : size.y);
-    int size_minor = int(x_major ? size.y : size.x);
+    int size_major = floor_int(x_major ? size.x : size.y);
+    int size_minor = floor_int(x_major ? size.y : size.x);
+    // Pixel (major i, minor j) is i * major_step + j * minor_step.
+    uint width = uint(floor_int(size.x));
+    uint major_step = x_major ? 1u : width;
+    uint minor_step = x_major ? width : 1u;
     // Pixel centres i + 0.5 in [lo, hi): half-open, so a strand's segments share no column.
     float lo = min(a_major, a_major + d_major);
     float hi = max(a_major, a_major + d_major);
-    int first = max(int(ceil(lo - 0.5)), 0);
-    int last = min(int(ceil(hi - 0.5)) - 1, size_major - 1);
+    int first = max(floor_int(ceil(lo - 0.5)), 0);
+    int last = min(floor_int(ceil(hi - 0.5)) - 1, size_major - 1);
     // A footprint of perpendicular width 2h spans 2h * len / |d_major| along the minor axis.
     float stretch = len / abs(d_major);
     float inv_wp = 1.0 / p.clip.w;
@@ -201,8 +209,8 @@ void raster_segment(RasterVertex a, RasterVertex b, uint material, float random)
         column.tau = mix(p.tau, q.tau, tq);
         column.material = material;
         column.random = random;
-        int j0 = max(int(floor(m - h)), 0);
-        int j1 = min(int(floor(m + h)), size_minor - 1);
+        int j0 = max(floor_int(m - h), 0);
+        int j1 = min(floor_int(m + h), size_minor - 1);
 #ifndef SHADOW_RASTER
         if (raster.phase == RASTER_REST && j0 <= j1) {
             // The column's end pixels' tiles (and the two others of their square when it spans
@@ -222,7 +230,7 @@ void raster_segment(RasterVertex a, RasterVertex b, uint material, float random)
 #endif
         for (int j = j0; j <= j1; ++j) {
             float coverage = min(m + h, float(j + 1)) - max(m - h, float(j));
-            uint pixel = x_major ? uint(j) * uint(size.x) + uint(i) : uint(i) * uint(size.x) + uint(j);
+            uint pixel = uint(i) * major_step + uint(j) * minor_step;
 #ifdef SHADOW_RASTER
             shadow_fragment(pixel, coverage, z);
 #else
