@@ -12,4 +12,14 @@ int floor_int(float x) {
     return floatBitsToInt(f + 12582912.0) - 0x4B400000;
 }
 
+ivec2 floor_int2(vec2 x) {
+    vec2 f = floor(clamp(x, vec2(-4194304.0), vec2(4194304.0)));
+    return floatBitsToInt(f + 12582912.0) - 0x4B400000;
+}
+
+ivec3 floor_int3(vec3 x) {
+    vec3 f = floor(clamp(x, vec3(-4194304.0), vec3(4194304.0)));
+    return floatBitsToInt(f + 12582912.0) - 0x4B400000;
+}
+
 #endif

@@ -4,6 +4,7 @@
 // it; and the nearest occluder depth per texel, which shadows whatever lies behind it.
 
 #include "hk_render_contract.glsl"
+#include "float_int.glsl"
 
 struct SceneLight {
     vec4 vector;      // xyz: direction toward the light (w = 0) or its position (w = 1)
@@ -82,8 +83,8 @@ vec2 light_visibility(uint i, vec3 p) {
     float depth = light_linear_depth(i, ndc.z);
     vec2 st = uv * size - 0.5;
     vec2 f = fract(st);
-    ivec2 t0 = ivec2(floor(st));
-    int last = int(size) - 1;
+    ivec2 t0 = floor_int2(st);
+    int last = floor_int(size) - 1;
     uint first = uint(lights[i].map.y);
     vec2 v = vec2(0.0);
     for (int k = 0; k < 4; ++k) {

@@ -60,7 +60,7 @@ vec2 oct_wrap(vec2 v) {
 uint encode_tangent(vec3 t) {
     vec3 n = t / max(abs(t.x) + abs(t.y) + abs(t.z), 1e-20);
     vec2 e = n.z >= 0.0 ? n.xy : oct_wrap(n.xy);
-    uvec2 q = uvec2(clamp(round((e * 0.5 + 0.5) * 511.0), 0.0, 511.0));
+    uvec2 q = uvec2(floor_int2(clamp(round((e * 0.5 + 0.5) * 511.0), 0.0, 511.0)));
     return (q.x << 9u) | q.y;
 }
 
@@ -75,15 +75,15 @@ vec3 decode_tangent(uint bits) {
 
 // The attribute bits of a fragment but its coverage (bits 4-41).
 uint64_t visibility_attributes(uint material, vec3 tangent, float tau, float random) {
-    uint q_tau = uint(clamp(round(tau * 31.0), 0.0, 31.0));
-    uint q_random = uint(clamp(floor(random * 32.0), 0.0, 31.0));
+    uint q_tau = uint(floor_int(clamp(round(tau * 31.0), 0.0, 31.0)));
+    uint q_random = uint(floor_int(clamp(floor(random * 32.0), 0.0, 31.0)));
     return (uint64_t(material & (MAX_MATERIALS - 1u)) << 32) | (uint64_t(encode_tangent(tangent)) << 14)
          | uint64_t((q_tau << 9u) | (q_random << 4u));
 }
 
 // The coverage bits of a fragment of coverage c > 0: 1..15.
 uint coverage_bits(float c) {
-    return uint(clamp(round(c * 15.0), 1.0, 15.0));
+    return uint(floor_int(clamp(round(c * 15.0), 1.0, 15.0)));
 }
 
 // The depth bits of a visibility word (bits 42-63), as a 32-bit value.

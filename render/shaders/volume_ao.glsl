@@ -1,6 +1,8 @@
 // The hair volumes' AO (render/src/volume.rs): its buffer and trilinear samples, for the passes
 // that shade hair (raster_shade.comp, hair_fragment.glsl).
 
+#include "float_int.glsl"
+
 layout(std430, set = 0, binding = HK_BINDING_VOLUME_AO) readonly buffer AoBuffer { float volume_ao[]; };
 
 // Trilinear AO of the region `dims` (voxels per axis, first voxel) at voxel point p (voxel
@@ -8,7 +10,7 @@ layout(std430, set = 0, binding = HK_BINDING_VOLUME_AO) readonly buffer AoBuffer
 float volume_ao_sample(uvec4 dims, vec3 p) {
     ivec3 d = ivec3(dims.xyz);
     vec3 q = clamp(p - 0.5, vec3(0.0), vec3(d - 1));
-    ivec3 i0 = min(ivec3(floor(q)), d - 2);
+    ivec3 i0 = min(floor_int3(q), d - 2);
     vec3 f = q - vec3(i0);
     float sum = 0.0;
     for (int k = 0; k < 8; ++k) {

@@ -120,12 +120,12 @@ void main() {
         vec3 up = abs(ray.y) < 0.9 ? vec3(0.0, 1.0, 0.0) : vec3(1.0, 0.0, 0.0);
         tangent = cross(ray, up);
     }
-    uvec3 voxel = uvec3(clamp(origin + direction * t_mean, vec3(0.0), vec3(march.dims.xyz) - 1.0));
+    uvec3 voxel = uvec3(floor_int3(clamp(origin + direction * t_mean, vec3(0.0), vec3(march.dims.xyz) - 1.0)));
     uint k = march.info.y;
     uint first = pixel_word(pixel, k, 0u);
     uint64_t attributes = visibility_attributes(march.info.x, normalize(tangent), 0.5, hash_voxel(voxel));
     float coverage = min(a / max(opacity, 1e-6), 1.0);
     insert_visibility(first, k, visibility_word(visibility_depth_bits(view_depth), attributes)
                                     | uint64_t(coverage_bits(coverage)));
-    add_coverage(first + k, uint(-log(transmittance) * COVERAGE_SCALE + 0.5));
+    add_coverage(first + k, uint(max(floor_int(-log(transmittance) * COVERAGE_SCALE + 0.5), 0)));
 }

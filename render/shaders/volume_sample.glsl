@@ -3,6 +3,8 @@
 // `vec4 volume[]` (mean direction, σ) and `uint bricks[]` (volume_bricks.comp) readonly.
 // A region: `dims` = (voxels per axis, first voxel), `first_brick` its first brick.
 
+#include "float_int.glsl"
+
 const float VOLUME_MEAN_SIN = 0.78539816;  // mean |sin| between a strand and a random direction
 const int VOLUME_BRICK = 4;
 const float VOLUME_OPAQUE = 1.0 / 256.0;   // transmittance below which a march stops
@@ -10,7 +12,7 @@ const float VOLUME_OPAQUE = 1.0 / 256.0;   // transmittance below which a march 
 // Trilinear sample at voxel coordinates p (voxel centres at i + 0.5; outside the grid is empty).
 vec4 volume_sample(uvec4 dims, vec3 p) {
     vec3 q = p - 0.5;
-    ivec3 i0 = ivec3(floor(q));
+    ivec3 i0 = floor_int3(q);
     vec3 f = q - vec3(i0);
     ivec3 d = ivec3(dims.xyz);
     vec4 sum = vec4(0.0);
@@ -45,7 +47,7 @@ vec3 volume_safe_direction(vec3 d) {
 // leaves it (> t); else -1.
 float volume_skip_brick(uvec4 dims, uint first_brick, vec3 origin, vec3 direction, float t, vec3 p) {
     ivec3 nb = (ivec3(dims.xyz) + VOLUME_BRICK - 1) / VOLUME_BRICK;
-    ivec3 b = clamp(ivec3(floor(p / float(VOLUME_BRICK))), ivec3(0), nb - 1);
+    ivec3 b = clamp(floor_int3(p / float(VOLUME_BRICK)), ivec3(0), nb - 1);
     if (bricks[first_brick + uint((b.z * nb.y + b.y) * nb.x + b.x)] != 0u) {
         return -1.0;
     }

@@ -2,6 +2,8 @@
 // kernel (hair_voxelize.comp) and the stored-strand one (hair_voxelize_stored.comp). CPU port:
 // volume.rs cpu::voxelize.
 
+#include "float_int.glsl"
+
 // Per voxel: area, then area × direction x, y, z (two's complement), in 1 / AREA_SCALE units.
 layout(std430, set = 0, binding = HK_BINDING_VOXEL_SUMS) buffer SumBuffer { uint64_t sums[]; };
 
@@ -14,7 +16,7 @@ const float AREA_SCALE = 1048576.0;  // volume.rs AREA_SCALE
 
 // volume.rs cpu::segment_samples
 uint segment_samples(float length_voxels) {
-    return uint(clamp(ceil(length_voxels), 1.0, 4096.0));
+    return uint(floor_int(clamp(ceil(length_voxels), 1.0, 4096.0)));
 }
 
 int64_t fixed_signed(float x) {
@@ -61,7 +63,7 @@ void voxelize_segment(vec3 a, vec3 b, float wa, float wb) {
         if (any(lessThan(p, vec3(0.0))) || any(greaterThanEqual(p, size))) {
             continue;
         }
-        uvec3 c = uvec3(p);
+        uvec3 c = uvec3(floor_int3(p));
         uint voxel = (c.z * vox.dims.y + c.y) * vox.dims.x + c.x;
         float area = step * mix(wa, wb, t);
         uint64_t q = uint64_t(area * AREA_SCALE + 0.5);
