@@ -19,9 +19,10 @@
 
 // The occluders' Vulkan depth per pixel (1 = none), read when raster.flags bit 0 is set.
 layout(std430, set = 0, binding = HK_BINDING_SCENE_DEPTH) readonly buffer SceneDepthBuffer { float scene_depth[]; };
-// Per 8×8 tile: the farthest depth bits of its pixels' last (K-th) slots if every pixel is
-// opaque and its slots full, else all ones (raster_tiles.comp, after the front strands): a
-// column behind it cannot change any pixel of the tile.
+// Per 8×8 tile two words (raster_tiles.comp, after the front strands): the farthest depth bits
+// of its pixels' last (K-th) slots if every pixel is opaque and its slots full, else all ones —
+// a column behind it cannot change any pixel of the tile —, then the same over the 2×2 tiles
+// it is the top left of, for columns that reach into the next tiles.
 layout(std430, set = 0, binding = HK_BINDING_RASTER_TILES) readonly buffer TileBuffer { uint tile_depth[]; };
 
 layout(push_constant) uniform RasterParams {
@@ -219,9 +220,9 @@ void raster_segment(RasterVertex a, RasterVertex b, uint material, float random)
             // (tile_depth holds depth bits, as column.depth_bits.)
             uvec2 e1 = uvec2(x_major ? ivec2(i, j1) : ivec2(j1, i)) / TILE_SIZE;
             if (all(lessThanEqual(e1 - e0, uvec2(1u)))) {
-                uint w = raster.tiles_x;
-                uint behind = max(max(tile_depth[e0.y * w + e0.x], tile_depth[e1.y * w + e1.x]),
-                                  max(tile_depth[e0.y * w + e1.x], tile_depth[e1.y * w + e0.x]));
+                // One load: the tile's own word, or its 2×2 square's when the column reaches
+                // into the next tiles (each lane's load is a scalar load on CPU devices).
+                uint behind = tile_depth[2u * (e0.y * raster.tiles_x + e0.x) + (e0 == e1 ? 0u : 1u)];
                 if (column.depth_bits > behind) {
                     continue;
                 }
