@@ -133,7 +133,8 @@ pub fn draw_test_strips(
     // Path-specific objects, created before recording.
     enum Prepared {
         Mesh { draw: Pipeline, task_groups: u32 },
-        Compute { generate: Pipeline, draw: Pipeline, vertices: Buffer },
+        // Boxed: a Buffer is large next to the mesh variant.
+        Compute { generate: Pipeline, draw: Pipeline, vertices: Box<Buffer> },
     }
     let prepared = match path {
         GenerationPath::Mesh => {
@@ -186,7 +187,7 @@ pub fn draw_test_strips(
                 &draw_bindings,
             )?;
             let vertices = Buffer::new(ctx, "test strip vertices", BufferDesc::storage(bytes.max(16)))?;
-            Prepared::Compute { generate, draw, vertices }
+            Prepared::Compute { generate, draw, vertices: Box::new(vertices) }
         }
     };
 

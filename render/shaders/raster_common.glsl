@@ -24,6 +24,9 @@
 // min(sum, COVERAGE_LIMIT): a fragment is only skipped when the sum already is at the limit,
 // so the result is the same in any order.
 
+#ifndef HK_RASTER_COMMON_GLSL
+#define HK_RASTER_COMMON_GLSL
+
 #extension GL_EXT_shader_atomic_int64 : require
 #extension GL_EXT_shader_explicit_arithmetic_types_int64 : require
 
@@ -125,3 +128,5 @@ uint coverage_increment(float a) {
 float coverage_alpha(uint64_t sum) {
     return 1.0 - exp(-float(min(sum, uint64_t(COVERAGE_LIMIT))) / COVERAGE_SCALE);
 }
+
+#endif

@@ -15,7 +15,8 @@
 #ifdef SHADOW_RASTER
 #include "raster_common.glsl"
 #else
-#include "visibility_write.glsl"
+#extension GL_EXT_buffer_reference : require
+#include "raster_common.glsl"
 
 // The occluders' Vulkan depth per pixel (1 = none), read when raster.flags bit 0 is set.
 layout(std430, set = 0, binding = HK_BINDING_SCENE_DEPTH) readonly buffer SceneDepthBuffer { float scene_depth[]; };
@@ -36,7 +37,29 @@ layout(push_constant) uniform RasterParams {
     uint k;               // visibility slots per pixel
     float opacity;        // of one strand (its material's)
     float volume_fraction; // transition band: pixels whose dither is below it are the volume's
+    uint pad;
+    // Device addresses of pixel_words and tile_depth (0: none), for the plain loads: CPU devices
+    // (llvmpipe) gather loads through a buffer reference with vector instructions, where a
+    // storage-buffer load of a divergent address is a loop over the SIMD lanes.
+    uint64_t words_address;
+    uint64_t tiles_address;
 } raster;
+
+layout(buffer_reference, std430, buffer_reference_align = 8) readonly buffer PixelWordsRef { uint64_t words[]; };
+layout(buffer_reference, std430, buffer_reference_align = 4) readonly buffer TileWordsRef { uint words[]; };
+
+// visibility_write.glsl's plain loads, through the reference when there is one.
+#define PIXEL_WORD_LOAD(i) \
+    (raster.words_address != 0UL ? PixelWordsRef(raster.words_address).words[i] : pixel_words[i])
+#include "visibility_write.glsl"
+
+uint64_t load_pixel_word(uint i) {
+    return PIXEL_WORD_LOAD(i);
+}
+
+uint load_tile_word(uint i) {
+    return raster.tiles_address != 0UL ? TileWordsRef(raster.tiles_address).words[i] : tile_depth[i];
+}
 
 // Which strands a dispatch draws: all of them, or in two phases around the tile pass: first a
 // front subset (every bundle's first eighth: a blue-noise prefix, spread over the whole hair),
@@ -133,7 +156,7 @@ void raster_fragment(uint pixel, float coverage, float ndc_z, inout ColumnAttrib
     }
     uint k = raster.k;
     uint first = pixel_word(pixel, k, 0u);
-    if (a.depth_bits <= uint(pixel_words[first + k - 1u] >> DEPTH_SHIFT)) {
+    if (a.depth_bits <= uint(load_pixel_word(first + k - 1u) >> DEPTH_SHIFT)) {
         if (!a.encoded) {
             a.word = visibility_word(a.depth_bits, visibility_attributes(a.material, a.tangent, a.tau, a.random));
             a.encoded = true;
@@ -141,7 +164,7 @@ void raster_fragment(uint pixel, float coverage, float ndc_z, inout ColumnAttrib
         insert_visibility(first, k, a.word | uint64_t(coverage_bits(coverage)));
     }
     // The increment (a logarithm: dear on CPU devices) only for pixels not yet opaque.
-    uint64_t cover = pixel_words[first + k];
+    uint64_t cover = load_pixel_word(first + k);
     if (~cover < uint64_t(COVERAGE_LIMIT)) {
         atomicAdd(pixel_words[first + k], ~uint64_t(coverage_increment(coverage * raster.opacity)) + 1UL);
     }
@@ -222,7 +245,7 @@ void raster_segment(RasterVertex a, RasterVertex b, uint material, float random)
             if (all(lessThanEqual(e1 - e0, uvec2(1u)))) {
                 // One load: the tile's own word, or its 2×2 square's when the column reaches
                 // into the next tiles (each lane's load is a scalar load on CPU devices).
-                uint behind = tile_depth[2u * (e0.y * raster.tiles_x + e0.x) + (e0 == e1 ? 0u : 1u)];
+                uint behind = load_tile_word(2u * (e0.y * raster.tiles_x + e0.x) + (e0 == e1 ? 0u : 1u));
                 if (column.depth_bits > behind) {
                     continue;
                 }

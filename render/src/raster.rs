@@ -122,6 +122,11 @@ pub(crate) struct RasterPush {
     pub(crate) opacity: f32,
     /// The character's share of the transition band drawn by its volume ([`crate::volume`]).
     pub(crate) volume_fraction: f32,
+    pub(crate) pad: u32,
+    /// Device addresses of the visibility + coverage words and of the occlusion tiles: the
+    /// kernel's plain loads read through them (0: through the bindings).
+    pub(crate) words_address: u64,
+    pub(crate) tiles_address: u64,
 }
 
 /// Which strands a raster dispatch draws (`RASTER_ALL`, … in `strand_raster.glsl`).
@@ -233,7 +238,9 @@ impl ComputeRaster {
     /// Rasterizes `stored` strands alone (no shading, no occluders) into fresh visibility and
     /// coverage buffers of `inputs.viewport`'s size and reads them back: the kernel as the
     /// tests compare it with its CPU port ([`cpu::raster_strand`]). `model` places the strands
-    /// in the world (tangents are stored in world space).
+    /// in the world (tangents are stored in world space). With `through_references` (and a
+    /// device with buffer device addresses) the kernel's plain loads read through buffer
+    /// references, as in frames; else through the bindings.
     pub fn rasterize_stored(
         &self,
         ctx: &Context,
@@ -241,6 +248,7 @@ impl ComputeRaster {
         inputs: &gen_gpu::FrameInputs,
         model: Mat4,
         material: u32,
+        through_references: bool,
     ) -> gen_gpu::Result<cpu::RasterBuffers> {
         let [width, height] = inputs.viewport;
         let pixels = u64::from(width) * u64::from(height);
@@ -264,10 +272,11 @@ impl ComputeRaster {
                 ),
             );
             stored.record_compute(rec, pipeline, &params, &extra, stored_group_size(), |rec, slots| {
-                rec.push_constants(
-                    pipeline,
-                    &raster_push(model, material, slots, false, RasterPhase::All, 1, 1, 1.0),
-                );
+                let mut push = raster_push(model, material, slots, false, RasterPhase::All, 1, 1, 1.0);
+                if through_references {
+                    push.words_address = words.device_address();
+                }
+                rec.push_constants(pipeline, &push);
             });
             compute_writes_to_readback(rec);
             Ok(())
@@ -454,6 +463,9 @@ pub(crate) fn raster_push(
         k,
         opacity,
         volume_fraction: 0.0,
+        pad: 0,
+        words_address: 0,
+        tiles_address: 0,
     }
 }
 

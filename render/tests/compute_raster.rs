@@ -145,7 +145,10 @@ fn kernel_vs_port(
     let mut gpu = cpu::RasterBuffers::new(width, height);
     for (points, w) in strands {
         let stored = StoredStrands::upload(ctx, points, &[points.len() as u32], *w, 0.5)?;
-        let one = raster.rasterize_stored(ctx, &stored, inputs, Mat4::IDENTITY, 3)?;
+        let one = raster.rasterize_stored(ctx, &stored, inputs, Mat4::IDENTITY, 3, true)?;
+        // The plain loads through buffer references or through the binding: the same words.
+        let bound = raster.rasterize_stored(ctx, &stored, inputs, Mat4::IDENTITY, 3, false)?;
+        ensure!(one == bound, "reading through buffer references changed the kernel's output");
         cpu::raster_strand(&view, &mut port, &stored_points(points, *w, 0.5), 3, 0.0);
         for i in 0..one.visibility.len() {
             gpu.visibility[i] = gpu.visibility[i].min(one.visibility[i]);

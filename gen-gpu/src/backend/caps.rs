@@ -35,6 +35,11 @@ pub struct Capabilities {
     /// 64-bit integer atomics on storage buffers (`shaderInt64` + `shaderBufferInt64Atomics`):
     /// what the compute strand rasterizer's visibility buffer needs.
     pub buffer_int64_atomics: bool,
+    /// Buffer device addresses (`bufferDeviceAddress`, core in Vulkan 1.2 and required by
+    /// 1.3): kernels read their hottest buffers through `GL_EXT_buffer_reference` pointers, which
+    /// CPU devices (llvmpipe) gather with vector instructions, where a storage-buffer load of a
+    /// divergent address is a loop over the SIMD lanes.
+    pub buffer_device_address: bool,
 }
 
 /// Limits of VK_EXT_mesh_shader that generation must respect (queried, never assumed).
@@ -89,6 +94,7 @@ impl Capabilities {
         let features = features2.features;
         let buffer_int64_atomics =
             features.shader_int64 == vk::TRUE && v12_features.shader_buffer_int64_atomics == vk::TRUE;
+        let buffer_device_address = v12_features.buffer_device_address == vk::TRUE;
 
         let filterable = |format| {
             // SAFETY: valid physical device and format enum.
@@ -143,6 +149,7 @@ impl Capabilities {
             sampler_anisotropy: features.sampler_anisotropy == vk::TRUE,
             sub_texel_precision_bits: props.limits.sub_texel_precision_bits,
             buffer_int64_atomics,
+            buffer_device_address,
         }
     }
 }
@@ -222,6 +229,7 @@ impl fmt::Display for Capabilities {
         writeln!(f, "max 3D image:           {}", self.max_image_dimension_3d)?;
         writeln!(f, "sub-texel precision:    {} bits", self.sub_texel_precision_bits)?;
         writeln!(f, "64-bit buffer atomics:  {}", yes_no(self.buffer_int64_atomics))?;
+        writeln!(f, "buffer device address:  {}", yes_no(self.buffer_device_address))?;
         write!(f, "pipeline statistics:    {}", yes_no(self.pipeline_statistics_query))
     }
 }

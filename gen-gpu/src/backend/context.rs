@@ -336,7 +336,8 @@ impl Context {
             .scalar_block_layout(true)
             .shader_float16(true)
             .host_query_reset(true)
-            .shader_buffer_int64_atomics(caps.buffer_int64_atomics);
+            .shader_buffer_int64_atomics(caps.buffer_int64_atomics)
+            .buffer_device_address(caps.buffer_device_address);
         let mut v13 = vk::PhysicalDeviceVulkan13Features::default()
             .dynamic_rendering(true)
             .synchronization2(true)
@@ -376,7 +377,7 @@ impl Context {
             physical_device: physical,
             // The defaults log leaked allocations when the allocator is dropped.
             debug_settings: Default::default(),
-            buffer_device_address: false,
+            buffer_device_address: caps.buffer_device_address,
             allocation_sizes: Default::default(),
         });
         let allocator = match allocator {

@@ -46,6 +46,9 @@ pub struct Buffer {
     allocation: Option<Allocation>,
     pub desc: BufferDesc,
     name: String,
+    /// The buffer's device address (storage buffers on devices with `bufferDeviceAddress`; 0
+    /// elsewhere).
+    address: vk::DeviceAddress,
 }
 
 impl std::fmt::Debug for Buffer {
@@ -66,9 +69,15 @@ impl Buffer {
             });
         }
         let device = ctx.device();
+        // Every storage buffer gets an address where the device has them: kernels may read it
+        // through a buffer reference (Capabilities::buffer_device_address says why).
+        let addressable = ctx.capabilities().buffer_device_address
+            && desc.usage.contains(vk::BufferUsageFlags::STORAGE_BUFFER);
+        let usage =
+            if addressable { desc.usage | vk::BufferUsageFlags::SHADER_DEVICE_ADDRESS } else { desc.usage };
         let info = vk::BufferCreateInfo::default()
             .size(desc.size)
-            .usage(desc.usage)
+            .usage(usage)
             .sharing_mode(vk::SharingMode::EXCLUSIVE);
         // SAFETY: valid device and create info.
         let raw = unsafe { device.create_buffer(&info, None) }.call("vkCreateBuffer")?;
@@ -89,8 +98,14 @@ impl Buffer {
                 return Err(GpuError::Allocation { name: name.into(), source });
             }
         };
-        let buffer =
-            Buffer { shared: ctx.shared.clone(), raw, allocation: Some(allocation), desc, name: name.into() };
+        let mut buffer = Buffer {
+            shared: ctx.shared.clone(),
+            raw,
+            allocation: Some(allocation),
+            desc,
+            name: name.into(),
+            address: 0,
+        };
         let alloc = buffer
             .allocation
             .as_ref()
@@ -98,6 +113,13 @@ impl Buffer {
         // SAFETY: memory and offset come from an allocation made for this buffer's requirements.
         unsafe { device.bind_buffer_memory(raw, alloc.memory(), alloc.offset()) }
             .call("vkBindBufferMemory")?;
+        if addressable {
+            // SAFETY: the buffer was created with SHADER_DEVICE_ADDRESS usage on a device with the
+            // feature enabled, and its memory is bound.
+            buffer.address = unsafe {
+                device.get_buffer_device_address(&vk::BufferDeviceAddressInfo::default().buffer(raw))
+            };
+        }
         ctx.set_name(raw, name);
         Ok(buffer)
     }
@@ -108,6 +130,12 @@ impl Buffer {
 
     pub fn size(&self) -> u64 {
         self.desc.size
+    }
+
+    /// The device address of a storage buffer, where the device has them (0 elsewhere: a
+    /// kernel given 0 reads the buffer through its binding instead).
+    pub fn device_address(&self) -> u64 {
+        self.address
     }
 
     /// The mapped bytes of a host-visible buffer.
