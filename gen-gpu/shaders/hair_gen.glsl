@@ -538,12 +538,18 @@ SegmentControl shared_segment(int segment) {
     return c;
 }
 
+// w[clamp(i, 0, 3)] by selects: CPU devices (llvmpipe) index a private array with a
+// per-invocation index lane by lane (extract, insert), where selects are vector blends.
+vec3 pick4(vec3 w[4], int i) {
+    return i <= 0 ? w[0] : (i == 1 ? w[1] : (i == 2 ? w[2] : w[3]));
+}
+
 // The z step of fetch() (clamp to edge) on a segment's four slices (first = 3 segment).
 vec3 window_at(vec3 w[4], int first, float zc) {
     float f = clamp(zc - 0.5, 0.0, float(3u * coherent_layers()));
     float i0 = floor(f);
     int a = floor_int(i0) - first;
-    return mix(w[clamp(a, 0, 3)], w[clamp(a + 1, 0, 3)], f - i0);
+    return mix(pick4(w, a), pick4(w, a + 1), f - i0);
 }
 
 // curve_position() on a segment's four slices.
@@ -571,13 +577,14 @@ vec3 control_strand_point(uint bundle, uint seed, float tau, float t_curve, Segm
     vec3 centre = window_curve_position(c.centre, c.segment, t_curve);
     float f = clamp(t_curve * float(params.layout_info.w), 0.0, float(coherent_layers()));
     float i0 = floor(f);
-    int a = clamp(floor_int(i0) - c.segment, 0, 1);
-    int b = clamp(floor_int(i0) + 1 - c.segment, 0, 1);
-    vec4 u_w = mix(c.u_w[a], c.u_w[b], f - i0);
+    // Slices a and b of the segment's two (0 or 1; selects, not indexing: see pick4).
+    bool a = floor_int(i0) - c.segment >= 1;
+    bool b = floor_int(i0) + 1 - c.segment >= 1;
+    vec4 u_w = mix(a ? c.u_w[1] : c.u_w[0], b ? c.u_w[1] : c.u_w[0], f - i0);
     vec3 fu;
     vec3 fv;
     vec3 fw;
-    styling_frame(u_w.xyz, mix(c.v[a], c.v[b], f - i0), fu, fv, fw);
+    styling_frame(u_w.xyz, mix(a ? c.v[1] : c.v[0], b ? c.v[1] : c.v[0], f - i0), fu, fv, fw);
     return style_apply(bundle, seed, tau, position, centre, fu, fv, fw, u_w.w);
 }
 
