@@ -63,11 +63,10 @@ float ambient_occlusion(RasterMaterial m, vec3 p) {
     return volume_ao_sample(m.volume, (m.world_to_voxel * vec4(p, 1.0)).xyz);
 }
 
-vec3 shade_fragment(VisibleFragment f, vec2 ndc) {
+vec3 shade_fragment(VisibleFragment f, vec2 ndc, RasterMaterial m) {
     vec4 far_point = frame.inv_view_proj * vec4(ndc, 1.0, 1.0);
     vec3 ray = normalize(far_point.xyz / far_point.w - frame.eye.xyz);
     vec3 position = frame.eye.xyz + ray * (f.w / max(dot(ray, frame.forward.xyz), 1e-6));
-    RasterMaterial m = frame.materials[min(f.material, MAX_MATERIALS - 1u)];
     // Shaded at full coverage: compositing applies the alpha.
     HairSample s = HairSample(position, f.tau, f.tangent, f.random, 1.0, ambient_occlusion(m, position));
     shading_material = m;
@@ -94,6 +93,10 @@ void main() {
     float transmittance = 1.0;
     vec3 last = vec3(0.0);
     float w = 0.0;
+    // A pixel's fragments mostly share one material: it is read again only when it changes
+    // (144 bytes, which CPU devices read lane by lane).
+    uint material = 0xffffffffu;
+    RasterMaterial m;
     for (uint i = 0u; i < k; ++i) {
         uint64_t word = pixel_words[first + i];
         if (word == VISIBILITY_EMPTY) {
@@ -103,9 +106,12 @@ void main() {
         if (i == 0u) {
             w = f.w;
         }
-        float opacity = frame.materials[min(f.material, MAX_MATERIALS - 1u)].opacity.x;
-        float alpha = min(f.coverage * opacity, MAX_FRAGMENT_COVERAGE);
-        last = shade_fragment(f, ndc);
+        if (f.material != material) {
+            material = f.material;
+            m = frame.materials[min(material, MAX_MATERIALS - 1u)];
+        }
+        float alpha = min(f.coverage * m.opacity.x, MAX_FRAGMENT_COVERAGE);
+        last = shade_fragment(f, ndc, m);
         color += transmittance * alpha * last;
         transmittance *= 1.0 - alpha;
     }
