@@ -205,6 +205,9 @@ pub struct SceneRenderer {
     /// Compute rasterizer: draw in two phases around the occlusion tiles (the default) or every
     /// strand in one ([`Self::with_occlusion_tiles`]).
     pub(crate) occlusion_tiles: bool,
+    /// Compute rasterizer: its kernels' plain loads read through buffer references where the
+    /// device has them ([`Self::with_buffer_references`]).
+    pub(crate) buffer_references: bool,
     /// Hair volumes (with `"ao"`, `"volume_shadows"` or `"volume_lod"`).
     pub(crate) volumes: Option<SceneVolumes>,
     /// `"volume_lod"`: every character raymarched whatever its size ([`Self::with_volumes_everywhere`]).
@@ -615,6 +618,7 @@ impl SceneRenderer {
             raster_materials: Vec::new(),
             character_materials: Vec::new(),
             occlusion_tiles: true,
+            buffer_references: true,
             volumes: None,
             volumes_everywhere: false,
             batch_bytes: BATCH_BYTES,
@@ -782,6 +786,15 @@ impl SceneRenderer {
     /// strands, the occlusion tiles and the rest (the image is the same; tests compare them).
     pub fn with_occlusion_tiles(mut self, on: bool) -> Self {
         self.occlusion_tiles = on;
+        self
+    }
+
+    /// Compute rasterizer: `false` has its raster kernels read the pixel words and occlusion
+    /// tiles through their bindings instead of buffer references (the image is the same; tests
+    /// compare them). References are the default where the device has buffer device
+    /// addresses: CPU devices gather loads through them with vector instructions.
+    pub fn with_buffer_references(mut self, on: bool) -> Self {
+        self.buffer_references = on;
         self
     }
 

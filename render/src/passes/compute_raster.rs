@@ -153,8 +153,10 @@ pub(crate) fn record_raster(
         let material = state.materials[*i];
         let opacity = r.raster_opacity(material);
         let mut push = raster_push(c.transform, material, 0, occluders, phase, tiles_x, b.k, opacity);
-        push.words_address = b.pixel_words.device_address();
-        push.tiles_address = b.tiles.device_address();
+        if r.buffer_references {
+            push.words_address = b.pixel_words.device_address();
+            push.tiles_address = b.tiles.device_address();
+        }
         push.volume_fraction = state.plan.volume_fraction(*i);
         rec.push_constants(&cr.raster, &push);
         Generator::record_fused_dispatch(rec, frame);
@@ -171,8 +173,10 @@ pub(crate) fn record_raster(
         let opacity = r.raster_opacity(material);
         r.stored[c.hair].record_compute(rec, pipeline, params, &extra, stored_group_size(), |rec, slots| {
             let mut push = raster_push(c.transform, material, slots, occluders, phase, tiles_x, b.k, opacity);
-            push.words_address = b.pixel_words.device_address();
-            push.tiles_address = b.tiles.device_address();
+            if r.buffer_references {
+                push.words_address = b.pixel_words.device_address();
+                push.tiles_address = b.tiles.device_address();
+            }
             push.volume_fraction = volume_fraction;
             rec.push_constants(pipeline, &push);
         });
