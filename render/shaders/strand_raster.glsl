@@ -37,7 +37,7 @@ layout(push_constant) uniform RasterParams {
     uint k;               // visibility slots per pixel
     float opacity;        // of one strand (its material's)
     float volume_fraction; // transition band: pixels whose dither is below it are the volume's
-    uint pad;
+    uint pad;             // (the addresses are 8-byte aligned)
     // Device addresses of pixel_words and tile_depth (0: none), for the plain loads: CPU devices
     // (llvmpipe) gather loads through a buffer reference with vector instructions, where a
     // storage-buffer load of a divergent address is a loop over the SIMD lanes.
@@ -163,10 +163,13 @@ void raster_fragment(uint pixel, float coverage, float ndc_z, inout ColumnAttrib
         }
         insert_visibility(first, k, a.word | uint64_t(coverage_bits(coverage)));
     }
-    // The increment (a logarithm: dear on CPU devices) only for pixels not yet opaque.
-    uint64_t cover = load_pixel_word(first + k);
-    if (~cover < uint64_t(COVERAGE_LIMIT)) {
-        atomicAdd(pixel_words[first + k], ~uint64_t(coverage_increment(coverage * raster.opacity)) + 1UL);
+    // add_coverage's test, with the increment (a logarithm: dear on CPU devices) computed only
+    // for pixels not yet opaque.
+    if (~load_pixel_word(first + k) < uint64_t(COVERAGE_LIMIT)) {
+        uint add = coverage_increment(coverage * raster.opacity);
+        if (add > 0u) {
+            atomicAdd(pixel_words[first + k], ~uint64_t(add) + 1UL);
+        }
     }
 }
 
