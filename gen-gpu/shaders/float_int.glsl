@@ -12,14 +12,13 @@ int floor_int(float x) {
     return floatBitsToInt(f + 12582912.0) - 0x4B400000;
 }
 
+// Per component (CPU devices keep each component in its own vector register anyway).
 ivec2 floor_int2(vec2 x) {
-    vec2 f = floor(clamp(x, vec2(-4194304.0), vec2(4194304.0)));
-    return floatBitsToInt(f + 12582912.0) - 0x4B400000;
+    return ivec2(floor_int(x.x), floor_int(x.y));
 }
 
 ivec3 floor_int3(vec3 x) {
-    vec3 f = floor(clamp(x, vec3(-4194304.0), vec3(4194304.0)));
-    return floatBitsToInt(f + 12582912.0) - 0x4B400000;
+    return ivec3(floor_int(x.x), floor_int(x.y), floor_int(x.z));
 }
 
 #endif

@@ -107,7 +107,7 @@ vec4 fetch(sampler3D tex, vec3 coord) {
         return textureLod(tex, coord / size, 0.0);
     }
     vec3 f = clamp(coord - 0.5, vec3(0.0), size - 1.0);
-    ivec3 i0 = ivec3(floor_int(f.x), floor_int(f.y), floor_int(f.z));
+    ivec3 i0 = floor_int3(f);
     ivec3 i1 = min(i0 + 1, textureSize(tex, 0) - 1);
     vec3 w = f - vec3(i0);
     vec4 c00 = mix(texelFetch(tex, ivec3(i0.x, i0.y, i0.z), 0), texelFetch(tex, ivec3(i1.x, i0.y, i0.z), 0), w.x);

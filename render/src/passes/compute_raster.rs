@@ -144,6 +144,9 @@ pub(crate) fn record_raster(
         (binding::RASTER_TILES, &b.tiles),
     ];
     let tiles_x = tile_grid(state.plan.view.width, state.plan.view.height).0;
+    // Where the kernels' plain loads read through (0: the bindings).
+    let addresses =
+        if r.buffer_references { (b.pixel_words.device_address(), b.tiles.device_address()) } else { (0, 0) };
     if !state.frames.is_empty() {
         rec.bind_pipeline(&cr.raster);
     }
@@ -153,10 +156,7 @@ pub(crate) fn record_raster(
         let material = state.materials[*i];
         let opacity = r.raster_opacity(material);
         let mut push = raster_push(c.transform, material, 0, occluders, phase, tiles_x, b.k, opacity);
-        if r.buffer_references {
-            push.words_address = b.pixel_words.device_address();
-            push.tiles_address = b.tiles.device_address();
-        }
+        (push.words_address, push.tiles_address) = addresses;
         push.volume_fraction = state.plan.volume_fraction(*i);
         rec.push_constants(&cr.raster, &push);
         Generator::record_fused_dispatch(rec, frame);
@@ -173,10 +173,7 @@ pub(crate) fn record_raster(
         let opacity = r.raster_opacity(material);
         r.stored[c.hair].record_compute(rec, pipeline, params, &extra, stored_group_size(), |rec, slots| {
             let mut push = raster_push(c.transform, material, slots, occluders, phase, tiles_x, b.k, opacity);
-            if r.buffer_references {
-                push.words_address = b.pixel_words.device_address();
-                push.tiles_address = b.tiles.device_address();
-            }
+            (push.words_address, push.tiles_address) = addresses;
             push.volume_fraction = volume_fraction;
             rec.push_constants(pipeline, &push);
         });
