@@ -23,9 +23,9 @@ void generate_per_invocation() {
     BundleLod l = lods[bundle];
     uint segments = 1u << l.level;
     // The mesh path's rule for short strands, so both paths generate the same strands.
-    generate_thread_strand(bundle, strand, l.level, strand_coherent(strands_per_mesh_group(l.level)));
+    StrandStream s = strand_stream(bundle, strand, l, strand_coherent(strands_per_mesh_group(l.level)));
     for (uint k = 0u; k <= segments; ++k) {
-        store_vertex(local_slot, k, strand_vertex_of_thread(bundle, strand, l, 0u, k));
+        store_vertex(local_slot, k, strand_stream_next(s));
     }
     strand_info[local_slot] = uvec4(bundle, strand, segments + 1u, floatBitsToUint(l.width_scale));
 }

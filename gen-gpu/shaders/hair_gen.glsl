@@ -479,14 +479,49 @@ shared vec3 coherent_curve[2u * (1u + 3u * MAX_LAYERS)]; // strand slices, then 
 shared vec4 coherent_u_w[MAX_LAYERS + 1u];                 // xyz u, w w
 shared vec3 coherent_v[MAX_LAYERS + 1u];
 
+// The four texels at the corners of a cell (origin o) in slice z of `tex`.
+struct CellCorners {
+    vec4 t00;
+    vec4 t10;
+    vec4 t01;
+    vec4 t11;
+};
+
+CellCorners cell_corners(sampler3D tex, ivec2 o, int z) {
+    CellCorners k;
+    k.t00 = texelFetch(tex, ivec3(o, z), 0);
+    k.t10 = texelFetch(tex, ivec3(o.x + 1, o.y, z), 0);
+    k.t01 = texelFetch(tex, ivec3(o.x, o.y + 1, z), 0);
+    k.t11 = texelFetch(tex, ivec3(o + 1, z), 0);
+    return k;
+}
+
+// The corners blended at cell weights w (the xy step of fetch(), its lerps in its order).
+vec4 blend_corners(CellCorners k, vec2 w) {
+    return mix(mix(k.t00, k.t10, w.x), mix(k.t01, k.t11, w.x), w.y);
+}
+
+// Where a strand's control data comes from: its bundle's cell and the blend weights of its
+// root and of the bundle centre in that cell. Per strand, so the bundle table is read once.
+struct StrandCell {
+    ivec2 origin;
+    vec2 root;   // square_symmetry(orientation, root parameter)
+    vec2 centre; // square_symmetry(orientation, centre_parameter)
+};
+
+StrandCell strand_cell(uint bundle, vec2 root) {
+    uint cell = bundles[bundle].info.w;
+    StrandCell c;
+    c.origin = ivec2(int(cell & 0x3fffu), int((cell >> 14u) & 0x3fffu));
+    c.root = square_symmetry(cell >> 28u, root);
+    c.centre = square_symmetry(cell >> 28u, centre_parameter(bundle));
+    return c;
+}
+
 // Slice z of `tex` blended over bundle's cell at block parameter st (the xy step of fetch()).
 vec4 cell_blend(sampler3D tex, uint bundle, vec2 st, int z) {
-    uint cell = bundles[bundle].info.w;
-    ivec2 o = ivec2(int(cell & 0x3fffu), int((cell >> 14u) & 0x3fffu));
-    vec2 w = square_symmetry(cell >> 28u, st);
-    vec4 c0 = mix(texelFetch(tex, ivec3(o, z), 0), texelFetch(tex, ivec3(o.x + 1, o.y, z), 0), w.x);
-    vec4 c1 = mix(texelFetch(tex, ivec3(o.x, o.y + 1, z), 0), texelFetch(tex, ivec3(o + 1, z), 0), w.x);
-    return mix(c0, c1, w.y);
+    StrandCell c = strand_cell(bundle, st);
+    return blend_corners(cell_corners(tex, c.origin, z), c.root);
 }
 
 uint coherent_layers() {
@@ -608,55 +643,39 @@ vec3 seg_dir(vec3 a, vec3 b, vec3 fallback) {
     return try_normalize(b - a, fallback);
 }
 
-// Tangents (Eq. 5-6) and morphing (Eq. 9-12) of a strand's full-detail positions, for a
-// positions array of either kind: the workgroup's shared strand_positions, or an invocation's
-// private thread_positions.
-//
-// polyline_tangent: tangent of vertex k of the polyline POSITIONS[base + 0, base + stride, ...]
-// with n points, where k indexes that polyline.
-// strand_vertex: the morphed vertex k of the strand at POSITIONS[base ...] with its tangent
-// and width (after its positions are all written).
-#define HK_STRAND_VERTEX_FUNCTIONS(SUFFIX, POSITIONS) \
-vec3 polyline_tangent##SUFFIX(uint base, uint k, uint n, uint stride) {                                            \
-    vec3 first_seg = seg_dir(POSITIONS[base], POSITIONS[base + stride], vec3(0.0, 1.0, 0.0));                      \
-    if (n == 2u) {                                                                                                 \
-        return first_seg;                                                                                          \
-    }                                                                                                              \
-    if (k > 0u && k < n - 1u) {                                                                                    \
-        return seg_dir(POSITIONS[base + (k - 1u) * stride], POSITIONS[base + (k + 1u) * stride], first_seg);       \
-    }                                                                                                              \
-    if (k == 0u) {                                                                                                 \
-        vec3 t1 = seg_dir(POSITIONS[base], POSITIONS[base + 2u * stride], first_seg);                              \
-        return try_normalize(2.0 * first_seg * dot(t1, first_seg) - t1, first_seg);                                \
-    }                                                                                                              \
-    vec3 last_seg = seg_dir(POSITIONS[base + (n - 2u) * stride], POSITIONS[base + (n - 1u) * stride], first_seg);  \
-    vec3 tp = seg_dir(POSITIONS[base + (n - 3u) * stride], POSITIONS[base + (n - 1u) * stride], first_seg);        \
-    return try_normalize(2.0 * last_seg * dot(tp, last_seg) - tp, last_seg);                                       \
-}                                                                                                                  \
-StrandVertex strand_vertex##SUFFIX(uint bundle, uint strand, BundleLod l, uint base, uint k) {                     \
-    uint segments = 1u << l.level;                                                                                 \
-    uint n = segments + 1u;                                                                                        \
-    StrandVertex v;                                                                                                \
-    vec3 full_tangent = polyline_tangent##SUFFIX(base, k, n, 1u);                                                  \
-    v.position = POSITIONS[base + k];                                                                              \
-    v.tangent = full_tangent;                                                                                      \
-    if (l.gamma > 0.0 && segments >= 2u) {                                                                         \
-        float g = l.gamma;                                                                                         \
-        if ((k & 1u) == 1u) {                                                                                      \
-            vec3 prev = POSITIONS[base + k - 1u];                                                                  \
-            vec3 next = POSITIONS[base + k + 1u];                                                                  \
-            v.position = (1.0 - g) * POSITIONS[base + k] + g * 0.5 * (prev + next);                                \
-            vec3 coarse = try_normalize(next - prev, full_tangent);                                                \
-            v.tangent = try_normalize((1.0 - g) * full_tangent + g * coarse, full_tangent);                        \
-        } else {                                                                                                   \
-            vec3 coarse = polyline_tangent##SUFFIX(base, k / 2u, segments / 2u + 1u, 2u);                          \
-            v.tangent = try_normalize((1.0 - g) * full_tangent + g * coarse, full_tangent);                        \
-        }                                                                                                          \
-    }                                                                                                              \
-    v.tau = float(k) / float(segments);                                                                            \
-    v.width = width_at(v.tau) * l.width_scale;                                                                     \
-    return v;                                                                                                      \
-}                                                                                                                  \
+// The tangent (Eq. 6) at an end of a polyline from its end segment's direction and the
+// direction across the end's two neighbours: the end segment mirrors t.
+vec3 end_tangent(vec3 end_seg, vec3 t) {
+    return try_normalize(2.0 * end_seg * dot(t, end_seg) - t, end_seg);
+}
+
+// The strand vertex k of 2^e segments from its full-detail position and tangent: morphing
+// (Eq. 9-12) moves an odd vertex toward its neighbours' midpoint (prev, next) and blends every
+// tangent toward the coarse polyline's (for an odd vertex the direction prev -> next, for an
+// even one `coarse_even`); then tau and the width.
+StrandVertex assemble_vertex(BundleLod l, uint k, uint segments, vec3 here, vec3 prev, vec3 next, vec3 full_tangent,
+                             vec3 coarse_even) {
+    StrandVertex v;
+    v.position = here;
+    v.tangent = full_tangent;
+    if (l.gamma > 0.0 && segments >= 2u) {
+        float g = l.gamma;
+        vec3 coarse = coarse_even;
+        if ((k & 1u) == 1u) {
+            v.position = (1.0 - g) * here + g * 0.5 * (prev + next);
+            coarse = try_normalize(next - prev, full_tangent);
+        }
+        v.tangent = try_normalize((1.0 - g) * full_tangent + g * coarse, full_tangent);
+    }
+    v.tau = float(k) / float(segments);
+    v.width = width_at(v.tau) * l.width_scale;
+    return v;
+}
+
+// Whether vertex k needs the coarse polyline's tangent (an even vertex while morphing).
+bool needs_coarse_tangent(BundleLod l, uint k, uint segments) {
+    return l.gamma > 0.0 && segments >= 2u && (k & 1u) == 0u;
+}
 
 // Phase 1: full-detail vertex k of a strand into shared memory at base + k, sampled from the
 // textures, or (coherent) from the control data strand_load_control put in shared memory.
@@ -666,7 +685,43 @@ void strand_compute_vertex(uint bundle, uint strand, BundleLod l, uint base, uin
                                           : strand_point(bundle, strand, root_parameter(bundle, strand), tau);
 }
 
-HK_STRAND_VERTEX_FUNCTIONS(_of_group, strand_positions)
+// Tangent (Eq. 5-6) of vertex k of the polyline strand_positions[base + 0, base + stride, ...]
+// with n points (k indexes that polyline).
+vec3 polyline_tangent_of_group(uint base, uint k, uint n, uint stride) {
+    vec3 first_seg = seg_dir(strand_positions[base], strand_positions[base + stride], vec3(0.0, 1.0, 0.0));
+    if (n == 2u) {
+        return first_seg;
+    }
+    if (k > 0u && k < n - 1u) {
+        return seg_dir(strand_positions[base + (k - 1u) * stride], strand_positions[base + (k + 1u) * stride],
+                       first_seg);
+    }
+    if (k == 0u) {
+        return end_tangent(first_seg, seg_dir(strand_positions[base], strand_positions[base + 2u * stride], first_seg));
+    }
+    vec3 last = strand_positions[base + (n - 1u) * stride];
+    vec3 last_seg = seg_dir(strand_positions[base + (n - 2u) * stride], last, first_seg);
+    return end_tangent(last_seg, seg_dir(strand_positions[base + (n - 3u) * stride], last, first_seg));
+}
+
+// The morphed vertex k of the strand at strand_positions[base ...] with its tangent and width
+// (after phase 1 wrote all its positions).
+StrandVertex strand_vertex_of_group(uint bundle, uint strand, BundleLod l, uint base, uint k) {
+    uint segments = 1u << l.level;
+    vec3 full_tangent = polyline_tangent_of_group(base, k, segments + 1u, 1u);
+    vec3 prev = vec3(0.0);
+    vec3 next = vec3(0.0);
+    vec3 coarse = vec3(0.0);
+    if (l.gamma > 0.0 && segments >= 2u) {
+        if ((k & 1u) == 1u) {
+            prev = strand_positions[base + k - 1u];
+            next = strand_positions[base + k + 1u];
+        } else {
+            coarse = polyline_tangent_of_group(base, k / 2u, segments / 2u + 1u, 2u);
+        }
+    }
+    return assemble_vertex(l, k, segments, strand_positions[base + k], prev, next, full_tangent, coarse);
+}
 
 // ---------------------------------------------------------------- one strand per invocation
 //
@@ -676,34 +731,158 @@ HK_STRAND_VERTEX_FUNCTIONS(_of_group, strand_positions)
 // segment's four curve slices (strand and bundle centre) and of its two u, v, w layer slices:
 // the blends strand_load_control makes, only where they are needed, so the strands are the
 // workgroup variant's bit for bit.
-vec3 thread_positions[MAX_VERTICES];
 
-void load_segment(uint bundle, vec2 root, int segment, inout SegmentControl c) {
-    vec2 centre = centre_parameter(bundle);
+// Curve slice z blended at the strand's root and at its bundle centre: one set of corner
+// texels for both.
+void load_curve_slice(StrandCell cell, int z, out vec3 strand, out vec3 centre) {
+    CellCorners k = cell_corners(hair_mesh_tex, cell.origin, z);
+    strand = blend_corners(k, cell.root).xyz;
+    centre = blend_corners(k, cell.centre).xyz;
+}
+
+// Layer slice z of u (xyz) with w (in u_w.w) and of v, blended at the strand's root.
+void load_layer_slice(StrandCell cell, int z, out vec4 u_w, out vec3 v) {
+    u_w = vec4(blend_corners(cell_corners(u_tex, cell.origin, z), cell.root).xyz,
+               blend_corners(cell_corners(w_tex, cell.origin, z), cell.root).x);
+    v = blend_corners(cell_corners(v_tex, cell.origin, z), cell.root).xyz;
+}
+
+void load_segment(StrandCell cell, int segment, inout SegmentControl c) {
+    // Walking upward, a segment's first curve slice is the previous one's last and its first
+    // layer slice the previous one's second: keep them. Constant indices only: a per-invocation
+    // index into these arrays is lane-by-lane work on CPU devices.
+    if (c.segment >= 0 && segment == c.segment + 1) {
+        c.strand[0] = c.strand[3];
+        c.centre[0] = c.centre[3];
+        c.u_w[0] = c.u_w[1];
+        c.v[0] = c.v[1];
+    } else {
+        load_curve_slice(cell, 3 * segment, c.strand[0], c.centre[0]);
+        load_layer_slice(cell, segment, c.u_w[0], c.v[0]);
+    }
     c.segment = segment;
-    for (int i = 0; i < 4; ++i) {
-        c.strand[i] = cell_blend(hair_mesh_tex, bundle, root, 3 * segment + i).xyz;
-        c.centre[i] = cell_blend(hair_mesh_tex, bundle, centre, 3 * segment + i).xyz;
+    [[unroll]] for (int i = 1; i < 4; ++i) {
+        load_curve_slice(cell, 3 * segment + i, c.strand[i], c.centre[i]);
     }
-    for (int i = 0; i < 2; ++i) {
-        c.u_w[i] = vec4(cell_blend(u_tex, bundle, root, segment + i).xyz, cell_blend(w_tex, bundle, root, segment + i).x);
-        c.v[i] = cell_blend(v_tex, bundle, root, segment + i).xyz;
-    }
+    load_layer_slice(cell, segment + 1, c.u_w[1], c.v[1]);
 }
 
 // coherent_strand_point() with the invocation's own control data, loading a segment when tau
 // enters it. `seed` is strand_seed(bundle, strand), `scale` its length_scale(seed): per strand.
-vec3 thread_strand_point(uint bundle, uint seed, float scale, vec2 root, float tau, inout SegmentControl c) {
+vec3 thread_strand_point(uint bundle, uint seed, float scale, StrandCell cell, float tau, inout SegmentControl c) {
     float t_curve = tau * scale;
     float local;
     int segment = floor_int(curve_segment(t_curve, local));
     if (segment != c.segment) {
-        load_segment(bundle, root, segment, c);
+        load_segment(cell, segment, c);
     }
     return control_strand_point(bundle, seed, tau, t_curve, c);
 }
 
-HK_STRAND_VERTEX_FUNCTIONS(_of_thread, thread_positions)
+// A strand generated vertex by vertex in one invocation (StrandStream, strand_stream_next):
+// the positions a vertex's tangent and morphing read (its neighbours two apart on either side,
+// four at the ends) stay in a window of nine that shifts by one per vertex. Every index into it
+// is a constant: CPU devices (llvmpipe) index a private array with a per-invocation index lane
+// by lane, so a whole strand's positions in an array cost more than evaluating them.
+struct StrandStream {
+    uint bundle;
+    uint strand;
+    uint seed;           // strand_seed(bundle, strand)
+    float scale;         // length_scale(seed)
+    vec2 root;           // root_parameter(bundle, strand)
+    StrandCell cell;
+    BundleLod lod;
+    uint segments;       // 2^level
+    bool from_control;   // strand-coherent (else sampled per vertex)
+    SegmentControl control;
+    vec3 window[9];      // window[8] is point pushed - 1, window[8 - i] point pushed - 1 - i
+    uint pushed;         // points pushed (past the last one, pushes only shift)
+    uint next_vertex;
+    vec3 first_seg;      // direction of point 0 -> 1
+    vec3 coarse_first_seg; // direction of point 0 -> 2
+};
+
+StrandStream strand_stream(uint bundle, uint strand, BundleLod l, bool from_control) {
+    StrandStream s;
+    s.bundle = bundle;
+    s.strand = strand;
+    s.seed = strand_seed(bundle, strand);
+    s.scale = length_scale(s.seed);
+    s.root = root_parameter(bundle, strand);
+    s.cell = strand_cell(bundle, s.root);
+    s.lod = l;
+    s.segments = 1u << l.level;
+    s.from_control = from_control;
+    s.control.segment = -1;
+    [[unroll]] for (int i = 0; i < 9; ++i) {
+        s.window[i] = vec3(0.0);
+    }
+    s.pushed = 0u;
+    s.next_vertex = 0u;
+    s.first_seg = vec3(0.0, 1.0, 0.0);
+    s.coarse_first_seg = vec3(0.0, 1.0, 0.0);
+    return s;
+}
+
+// Full-detail point j of the strand (unmorphed); j must not decrease from call to call.
+vec3 strand_stream_point(inout StrandStream s, uint j) {
+    float tau = float(j) / float(s.segments);
+    return s.from_control ? thread_strand_point(s.bundle, s.seed, s.scale, s.cell, tau, s.control)
+                          : strand_point(s.bundle, s.strand, s.root, tau);
+}
+
+void strand_stream_push(inout StrandStream s) {
+    [[unroll]] for (int i = 0; i < 8; ++i) {
+        s.window[i] = s.window[i + 1];
+    }
+    if (s.pushed <= s.segments) {
+        // Not `s.window[8] = strand_stream_point(s, ...)`: the call's copy-out of s would
+        // overwrite the assignment.
+        vec3 point = strand_stream_point(s, s.pushed);
+        s.window[8] = point;
+    }
+    s.pushed += 1u;
+    if (s.pushed == 2u) {
+        s.first_seg = seg_dir(s.window[7], s.window[8], vec3(0.0, 1.0, 0.0));
+    } else if (s.pushed == 3u) {
+        s.coarse_first_seg = seg_dir(s.window[6], s.window[8], vec3(0.0, 1.0, 0.0));
+    }
+}
+
+// polyline_tangent_of_group's cases on a point and its neighbours (prev2 .. next2 are points
+// k - 2 .. k + 2 of the polyline, where they exist).
+vec3 window_tangent(uint k, uint n, vec3 first_seg, vec3 prev2, vec3 prev, vec3 here, vec3 next, vec3 next2) {
+    if (n == 2u) {
+        return first_seg;
+    }
+    if (k > 0u && k < n - 1u) {
+        return seg_dir(prev, next, first_seg);
+    }
+    if (k == 0u) {
+        return end_tangent(first_seg, seg_dir(here, next2, first_seg));
+    }
+    return end_tangent(seg_dir(prev, here, first_seg), seg_dir(prev2, here, first_seg));
+}
+
+// The strand's next vertex (0, 1, ... 2^level), morphed, with tangent and width: what
+// strand_vertex_of_group gives for the same strand.
+StrandVertex strand_stream_next(inout StrandStream s) {
+    uint k = s.next_vertex;
+    // window[4 + d] becomes point k + d.
+    while (s.pushed < k + 5u) {
+        strand_stream_push(s);
+    }
+    s.next_vertex = k + 1u;
+    vec3 full_tangent =
+        window_tangent(k, s.segments + 1u, s.first_seg, s.window[2], s.window[3], s.window[4], s.window[5], s.window[6]);
+    vec3 coarse = vec3(0.0);
+    if (needs_coarse_tangent(s.lod, k, s.segments)) {
+        // The coarse polyline is every other point: its neighbours are two apart.
+        coarse = window_tangent(k / 2u, s.segments / 2u + 1u, s.coarse_first_seg, s.window[0], s.window[2], s.window[4],
+                                s.window[6], s.window[8]);
+    }
+    return assemble_vertex(s.lod, k, s.segments, s.window[4], s.window[3], s.window[5], full_tangent, coarse);
+}
 
 // Strands per compute workgroup in the one-strand-per-invocation variant.
 const uint STRANDS_PER_GROUP = 32u;

@@ -72,22 +72,6 @@ bool invocation_slot(uint chunk, out uint local_slot) {
     local_slot = group * STRANDS_PER_GROUP + gl_LocalInvocationID.x;
     return local_slot < chunk_size(chunk);
 }
-
-// Generates strand `strand` of `bundle` at vertex level `level` into thread_positions: from its
-// control data (strand-coherent) or, with `from_control` false, sampling every vertex.
-void generate_thread_strand(uint bundle, uint strand, uint level, bool from_control) {
-    uint segments = 1u << level;
-    vec2 root = root_parameter(bundle, strand);
-    SegmentControl c;
-    c.segment = -1;
-    uint seed = strand_seed(bundle, strand);
-    float scale = length_scale(seed);
-    for (uint k = 0u; k <= segments; ++k) {
-        float tau = float(k) / float(segments);
-        thread_positions[k] = from_control ? thread_strand_point(bundle, seed, scale, root, tau, c)
-                                           : strand_point(bundle, strand, root, tau);
-    }
-}
 #endif
 
 // `slot` is relative to the bound chunk window.

@@ -25,13 +25,15 @@ void main() {
     // Every strand from its control data, short ones too: the generator samples strands of
     // fewer than 17 vertices per vertex (so its compute and mesh paths agree), which equals this
     // to f32 rounding and costs more (measured: the LOD'd crowd 15 % faster this way).
-    generate_thread_strand(bundle, strand, l.level, PER_VERTEX_FETCH == 0u);
-    uint seed = strand_seed(bundle, strand);
-    float random = seeded_random(seed, 7u);
-    RasterVertex previous = raster_vertex(strand_vertex_of_thread(bundle, strand, l, 0u, 0u));
-    for (uint k = 1u; k <= segments; ++k) {
-        RasterVertex next = raster_vertex(strand_vertex_of_thread(bundle, strand, l, 0u, k));
-        raster_segment(previous, next, raster.material, random);
+    StrandStream s = strand_stream(bundle, strand, l, PER_VERTEX_FETCH == 0u);
+    float random = seeded_random(s.seed, 7u);
+    RasterVertex previous;
+    // One call site of strand_stream_next: each is a whole inlined copy of generation.
+    for (uint k = 0u; k <= segments; ++k) {
+        RasterVertex next = raster_vertex(strand_stream_next(s));
+        if (k > 0u) {
+            raster_segment(previous, next, raster.material, random);
+        }
         previous = next;
     }
 }

@@ -18,11 +18,14 @@ void main() {
     uint strand = slot - offsets[bundle];
     BundleLod l = lods[bundle];
     uint segments = 1u << l.level;
-    generate_thread_strand(bundle, strand, l.level, PER_VERTEX_FETCH == 0u);
-    RasterVertex previous = raster_vertex(strand_vertex_of_thread(bundle, strand, l, 0u, 0u));
-    for (uint k = 1u; k <= segments; ++k) {
-        RasterVertex next = raster_vertex(strand_vertex_of_thread(bundle, strand, l, 0u, k));
-        raster_segment(previous, next, 0u, 0.0);
+    StrandStream s = strand_stream(bundle, strand, l, PER_VERTEX_FETCH == 0u);
+    RasterVertex previous;
+    // One call site of strand_stream_next: each is a whole inlined copy of generation.
+    for (uint k = 0u; k <= segments; ++k) {
+        RasterVertex next = raster_vertex(strand_stream_next(s));
+        if (k > 0u) {
+            raster_segment(previous, next, 0u, 0.0);
+        }
         previous = next;
     }
 }

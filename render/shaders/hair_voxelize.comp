@@ -26,13 +26,13 @@ void main() {
     uint strand = slot - offsets[bundle];
     BundleLod l = lods[bundle];
     uint segments = 1u << l.level;
-    generate_thread_strand(bundle, strand, l.level, PER_VERTEX_FETCH == 0u);
+    StrandStream s = strand_stream(bundle, strand, l, PER_VERTEX_FETCH == 0u);
     float to_voxels = length(vox.object_to_voxel[0].xyz);
     vec3 previous = vec3(0.0);
     float previous_width = 0.0;
     for (uint k = 0u; k <= segments; ++k) {
         float tau = float(k) / float(segments);
-        vec3 q = (vox.object_to_voxel * vec4(thread_positions[k], 1.0)).xyz;
+        vec3 q = (vox.object_to_voxel * vec4(strand_stream_point(s, k), 1.0)).xyz;
         float width = width_at(tau) * l.width_scale * to_voxels;
         if (k > 0u) {
             voxelize_segment(previous, q, previous_width, width);
