@@ -374,8 +374,13 @@ fn main() -> ExitCode {
                         styled(0.01),
                     )?
                 };
+                // Without length variation, a subgroup's strands of one bundle enter their
+                // segments together and fetch the corner texels together (StrandStream); with
+                // it (styled), each strand fetches its own.
+                let even_lengths = Style { length_variation: 0.0, ..styled(0.1) };
                 let cases = [
                     ("head cap, edge roots", with_edge_roots(head_cap_asset(1200, styled(0.1))?)),
+                    ("head cap, even lengths", head_cap_asset(6000, even_lengths)?),
                     ("1 layer", with_edge_roots(layered(1)?)),
                     ("64 layers", with_edge_roots(layered(hairmesh::hair_mesh::MAX_LAYERS)?)),
                     ("one strand", one_strand),

@@ -535,6 +535,23 @@ fn describe_devices(instance: &ash::Instance) -> Vec<String> {
         .collect()
 }
 
+/// What a device must offer (pick_device), for messages.
+const REQUIRED: &str = "Vulkan 1.3, VK_KHR_push_descriptor and subgroup vote and ballot in compute shaders";
+
+/// Subgroup vote and ballot in compute shaders: the strand-coherent generation kernels fetch a
+/// segment's texels once per subgroup with them (hair_gen.glsl, fetch_corners).
+fn subgroup_vote_and_ballot(instance: &ash::Instance, d: vk::PhysicalDevice) -> bool {
+    let mut subgroup = vk::PhysicalDeviceSubgroupProperties::default();
+    let mut props = vk::PhysicalDeviceProperties2::default().push_next(&mut subgroup);
+    // SAFETY: `d` was enumerated from `instance`; the chained struct outlives the call.
+    unsafe { instance.get_physical_device_properties2(d, &mut props) };
+    let needed =
+        vk::SubgroupFeatureFlags::BASIC | vk::SubgroupFeatureFlags::VOTE | vk::SubgroupFeatureFlags::BALLOT;
+    subgroup.supported_operations.contains(needed)
+        && subgroup.supported_stages.contains(vk::ShaderStageFlags::COMPUTE)
+        && subgroup.subgroup_size >= 4
+}
+
 fn pick_device(instance: &ash::Instance, selector: Option<String>) -> Result<vk::PhysicalDevice> {
     // SAFETY: valid instance.
     let devices = unsafe { instance.enumerate_physical_devices() }.call("vkEnumeratePhysicalDevices")?;
@@ -543,7 +560,7 @@ fn pick_device(instance: &ash::Instance, selector: Option<String>) -> Result<vk:
         let p = unsafe { instance.get_physical_device_properties(d) };
         // SAFETY: as above.
         let push = unsafe { has_device_extension(instance, d, ash::khr::push_descriptor::NAME) };
-        p.api_version >= vk::API_VERSION_1_3 && push
+        p.api_version >= vk::API_VERSION_1_3 && push && subgroup_vote_and_ballot(instance, d)
     };
     let selector = selector.or_else(|| std::env::var(Context::DEVICE_ENV).ok().filter(|s| !s.is_empty()));
     if let Some(sel) = selector {
@@ -557,9 +574,7 @@ fn pick_device(instance: &ash::Instance, selector: Option<String>) -> Result<vk:
         };
         return match found {
             Some(d) if suitable(d) => Ok(d),
-            Some(_) => {
-                Err(GpuError::NoDevice(format!(": `{sel}` lacks Vulkan 1.3 or VK_KHR_push_descriptor")))
-            }
+            Some(_) => Err(GpuError::NoDevice(format!(": `{sel}` does not offer all of {REQUIRED}"))),
             None => Err(GpuError::DeviceNotFound {
                 selector: sel,
                 available: describe_devices(instance).join(", "),
@@ -579,7 +594,7 @@ fn pick_device(instance: &ash::Instance, selector: Option<String>) -> Result<vk:
             GpuError::NoDevice(if present.is_empty() {
                 " (no Vulkan device at all; install mesa-vulkan-drivers for lavapipe)".into()
             } else {
-                format!(" (present: {})", present.join(", "))
+                format!(" with {REQUIRED} (present: {})", present.join(", "))
             })
         })
 }

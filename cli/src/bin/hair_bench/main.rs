@@ -301,6 +301,8 @@ fn run(cli: &Cli) -> Result<()> {
 /// default, and per-vertex hardware filtering), LOD off.
 fn generation_section(setup: &Setup<'_>, progress: &indicatif::ProgressBar) -> Result<Section> {
     let Setup { ctx, width, height, frames, camera, .. } = *setup;
+    // Generation is a small part of a frame: more frames for a steadier median.
+    let frames = if setup.quick { frames } else { frames.max(5) };
     let variants = [Filtering::StrandCoherent, Filtering::Hardware];
     let generators: Vec<Generator> =
         variants.iter().map(|&f| Generator::new(ctx, f)).collect::<gen_gpu::Result<_>>()?;
@@ -308,21 +310,36 @@ fn generation_section(setup: &Setup<'_>, progress: &indicatif::ProgressBar) -> R
     for &strands in setup.sizes {
         let hairs = [GpuHair::upload(ctx, &asset(strands)?, TexturePrecision::Auto)?];
         for &path in &setup.paths {
-            for (&filtering, generator) in variants.iter().zip(&generators) {
-                let lod = LodParams { enabled: false, ..LodParams::default() };
-                let view = FrameView { camera, width, height, path, lod };
-                progress.set_message(format!("generation: {strands} strands, {path} path, {filtering:?}"));
-                render_crowd(ctx, generator, &hairs, &setup.character, &view)?; // warm-up: pipeline compilation
-                let (mut generate, mut raster, mut total) = (Vec::new(), Vec::new(), Vec::new());
-                let mut vertices = 0;
-                for _ in 0..frames {
-                    let frame = render_crowd(ctx, generator, &hairs, &setup.character, &view)?;
+            let lod = LodParams { enabled: false, ..LodParams::default() };
+            let view = FrameView { camera, width, height, path, lod };
+            progress.set_message(format!("generation: {strands} strands, {path} path"));
+            // Each variant's frame buffers are made once and reused, as a renderer does: fresh
+            // buffers every frame would time the first touch of their memory too.
+            let buffers: Vec<Vec<gen_gpu::FrameBuffers>> = generators
+                .iter()
+                .map(|g| prepare_crowd(ctx, g, &hairs, &setup.character, &view))
+                .collect::<gen_gpu::Result<_>>()?;
+            for (generator, buffers) in generators.iter().zip(&buffers) {
+                // Warm-up: pipeline compilation and the buffers' first touch.
+                render_prepared(ctx, generator, &hairs, &setup.character, buffers, &view, true)?;
+            }
+            // Frames of the variants alternate, so that drift of the machine's speed over the
+            // run (10-30 % over minutes on a shared CPU) falls on both alike.
+            let mut samples = vec![(Vec::new(), Vec::new(), Vec::new(), 0); variants.len()];
+            for _ in 0..frames {
+                for ((generator, buffers), (generate, raster, total, vertices)) in
+                    generators.iter().zip(&buffers).zip(&mut samples)
+                {
+                    let frame =
+                        render_prepared(ctx, generator, &hairs, &setup.character, buffers, &view, true)?;
                     let t = &frame.timings;
                     generate.push(t.pass_ms("generate").unwrap_or(f64::NAN));
                     raster.push(t.pass_ms(&format!("raster ({path})")).unwrap_or(f64::NAN));
                     total.push(t.pass_ms("crowd frame").unwrap_or(f64::NAN));
-                    vertices = frame.stats.vertices;
+                    *vertices = frame.stats.vertices;
                 }
+            }
+            for (&filtering, (generate, raster, total, vertices)) in variants.iter().zip(samples) {
                 rows.push(Row {
                     strands: hairs[0].total_strands(),
                     path,
@@ -339,7 +356,7 @@ fn generation_section(setup: &Setup<'_>, progress: &indicatif::ProgressBar) -> R
     let _ = writeln!(md, "## On-the-fly generation (`gen-gpu`)\n");
     let _ = writeln!(
         md,
-        "{}; {width}×{height}, one character (the project's head cap, 6 layers), LOD off, 33 vertices per strand, placeholder shading. Medians of {frames} frames after a warm-up frame; GPU timestamps. *Strand-coherent* (the default) blends each slice's four texels once per strand and evaluates every vertex from those values; *per-vertex* samples the textures at every vertex (7 hardware trilinear fetches). On the mesh path generation happens inside the raster pass, so its rate counts raster time too.\n",
+        "{}; {width}×{height}, one character (the project's head cap, 6 layers), LOD off, 33 vertices per strand, placeholder shading. Medians of {frames} frames after a warm-up frame, the two evaluations' frames alternating; GPU timestamps. *Strand-coherent* (the default) blends each slice's four texels once per strand and evaluates every vertex from those values; *per-vertex* samples the textures at every vertex (7 hardware trilinear fetches). On the mesh path generation happens inside the raster pass, so its rate counts raster time too.\n",
         setup.provenance
     );
     let _ = writeln!(
