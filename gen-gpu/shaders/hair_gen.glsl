@@ -509,7 +509,12 @@ struct StrandCell {
     ivec2 origin;
     vec2 root;     // square_symmetry(orientation, root parameter)
     vec2 centre;   // square_symmetry(orientation, centre_parameter)
-    bool together; // the subgroup fetches the cell's texels together (StrandStream)
+    // The subgroup fetches its cells' texels together (StrandStream): invocations 0-3 the
+    // corners of one cell, 4-7 those of another (`fetch_origin` is the cell this invocation
+    // fetches for, `second` whether its own cell is the other one).
+    bool together;
+    bool second;
+    ivec2 fetch_origin;
 };
 
 StrandCell strand_cell(uint bundle, vec2 root) {
@@ -519,6 +524,8 @@ StrandCell strand_cell(uint bundle, vec2 root) {
     c.root = square_symmetry(cell >> 28u, root);
     c.centre = square_symmetry(cell >> 28u, centre_parameter(bundle));
     c.together = false;
+    c.second = false;
+    c.fetch_origin = c.origin;
     return c;
 }
 
@@ -736,37 +743,42 @@ StrandVertex strand_vertex_of_group(uint bundle, uint strand, BundleLod l, uint 
 // the blends strand_load_control makes, only where they are needed, so the strands are the
 // workgroup variant's bit for bit.
 
-// The corners of a cell in slice z of `tex`. With `together` (uniform: StrandCell.together)
-// invocation i fetches corner i mod 4 and every invocation takes the
-// four from invocations 0-3: one texelFetch per subgroup where each invocation would make four
-// (on a CPU device each texelFetch is a gather across the SIMD lanes).
-CellCorners fetch_corners(sampler3D tex, ivec2 o, int z, bool together) {
-    if (!together) {
-        return cell_corners(tex, o, z);
+// The corners of the strand's cell in slice z of `tex`. With cell.together (uniform) invocation
+// i fetches corner i mod 4 of its fetch_origin and every invocation takes the four of its own
+// cell from invocations 0-3 or 4-7: one texelFetch per subgroup where each invocation would
+// make four (on a CPU device each texelFetch is a gather across the SIMD lanes).
+CellCorners fetch_corners(sampler3D tex, StrandCell cell, int z) {
+    if (!cell.together) {
+        return cell_corners(tex, cell.origin, z);
     }
     uint corner = gl_SubgroupInvocationID & 3u;
-    vec4 t = texelFetch(tex, ivec3(o.x + int(corner & 1u), o.y + int(corner >> 1u), z), 0);
-    CellCorners k;
-    k.t00 = subgroupBroadcast(t, 0u);
-    k.t10 = subgroupBroadcast(t, 1u);
-    k.t01 = subgroupBroadcast(t, 2u);
-    k.t11 = subgroupBroadcast(t, 3u);
-    return k;
+    vec4 t = texelFetch(tex, ivec3(cell.fetch_origin + ivec2(int(corner & 1u), int(corner >> 1u)), z), 0);
+    CellCorners first;
+    first.t00 = subgroupBroadcast(t, 0u);
+    first.t10 = subgroupBroadcast(t, 1u);
+    first.t01 = subgroupBroadcast(t, 2u);
+    first.t11 = subgroupBroadcast(t, 3u);
+    CellCorners second;
+    second.t00 = subgroupBroadcast(t, 4u);
+    second.t10 = subgroupBroadcast(t, 5u);
+    second.t01 = subgroupBroadcast(t, 6u);
+    second.t11 = subgroupBroadcast(t, 7u);
+    return cell.second ? second : first;
 }
 
 // Curve slice z blended at the strand's root and at its bundle centre: one set of corner
 // texels for both.
-void load_curve_slice(StrandCell cell, int z, bool together, out vec3 strand, out vec3 centre) {
-    CellCorners k = fetch_corners(hair_mesh_tex, cell.origin, z, together);
+void load_curve_slice(StrandCell cell, int z, out vec3 strand, out vec3 centre) {
+    CellCorners k = fetch_corners(hair_mesh_tex, cell, z);
     strand = blend_corners(k, cell.root).xyz;
     centre = blend_corners(k, cell.centre).xyz;
 }
 
 // Layer slice z of u (xyz) with w (in u_w.w) and of v, blended at the strand's root.
-void load_layer_slice(StrandCell cell, int z, bool together, out vec4 u_w, out vec3 v) {
-    u_w = vec4(blend_corners(fetch_corners(u_tex, cell.origin, z, together), cell.root).xyz,
-               blend_corners(fetch_corners(w_tex, cell.origin, z, together), cell.root).x);
-    v = blend_corners(fetch_corners(v_tex, cell.origin, z, together), cell.root).xyz;
+void load_layer_slice(StrandCell cell, int z, out vec4 u_w, out vec3 v) {
+    u_w = vec4(blend_corners(fetch_corners(u_tex, cell, z), cell.root).xyz,
+               blend_corners(fetch_corners(w_tex, cell, z), cell.root).x);
+    v = blend_corners(fetch_corners(v_tex, cell, z), cell.root).xyz;
 }
 
 void load_segment(StrandCell cell, int segment, inout SegmentControl c) {
@@ -774,21 +786,20 @@ void load_segment(StrandCell cell, int segment, inout SegmentControl c) {
     // layer slice the previous one's second: keep them (fetching them again gives the same
     // values). Constant indices only: a per-invocation index into these arrays is lane-by-lane
     // work on CPU devices.
-    bool together = cell.together;
     if (c.segment >= 0 && segment == c.segment + 1) {
         c.strand[0] = c.strand[3];
         c.centre[0] = c.centre[3];
         c.u_w[0] = c.u_w[1];
         c.v[0] = c.v[1];
     } else {
-        load_curve_slice(cell, 3 * segment, together, c.strand[0], c.centre[0]);
-        load_layer_slice(cell, segment, together, c.u_w[0], c.v[0]);
+        load_curve_slice(cell, 3 * segment, c.strand[0], c.centre[0]);
+        load_layer_slice(cell, segment, c.u_w[0], c.v[0]);
     }
     c.segment = segment;
     [[unroll]] for (int i = 1; i < 4; ++i) {
-        load_curve_slice(cell, 3 * segment + i, together, c.strand[i], c.centre[i]);
+        load_curve_slice(cell, 3 * segment + i, c.strand[i], c.centre[i]);
     }
-    load_layer_slice(cell, segment + 1, together, c.u_w[1], c.v[1]);
+    load_layer_slice(cell, segment + 1, c.u_w[1], c.v[1]);
 }
 
 // coherent_strand_point() with the invocation's own control data, loading a segment when tau
@@ -834,14 +845,21 @@ StrandStream strand_stream(uint bundle, uint strand, BundleLod l, bool from_cont
     s.scale = length_scale(s.seed);
     s.root = root_parameter(bundle, strand);
     s.cell = strand_cell(bundle, s.root);
-    // When every invocation of the subgroup walks a strand of the same cell with the same
-    // vertex count and length scale, they enter the same segments at the same vertices, and
-    // the subgroup fetches each segment's corner texels together (fetch_corners). Strands of
-    // one bundle sit side by side in the slots, so most subgroups qualify (not with length
-    // variation, nor across a bundle boundary). Invocations 0-3 fetch for the others.
-    s.cell.together = from_control && gl_SubgroupSize >= 4u && (subgroupBallot(true).x & 0xfu) == 0xfu &&
-                      subgroupAllEqual(s.cell.origin.x) && subgroupAllEqual(s.cell.origin.y) &&
-                      subgroupAllEqual(l.level) && subgroupAllEqual(s.scale);
+    // When every invocation of the subgroup walks a strand of one of two cells with the same
+    // vertex count and length scale, they enter the same segments at the same vertices, and the
+    // subgroup fetches each segment's corner texels together (fetch_corners). Strands of a
+    // bundle sit side by side in the slots, so a subgroup of 8 holds one or two bundles when
+    // bundles have 8 strands or more (not with length variation, which parts the segments).
+    // Invocations 0-7 fetch for the others.
+    uint key = uint(s.cell.origin.x) | (uint(s.cell.origin.y) << 14u);
+    uint first_key = subgroupBroadcast(key, 0u);
+    uint second_key = subgroupBroadcast(key, 7u);
+    s.cell.together = from_control && gl_SubgroupSize >= 8u && (subgroupBallot(true).x & 0xffu) == 0xffu &&
+                      subgroupAll(key == first_key || key == second_key) && subgroupAllEqual(l.level) &&
+                      subgroupAllEqual(s.scale);
+    s.cell.second = key != first_key;
+    uint fetch_key = gl_SubgroupInvocationID >= 4u && gl_SubgroupInvocationID < 8u ? second_key : first_key;
+    s.cell.fetch_origin = ivec2(int(fetch_key & 0x3fffu), int(fetch_key >> 14u));
     s.lod = l;
     s.segments = 1u << l.level;
     s.from_control = from_control;
