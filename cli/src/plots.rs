@@ -52,14 +52,22 @@ pub struct Chart<'a> {
     pub lines: bool,
 }
 
-const COLORS: [RGBColor; 6] = [
+/// Tableau's ten categorical colours (matplotlib's default cycle).
+const COLORS: [RGBColor; 10] = [
     RGBColor(31, 119, 180),
     RGBColor(255, 127, 14),
     RGBColor(44, 160, 44),
     RGBColor(214, 39, 40),
     RGBColor(148, 103, 189),
     RGBColor(140, 86, 75),
+    RGBColor(227, 119, 194),
+    RGBColor(127, 127, 127),
+    RGBColor(188, 189, 34),
+    RGBColor(23, 190, 207),
 ];
+
+/// Width of the legend column right of the chart: the legend never covers a point.
+const LEGEND_WIDTH: u32 = 330;
 
 fn range(values: impl Iterator<Item = f64>, log: bool) -> (f64, f64) {
     let (lo, hi) = values
@@ -76,15 +84,41 @@ fn range(values: impl Iterator<Item = f64>, log: bool) -> (f64, f64) {
     }
 }
 
-/// Draws `series` into a 900×540 PNG at `path` (written atomically).
+/// An axis label without trailing zeros: 100000 → "100k", 2.50 → "2.5".
+fn compact(v: f64) -> String {
+    let trim = |t: String| {
+        if t.contains('.') { t.trim_end_matches('0').trim_end_matches('.').to_owned() } else { t }
+    };
+    if v.abs() >= 10_000.0 && (v / 1000.0).fract().abs() < 1e-9 {
+        format!("{}k", trim(format!("{:.0}", v / 1000.0)))
+    } else if v.abs() >= 100.0 || v == 0.0 {
+        format!("{v:.0}")
+    } else {
+        // Four significant digits, then trimmed.
+        let digits = (3 - v.abs().log10().floor() as i32).clamp(0, 8) as usize;
+        trim(format!("{v:.digits$}"))
+    }
+}
+
+/// Draws `series` into a PNG at `path` (written atomically): a 900×540 chart with the legend
+/// in a column to its right.
 pub fn draw(path: &Path, chart: &Chart<'_>, series: &[Series]) -> Result<(), PlotError> {
     register_font()?;
     let err = |e: &dyn std::fmt::Display| PlotError::Draw { path: path.to_owned(), message: e.to_string() };
-    let (w, h) = (900u32, 540u32);
+    let (w, h) = (900u32 + LEGEND_WIDTH, 540u32);
     let mut pixels = vec![0u8; (w * h * 3) as usize];
     {
-        let root = BitMapBackend::with_buffer(&mut pixels, (w, h)).into_drawing_area();
-        root.fill(&WHITE).map_err(|e| err(&e))?;
+        let canvas = BitMapBackend::with_buffer(&mut pixels, (w, h)).into_drawing_area();
+        canvas.fill(&WHITE).map_err(|e| err(&e))?;
+        let (root, legend) = canvas.split_horizontally(900);
+        for (i, s) in series.iter().enumerate() {
+            let color = COLORS[i % COLORS.len()];
+            let y = 70 + 26 * i as i32;
+            legend.draw(&Circle::new((12, y), 6, color.filled())).map_err(|e| err(&e))?;
+            legend
+                .draw(&Text::new(s.name.as_str(), (26, y - 9), ("sans-serif", 15).into_font()))
+                .map_err(|e| err(&e))?;
+        }
         let xs = range(series.iter().flat_map(|s| s.points.iter().map(|p| p.0)), chart.log_x);
         let ys = range(series.iter().flat_map(|s| s.points.iter().map(|p| p.1)), chart.log_y);
         let mut builder = ChartBuilder::on(&root);
@@ -100,6 +134,8 @@ pub fn draw(path: &Path, chart: &Chart<'_>, series: &[Series]) -> Result<(), Plo
                 c.configure_mesh()
                     .x_desc(chart.x_label)
                     .y_desc(chart.y_label)
+                    .x_label_formatter(&|v| compact(*v))
+                    .y_label_formatter(&|v| compact(*v))
                     .label_style(("sans-serif", 15))
                     .draw()
                     .map_err(|e| err(&e))?;
@@ -112,17 +148,8 @@ pub fn draw(path: &Path, chart: &Chart<'_>, series: &[Series]) -> Result<(), Plo
                             .map_err(|e| err(&e))?;
                     }
                     c.draw_series(points.iter().map(|&p| Circle::new(p, 5, color.filled())))
-                        .map_err(|e| err(&e))?
-                        .label(s.name.as_str())
-                        .legend(move |(x, y)| Circle::new((x + 8, y), 5, color.filled()));
+                        .map_err(|e| err(&e))?;
                 }
-                c.configure_series_labels()
-                    .background_style(WHITE.mix(0.85))
-                    .border_style(BLACK)
-                    .label_font(("sans-serif", 15))
-                    .position(SeriesLabelPosition::UpperLeft)
-                    .draw()
-                    .map_err(|e| err(&e))?;
             }};
         }
         match (chart.log_x, chart.log_y) {
@@ -149,6 +176,17 @@ mod tests {
     use super::*;
 
     #[test]
+    fn axis_labels_are_compact() {
+        assert_eq!(compact(100_000.0), "100k");
+        assert_eq!(compact(20_000.0), "20k");
+        assert_eq!(compact(1500.0), "1500");
+        assert_eq!(compact(120.0), "120");
+        assert_eq!(compact(2.5), "2.5");
+        assert_eq!(compact(0.001), "0.001");
+        assert_eq!(compact(0.0), "0");
+    }
+
+    #[test]
     fn a_chart_is_a_png_of_its_size() {
         let dir = tempfile::tempdir().expect("temp dir");
         let path = dir.path().join("chart.png");
@@ -159,8 +197,18 @@ mod tests {
         let chart = Chart { title: "t", x_label: "x", y_label: "y", log_x: true, log_y: true, lines: true };
         draw(&path, &chart, &series).expect("draw");
         let image = render::output::read_png(&path).expect("a PNG");
-        assert_eq!((image.width, image.height), (900, 540));
+        assert_eq!((image.width, image.height), (900 + LEGEND_WIDTH, 540));
         // Something besides the white background was drawn.
         assert!(image.pixels.chunks_exact(4).filter(|p| p[0] < 128).count() > 1000);
+        // The legend sits in its own column (it used to cover points in the chart's corner):
+        // series a's marker is there.
+        let a = COLORS[0];
+        let in_legend = image
+            .pixels
+            .chunks_exact(4)
+            .enumerate()
+            .filter(|(i, p)| *i as u32 % image.width >= 900 && p[..3] == [a.0, a.1, a.2])
+            .count();
+        assert!(in_legend > 20, "{in_legend} legend pixels of series a");
     }
 }
