@@ -819,6 +819,9 @@ vec3 thread_strand_point(uint bundle, uint seed, float scale, StrandCell cell, f
 // four at the ends) stay in a window of nine that shifts by one per vertex. Every index into it
 // is a constant: CPU devices (llvmpipe) index a private array with a per-invocation index lane
 // by lane, so a whole strand's positions in an array cost more than evaluating them.
+// Invocations of a subgroup whose strands have the same vertex count call strand_stream_next
+// (or strand_stream_point) together, with no break or return in between: their texel fetches
+// may be the subgroup's together (StrandCell.together).
 struct StrandStream {
     uint bundle;
     uint strand;

@@ -32,11 +32,12 @@
 //!   include `hair_gen.glsl` with bindings 0–7 bound as the generator binds them, take a
 //!   bundle's `bundle_lod(bundle)` (or the LOD pass's `lods[]`), then either
 //!   - one strand per invocation (what `generate.comp` does in the strand-coherent variant):
-//!     `thread_strand_point(bundle, seed, scale, root_parameter(bundle, strand), tau, control)`
-//!     (`seed = strand_seed(bundle, strand)`, `scale = length_scale(seed)`, once per strand) for
-//!     every vertex into `thread_positions[k]` (a `SegmentControl` with `segment = -1` carries
-//!     the blended slices from vertex to vertex), then `strand_vertex_of_thread(…)` for
-//!     position, width and tangent; or
+//!     `StrandStream s = strand_stream(bundle, strand, lod, from_control)`, then
+//!     `strand_stream_next(s)` once per vertex, 0 to 2^level in order, for position, width and
+//!     tangent (or `strand_stream_point(s, k)` for the unmorphed positions alone). Invocations of
+//!     a subgroup whose strands have the same vertex count make these calls together (no
+//!     `break` or `return` in between): the subgroup fetches the texels of strands that share
+//!     a cell together; or
 //!   - one strand per workgroup: `strand_load_control(…)` + `barrier()` when
 //!     `strand_coherent(…)`, `strand_compute_vertex(bundle, strand, lod, base, k, …)` into the
 //!     shared vertex array, `barrier()`, and `strand_vertex_of_group(…)`.
