@@ -69,6 +69,12 @@ const COLORS: [RGBColor; 10] = [
 /// Width of the legend column right of the chart: the legend never covers a point.
 const LEGEND_WIDTH: u32 = 330;
 
+/// Size of the chart itself, left of the legend.
+const CHART_SIZE: (u32, u32) = (900, 540);
+
+/// Size of every plot image: the chart and the legend column.
+pub const IMAGE_SIZE: (u32, u32) = (CHART_SIZE.0 + LEGEND_WIDTH, CHART_SIZE.1);
+
 fn range(values: impl Iterator<Item = f64>, log: bool) -> (f64, f64) {
     let (lo, hi) = values
         .filter(|v| v.is_finite() && (!log || *v > 0.0))
@@ -101,16 +107,16 @@ fn compact(v: f64) -> String {
 }
 
 /// Draws `series` into a PNG at `path` (written atomically): a 900×540 chart with the legend
-/// in a column to its right.
+/// in a column to its right ([`IMAGE_SIZE`] in all).
 pub fn draw(path: &Path, chart: &Chart<'_>, series: &[Series]) -> Result<(), PlotError> {
     register_font()?;
     let err = |e: &dyn std::fmt::Display| PlotError::Draw { path: path.to_owned(), message: e.to_string() };
-    let (w, h) = (900u32 + LEGEND_WIDTH, 540u32);
+    let (w, h) = IMAGE_SIZE;
     let mut pixels = vec![0u8; (w * h * 3) as usize];
     {
         let canvas = BitMapBackend::with_buffer(&mut pixels, (w, h)).into_drawing_area();
         canvas.fill(&WHITE).map_err(|e| err(&e))?;
-        let (root, legend) = canvas.split_horizontally(900);
+        let (root, legend) = canvas.split_horizontally(CHART_SIZE.0);
         for (i, s) in series.iter().enumerate() {
             let color = COLORS[i % COLORS.len()];
             let y = 70 + 26 * i as i32;
@@ -197,7 +203,7 @@ mod tests {
         let chart = Chart { title: "t", x_label: "x", y_label: "y", log_x: true, log_y: true, lines: true };
         draw(&path, &chart, &series).expect("draw");
         let image = render::output::read_png(&path).expect("a PNG");
-        assert_eq!((image.width, image.height), (900 + LEGEND_WIDTH, 540));
+        assert_eq!((image.width, image.height), IMAGE_SIZE);
         // Something besides the white background was drawn.
         assert!(image.pixels.chunks_exact(4).filter(|p| p[0] < 128).count() > 1000);
         // The legend sits in its own column (it used to cover points in the chart's corner):
@@ -207,7 +213,7 @@ mod tests {
             .pixels
             .chunks_exact(4)
             .enumerate()
-            .filter(|(i, p)| *i as u32 % image.width >= 900 && p[..3] == [a.0, a.1, a.2])
+            .filter(|(i, p)| *i as u32 % image.width >= CHART_SIZE.0 && p[..3] == [a.0, a.1, a.2])
             .count();
         assert!(in_legend > 20, "{in_legend} legend pixels of series a");
     }

@@ -175,7 +175,7 @@ fn main() -> ExitCode {
             }
             for plot in ["plot-generation.png", "plot-accuracy.png", "plot-crowd.png"] {
                 let image = render::output::read_png(&dir.path().join(plot))?;
-                ensure!((image.width, image.height) == (900, 540), "{plot}");
+                ensure!((image.width, image.height) == hairkit_cli::plots::IMAGE_SIZE, "{plot}");
                 ensure!(report.contains(&format!("]({plot})")), "the report shows {plot}");
             }
             // A second run replaces its own section and keeps the rest of the file.

@@ -282,6 +282,12 @@ float wave_random(uint bundle, uint seed) {
     return own * (1.0 - c) + seeded_random(strand_seed(bundle, BUNDLE_RANDOM), 2u) * c;
 }
 
+// Whether style_apply reads the bundle centre's curve point: only twist and clumping do, so
+// without them the centre is not evaluated (a third of a vertex's curve fetches and lerps).
+bool style_uses_centre() {
+    return params.frizz_clump.w != 0.0 || params.frizz_clump.y != 0.0;
+}
+
 vec3 style_apply(uint bundle, uint seed, float tau, vec3 position, vec3 centre, vec3 fu, vec3 fv, vec3 fw, float w) {
     float fade = smoothstep_safe(0.0, params.style0.z, tau);
     if (fade == 0.0) {
@@ -333,7 +339,10 @@ vec3 strand_point(uint bundle, uint strand, vec2 root, float tau) {
     if (tau <= 0.0) {
         return position;
     }
-    vec3 centre = curve_position(bundle, centre_parameter(bundle), t_curve);
+    vec3 centre = vec3(0.0);
+    if (style_uses_centre()) {
+        centre = curve_position(bundle, centre_parameter(bundle), t_curve);
+    }
     vec2 xy = block_coord(bundle, root);
     vec3 z = vec3(xy, t_curve * float(params.layout_info.w) + 0.5);
     vec3 fu;
@@ -620,7 +629,10 @@ vec3 control_strand_point(uint bundle, uint seed, float tau, float t_curve, Segm
     if (tau <= 0.0) {
         return position;
     }
-    vec3 centre = window_curve_position(c.centre, c.segment, t_curve);
+    vec3 centre = vec3(0.0);
+    if (style_uses_centre()) {
+        centre = window_curve_position(c.centre, c.segment, t_curve);
+    }
     float f = clamp(t_curve * float(params.layout_info.w), 0.0, float(coherent_layers()));
     float i0 = floor(f);
     // Slices a and b of the segment's two (0 or 1; selects, not indexing: see pick4).
