@@ -134,11 +134,16 @@ vec2 square_symmetry(uint code, vec2 st) {
     return st;
 }
 
+// A cell's origin in the shared-vertex lattice from the bundle table's packed cell word
+// (x in bits 0-13, y in 14-27; the orientation above is ignored).
+ivec2 cell_origin(uint cell) {
+    return ivec2(int(cell & 0x3fffu), int((cell >> 14u) & 0x3fffu));
+}
+
 // The bundle's cell in the shared-vertex lattice (texture.rs, TextureLayout::block_coord).
 vec2 block_coord(uint bundle, vec2 st) {
     uint cell = bundles[bundle].info.w;
-    vec2 origin = vec2(float(cell & 0x3fffu), float((cell >> 14u) & 0x3fffu));
-    return origin + 0.5 + square_symmetry(cell >> 28u, st);
+    return vec2(cell_origin(cell)) + 0.5 + square_symmetry(cell >> 28u, st);
 }
 
 // Where tau falls between the layers: the segment and the parameter inside it.
@@ -515,6 +520,7 @@ vec4 blend_corners(CellCorners k, vec2 w) {
 // Where a strand's control data comes from: its bundle's cell and the blend weights of its
 // root and of the bundle centre in that cell. Per strand, so the bundle table is read once.
 struct StrandCell {
+    uint key;      // the cell word's origin bits: equal keys, equal texels
     ivec2 origin;
     vec2 root;     // square_symmetry(orientation, root parameter)
     vec2 centre;   // square_symmetry(orientation, centre_parameter)
@@ -529,7 +535,8 @@ struct StrandCell {
 StrandCell strand_cell(uint bundle, vec2 root) {
     uint cell = bundles[bundle].info.w;
     StrandCell c;
-    c.origin = ivec2(int(cell & 0x3fffu), int((cell >> 14u) & 0x3fffu));
+    c.key = cell & 0x0fffffffu;
+    c.origin = cell_origin(cell);
     c.root = square_symmetry(cell >> 28u, root);
     c.centre = square_symmetry(cell >> 28u, centre_parameter(bundle));
     c.together = false;
@@ -795,9 +802,8 @@ void load_layer_slice(StrandCell cell, int z, out vec4 u_w, out vec3 v) {
 
 void load_segment(StrandCell cell, int segment, inout SegmentControl c) {
     // Walking upward, a segment's first curve slice is the previous one's last and its first
-    // layer slice the previous one's second: keep them (fetching them again gives the same
-    // values). Constant indices only: a per-invocation index into these arrays is lane-by-lane
-    // work on CPU devices.
+    // layer slice the previous one's second: keep them. Constant indices only: a per-invocation
+    // index into these arrays is lane-by-lane work on CPU devices.
     if (c.segment >= 0 && segment == c.segment + 1) {
         c.strand[0] = c.strand[3];
         c.centre[0] = c.centre[3];
@@ -865,16 +871,17 @@ StrandStream strand_stream(uint bundle, uint strand, BundleLod l, bool from_cont
     // subgroup fetches each segment's corner texels together (fetch_corners). Strands of a
     // bundle sit side by side in the slots, so a subgroup of 8 holds one or two bundles when
     // bundles have 8 strands or more (not with length variation, which parts the segments).
-    // Invocations 0-7 fetch for the others.
-    uint key = uint(s.cell.origin.x) | (uint(s.cell.origin.y) << 14u);
+    // Invocations 0-7 fetch for the others, so every invocation must evaluate from control data
+    // (subgroupAll: one sampling per vertex would never join the fetches).
+    uint key = s.cell.key;
     uint first_key = subgroupBroadcast(key, 0u);
     uint second_key = subgroupBroadcast(key, 7u);
-    s.cell.together = from_control && gl_SubgroupSize >= 8u && (subgroupBallot(true).x & 0xffu) == 0xffu &&
+    s.cell.together = subgroupAll(from_control) && gl_SubgroupSize >= 8u && (subgroupBallot(true).x & 0xffu) == 0xffu &&
                       subgroupAll(key == first_key || key == second_key) && subgroupAllEqual(l.level) &&
                       subgroupAllEqual(s.scale);
     s.cell.second = key != first_key;
     uint fetch_key = gl_SubgroupInvocationID >= 4u && gl_SubgroupInvocationID < 8u ? second_key : first_key;
-    s.cell.fetch_origin = ivec2(int(fetch_key & 0x3fffu), int(fetch_key >> 14u));
+    s.cell.fetch_origin = cell_origin(fetch_key);
     s.lod = l;
     s.segments = 1u << l.level;
     s.from_control = from_control;

@@ -547,9 +547,9 @@ fn subgroup_vote_and_ballot(instance: &ash::Instance, d: vk::PhysicalDevice) -> 
     unsafe { instance.get_physical_device_properties2(d, &mut props) };
     let needed =
         vk::SubgroupFeatureFlags::BASIC | vk::SubgroupFeatureFlags::VOTE | vk::SubgroupFeatureFlags::BALLOT;
+    // Any subgroup size: the kernels fetch together only in subgroups of 8 or more.
     subgroup.supported_operations.contains(needed)
         && subgroup.supported_stages.contains(vk::ShaderStageFlags::COMPUTE)
-        && subgroup.subgroup_size >= 4
 }
 
 fn pick_device(instance: &ash::Instance, selector: Option<String>) -> Result<vk::PhysicalDevice> {
