@@ -600,56 +600,47 @@ SegmentControl shared_segment(int segment) {
     return c;
 }
 
-// w[clamp(i, 0, 3)] by selects: CPU devices (llvmpipe) index a private array with a
-// per-invocation index lane by lane (extract, insert), where selects are vector blends.
-vec3 pick4(vec3 w[4], int i) {
-    return i <= 0 ? w[0] : (i == 1 ? w[1] : (i == 2 ? w[2] : w[3]));
-}
-
-// The z step of fetch() (clamp to edge) on a segment's four slices (first = 3 segment).
-vec3 window_at(vec3 w[4], int first, float zc) {
-    float f = clamp(zc - 0.5, 0.0, float(3u * coherent_layers()));
-    float i0 = floor(f);
-    int a = floor_int(i0) - first;
-    return mix(pick4(w, a), pick4(w, a + 1), f - i0);
-}
-
 // curve_position() on a segment's four slices.
-vec3 window_curve_position(vec3 w[4], int segment, float t_curve) {
+vec3 window_curve_position(vec3 w[4], float t_curve) {
     vec3 p;
+    float local;
+    curve_segment(t_curve, local);
     if (EXACT_CUBIC == 1u) {
-        float local;
-        curve_segment(t_curve, local);
         p = cubic_point(w[0], w[1], w[2], w[3], local);
     } else {
-        float za;
-        float zb;
-        float q = quadratic_slices(t_curve, za, zb);
-        p = mix(window_at(w, 3 * segment, za), window_at(w, 3 * segment, zb), q);
+        // The segment's two quadratics B0, q_a, m and m, q_b, B3 (m = (q_a + q_b) / 2), by de
+        // Casteljau: what quadratic_slices' two filtered fetches give, with selects in place
+        // of the slice lookups (window_at's floor, clamp and picks were a fifth of generation
+        // on lavapipe).
+        bool second = local >= 0.5;
+        float q = second ? 2.0 * local - 1.0 : 2.0 * local;
+        vec3 m = 0.5 * (w[1] + w[2]);
+        vec3 p0 = second ? m : w[0];
+        vec3 p1 = second ? w[2] : w[1];
+        vec3 p2 = second ? w[3] : m;
+        p = mix(mix(p0, p1, q), mix(p1, p2, q), q);
     }
     return params.normalization.xyz + p * params.normalization.w;
 }
 
 // strand_point() from the control data of the segment t_curve = tau * length_scale lies in.
 vec3 control_strand_point(uint bundle, uint seed, float tau, float t_curve, SegmentControl c) {
-    vec3 position = window_curve_position(c.strand, c.segment, t_curve);
+    vec3 position = window_curve_position(c.strand, t_curve);
     if (tau <= 0.0) {
         return position;
     }
     vec3 centre = vec3(0.0);
     if (style_uses_centre()) {
-        centre = window_curve_position(c.centre, c.segment, t_curve);
+        centre = window_curve_position(c.centre, t_curve);
     }
-    float f = clamp(t_curve * float(params.layout_info.w), 0.0, float(coherent_layers()));
-    float i0 = floor(f);
-    // Slices a and b of the segment's two (0 or 1; selects, not indexing: see pick4).
-    bool a = floor_int(i0) - c.segment >= 1;
-    bool b = floor_int(i0) + 1 - c.segment >= 1;
-    vec4 u_w = mix(a ? c.u_w[1] : c.u_w[0], b ? c.u_w[1] : c.u_w[0], f - i0);
+    // The layer slices' linear filter between the segment's two (at the last layer f reaches
+    // segment + 1: the second).
+    float f = clamp(t_curve * float(params.layout_info.w), 0.0, float(coherent_layers())) - float(c.segment);
+    vec4 u_w = mix(c.u_w[0], c.u_w[1], f);
     vec3 fu;
     vec3 fv;
     vec3 fw;
-    styling_frame(u_w.xyz, mix(a ? c.v[1] : c.v[0], b ? c.v[1] : c.v[0], f - i0), fu, fv, fw);
+    styling_frame(u_w.xyz, mix(c.v[0], c.v[1], f), fu, fv, fw);
     return style_apply(bundle, seed, tau, position, centre, fu, fv, fw, u_w.w);
 }
 
