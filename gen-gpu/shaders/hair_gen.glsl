@@ -293,36 +293,60 @@ bool style_uses_centre() {
     return params.frizz_clump.w != 0.0 || params.frizz_clump.y != 0.0;
 }
 
-vec3 style_apply(uint bundle, uint seed, float tau, vec3 position, vec3 centre, vec3 fu, vec3 fv, vec3 fw, float w) {
+// A strand's own random style values (style.rs): what style_apply needs of the strand rather
+// than of the vertex, so a strand walked vertex by vertex (StrandStream) hashes them once.
+struct StrandStyle {
+    uint seed;           // strand_seed(bundle, strand): the frizz noise's
+    bool stray;
+    float curl_random;
+    float wave_random;
+};
+
+StrandStyle strand_style(uint bundle, uint seed) {
+    StrandStyle st;
+    st.seed = seed;
+    st.stray = seeded_random(seed, 3u) < params.stray.x;
+    st.curl_random = seeded_random(seed, 1u);
+    st.wave_random = wave_random(bundle, seed);
+    return st;
+}
+
+// x^e, exactly x for the common e = 1 (pow is exp2(e log2 x): dear on CPU devices, and not
+// exact).
+float pow_exponent(float x, float e) {
+    return e == 1.0 ? x : pow(x, e);
+}
+
+vec3 style_apply(StrandStyle st, float tau, vec3 position, vec3 centre, vec3 fu, vec3 fv, vec3 fw, float w) {
     float fade = smoothstep_safe(0.0, params.style0.z, tau);
     if (fade == 0.0) {
         return position;
     }
-    bool stray = seeded_random(seed, 3u) < params.stray.x;
+    bool stray = st.stray;
     const float TURN = 6.28318530717958647692;
     // Terms whose amplitude is zero add exactly nothing (the noise and the trigonometry are
     // finite), so they are skipped: transcendentals and hashes dominate generation on a
     // software rasterizer.
     vec3 d = vec3(0.0);
     if (params.curl.x != 0.0) {
-        float curl_phase = TURN * (params.curl.y * w + params.curl.z + seeded_random(seed, 1u));
+        float curl_phase = TURN * (params.curl.y * w + params.curl.z + st.curl_random);
         d.xy = params.curl.x * vec2(cos(curl_phase), sin(curl_phase));
     }
     if (params.wave_frizz.x != 0.0) {
-        float wave_phase = TURN * (params.wave_frizz.y * w + wave_random(bundle, seed));
+        float wave_phase = TURN * (params.wave_frizz.y * w + st.wave_random);
         d.x += params.wave_frizz.x * sin(wave_phase);
     }
     float frizz_amplitude = params.wave_frizz.z + (stray ? params.stray.y : 0.0);
     if (frizz_amplitude != 0.0) {
-        d += frizz_noise(seed, w * params.wave_frizz.w) *
-             (frizz_amplitude * pow(tau, max(params.frizz_clump.x, 0.0)));
+        d += frizz_noise(st.seed, w * params.wave_frizz.w) *
+             (frizz_amplitude * pow_exponent(tau, max(params.frizz_clump.x, 0.0)));
     }
     vec3 p = position + (fu * d.x + fv * d.y + fw * d.z) * fade;
     if (params.frizz_clump.w != 0.0) {
         p = centre + rotate_about(p - centre, fw, TURN * params.frizz_clump.w * tau * fade);
     }
     if (!stray && params.frizz_clump.y != 0.0) {
-        float amount = clamp(params.frizz_clump.y * pow(tau, max(params.frizz_clump.z, 0.0)) * fade, 0.0, 1.0);
+        float amount = clamp(params.frizz_clump.y * pow_exponent(tau, max(params.frizz_clump.z, 0.0)) * fade, 0.0, 1.0);
         p = mix(p, centre, amount);
     }
     return p;
@@ -354,7 +378,7 @@ vec3 strand_point(uint bundle, uint strand, vec2 root, float tau) {
     vec3 fv;
     vec3 fw;
     styling_frame(fetch(u_tex, z).xyz, fetch(v_tex, z).xyz, fu, fv, fw);
-    return style_apply(bundle, seed, tau, position, centre, fu, fv, fw, fetch(w_tex, z).x);
+    return style_apply(strand_style(bundle, seed), tau, position, centre, fu, fv, fw, fetch(w_tex, z).x);
 }
 
 float width_at(float tau) {
@@ -624,7 +648,7 @@ vec3 window_curve_position(vec3 w[4], float t_curve) {
 }
 
 // strand_point() from the control data of the segment t_curve = tau * length_scale lies in.
-vec3 control_strand_point(uint bundle, uint seed, float tau, float t_curve, SegmentControl c) {
+vec3 control_strand_point(StrandStyle st, float tau, float t_curve, SegmentControl c) {
     vec3 position = window_curve_position(c.strand, t_curve);
     if (tau <= 0.0) {
         return position;
@@ -641,7 +665,7 @@ vec3 control_strand_point(uint bundle, uint seed, float tau, float t_curve, Segm
     vec3 fv;
     vec3 fw;
     styling_frame(u_w.xyz, mix(c.v[0], c.v[1], f), fu, fv, fw);
-    return style_apply(bundle, seed, tau, position, centre, fu, fv, fw, u_w.w);
+    return style_apply(st, tau, position, centre, fu, fv, fw, u_w.w);
 }
 
 // strand_point() from the workgroup's control data (strand_load_control).
@@ -649,7 +673,8 @@ vec3 coherent_strand_point(uint bundle, uint strand, float tau) {
     uint seed = strand_seed(bundle, strand);
     float t_curve = tau * length_scale(seed);
     float local;
-    return control_strand_point(bundle, seed, tau, t_curve, shared_segment(floor_int(curve_segment(t_curve, local))));
+    return control_strand_point(strand_style(bundle, seed), tau, t_curve,
+                                shared_segment(floor_int(curve_segment(t_curve, local))));
 }
 
 // Whether a workgroup evaluates its strand from control data: when a strand has a mesh
@@ -812,15 +837,15 @@ void load_segment(StrandCell cell, int segment, inout SegmentControl c) {
 }
 
 // coherent_strand_point() with the invocation's own control data, loading a segment when tau
-// enters it. `seed` is strand_seed(bundle, strand), `scale` its length_scale(seed): per strand.
-vec3 thread_strand_point(uint bundle, uint seed, float scale, StrandCell cell, float tau, inout SegmentControl c) {
+// enters it. `st` is strand_style(bundle, seed), `scale` length_scale(seed): per strand.
+vec3 thread_strand_point(StrandStyle st, float scale, StrandCell cell, float tau, inout SegmentControl c) {
     float t_curve = tau * scale;
     float local;
     int segment = floor_int(curve_segment(t_curve, local));
     if (segment != c.segment) {
         load_segment(cell, segment, c);
     }
-    return control_strand_point(bundle, seed, tau, t_curve, c);
+    return control_strand_point(st, tau, t_curve, c);
 }
 
 // A strand generated vertex by vertex in one invocation (StrandStream, strand_stream_next):
@@ -836,6 +861,7 @@ struct StrandStream {
     uint strand;
     uint seed;           // strand_seed(bundle, strand)
     float scale;         // length_scale(seed)
+    StrandStyle style;   // strand_style(bundle, seed)
     vec2 root;           // root_parameter(bundle, strand)
     StrandCell cell;
     BundleLod lod;
@@ -855,6 +881,7 @@ StrandStream strand_stream(uint bundle, uint strand, BundleLod l, bool from_cont
     s.strand = strand;
     s.seed = strand_seed(bundle, strand);
     s.scale = length_scale(s.seed);
+    s.style = strand_style(bundle, s.seed);
     s.root = root_parameter(bundle, strand);
     s.cell = strand_cell(bundle, s.root);
     // When every invocation of the subgroup walks a strand of one of two cells with the same
@@ -890,7 +917,7 @@ StrandStream strand_stream(uint bundle, uint strand, BundleLod l, bool from_cont
 // Full-detail point j of the strand (unmorphed); j must not decrease from call to call.
 vec3 strand_stream_point(inout StrandStream s, uint j) {
     float tau = float(j) / float(s.segments);
-    return s.from_control ? thread_strand_point(s.bundle, s.seed, s.scale, s.cell, tau, s.control)
+    return s.from_control ? thread_strand_point(s.style, s.scale, s.cell, tau, s.control)
                           : strand_point(s.bundle, s.strand, s.root, tau);
 }
 
