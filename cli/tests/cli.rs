@@ -112,7 +112,8 @@ fn main() -> ExitCode {
             let report = std::fs::read_to_string(dir.path().join("benchmarks.md"))?;
             ensure!(report.contains(&ctx.capabilities().device_name), "the report names the device");
             for (file, skip, min_rows) in [
-                ("bench-generation.csv", 3, 4),
+                // (strands, path, evaluation, then the generate pass alone: compute path only)
+                ("bench-generation.csv", 4, 4),
                 ("bench-stored.csv", 0, 2),
                 ("bench-accuracy.csv", 1, 9),
                 ("bench-effects.csv", 1, 3),
@@ -128,6 +129,13 @@ fn main() -> ExitCode {
                         let v: f64 = value.parse()?;
                         ensure!(v.is_finite() && v >= 0.0, "{file}: {row}");
                     }
+                }
+            }
+            // The compute path's rows time generation alone too.
+            for row in std::fs::read_to_string(dir.path().join("bench-generation.csv"))?.lines().skip(1) {
+                if row.split(',').nth(1) == Some("compute") {
+                    let alone: f64 = row.split(',').nth(3).unwrap_or_default().parse()?;
+                    ensure!(alone.is_finite() && alone > 0.0, "bench-generation.csv: {row}");
                 }
             }
             // The compute rasterizer's maps look like the triangle pipeline's.

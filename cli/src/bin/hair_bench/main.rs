@@ -26,7 +26,9 @@ use gen_gpu::{
     Validation,
 };
 use glam::{Mat4, Vec3};
-use hairkit_cli::bench_crowd::{Camera, Character, FrameView, prepare_crowd, render_crowd, render_prepared};
+use hairkit_cli::bench_crowd::{
+    Camera, Character, FrameView, generate_alone, prepare_crowd, render_crowd, render_prepared,
+};
 use hairmesh::asset::{AssetParams, HairAsset, StrandCount};
 use hairmesh::hair_mesh::{ExtrudeParams, HairMesh};
 use hairmesh::reference::LodParams;
@@ -93,16 +95,22 @@ struct Row {
     filtering: Filtering,
     /// Vertices generated per frame.
     vertices: u64,
+    /// The generate pass in frames (compute path; the LOD pass alone on the mesh path).
     generate_ms: f64,
+    /// The generate pass in submissions of its own (compute path).
+    generate_alone_ms: Option<f64>,
     raster_ms: f64,
     total_ms: f64,
 }
 
 impl Row {
-    /// Generated vertices per second: over the generation pass on the compute path, over the
-    /// raster pass (generation and drawing) on the mesh path.
+    /// Generated vertices per second: over the generation pass alone on the compute path, over
+    /// the raster pass (generation and drawing) on the mesh path.
     fn vertices_per_s(&self) -> f64 {
-        let ms = if self.path == GenerationPath::Mesh { self.raster_ms } else { self.generate_ms };
+        let ms = match self.path {
+            GenerationPath::Mesh => self.raster_ms,
+            GenerationPath::Compute => self.generate_alone_ms.unwrap_or(self.generate_ms),
+        };
         self.vertices as f64 / (ms * 1e-3)
     }
 }
@@ -303,6 +311,7 @@ fn generation_section(setup: &Setup<'_>, progress: &indicatif::ProgressBar) -> R
     let Setup { ctx, width, height, frames, camera, .. } = *setup;
     // Generation is a small part of a frame: more frames for a steadier median.
     let frames = if setup.quick { frames } else { frames.max(5) };
+    let alone_runs = if setup.quick { frames } else { 15 };
     let variants = [Filtering::StrandCoherent, Filtering::Hardware];
     let generators: Vec<Generator> =
         variants.iter().map(|&f| Generator::new(ctx, f)).collect::<gen_gpu::Result<_>>()?;
@@ -339,12 +348,24 @@ fn generation_section(setup: &Setup<'_>, progress: &indicatif::ProgressBar) -> R
                     *vertices = frame.stats.vertices;
                 }
             }
-            for (&filtering, (generate, raster, total, vertices)) in variants.iter().zip(samples) {
+            // The generate pass alone, the variants alternating, more often than whole frames.
+            let mut alone = vec![Vec::new(); variants.len()];
+            if path == GenerationPath::Compute {
+                for _ in 0..alone_runs {
+                    for ((generator, buffers), alone) in generators.iter().zip(&buffers).zip(&mut alone) {
+                        alone.push(generate_alone(ctx, generator, &hairs, &setup.character, buffers)?);
+                    }
+                }
+            }
+            for ((&filtering, (generate, raster, total, vertices)), alone) in
+                variants.iter().zip(samples).zip(alone)
+            {
                 rows.push(Row {
                     strands: hairs[0].total_strands(),
                     path,
                     filtering,
                     vertices,
+                    generate_alone_ms: (!alone.is_empty()).then(|| median(alone)),
                     generate_ms: median(generate),
                     raster_ms: median(raster),
                     total_ms: median(total),
@@ -356,32 +377,36 @@ fn generation_section(setup: &Setup<'_>, progress: &indicatif::ProgressBar) -> R
     let _ = writeln!(md, "## On-the-fly generation (`gen-gpu`)\n");
     let _ = writeln!(
         md,
-        "{}; {width}×{height}, one character (the project's head cap, 6 layers), LOD off, 33 vertices per strand, placeholder shading. Medians of {frames} frames after a warm-up frame, the two evaluations' frames alternating; GPU timestamps. *Strand-coherent* (the default) blends each slice's four texels once per strand and evaluates every vertex from those values; *per-vertex* samples the textures at every vertex (7 hardware trilinear fetches). On the mesh path generation happens inside the raster pass, so its rate counts raster time too.\n",
+        "{}; {width}×{height}, one character (the project's head cap, 6 layers), LOD off, 33 vertices per strand, placeholder shading. GPU timestamps. *Generate alone*: the LOD and generate passes in a submission of their own, median of {alone_runs} with the two evaluations alternating (the vertex rate is computed from it: inside a frame a pass of tens of milliseconds next to a raster pass of seconds varies by a quarter from frame to frame on this machine); the other columns: medians of {frames} whole frames after a warm-up frame, alternating too. *Strand-coherent* (the default) blends each slice's four texels once per strand and evaluates every vertex from those values; *per-vertex* samples the textures at every vertex (7 hardware trilinear fetches). On the mesh path generation happens inside the raster pass, so its rate counts raster time too.\n",
         setup.provenance
     );
     let _ = writeln!(
         md,
-        "| strands | path | evaluation | generate (ms) | vertices/s | raster (ms) | frame (ms) |\n|---|---|---|---|---|---|---|"
+        "| strands | path | evaluation | generate alone (ms) | vertices/s | generate in the frame (ms) | raster (ms) | frame (ms) |\n|---|---|---|---|---|---|---|---|"
     );
-    let mut csv = String::from("strands,path,evaluation,generate_ms,raster_ms,frame_ms,vertices_per_s\n");
+    let mut csv = String::from(
+        "strands,path,evaluation,generate_alone_ms,generate_ms,raster_ms,frame_ms,vertices_per_s\n",
+    );
     for r in &rows {
+        let alone = r.generate_alone_ms.map_or("—".to_owned(), |ms| format!("{ms:.1}"));
         let _ = writeln!(
             md,
-            "| {} | {} | {} | {:.1} | {:.1} M | {:.1} | {:.1} |",
+            "| {} | {} | {} | {alone} | {:.1} M | {:.1} | {:.1} | {:.1} |",
             r.strands,
             r.path,
             evaluation_name(r.filtering),
-            r.generate_ms,
             r.vertices_per_s() * 1e-6,
+            r.generate_ms,
             r.raster_ms,
             r.total_ms
         );
         let _ = writeln!(
             csv,
-            "{},{},{},{:.3},{:.3},{:.3},{:.0}",
+            "{},{},{},{},{:.3},{:.3},{:.3},{:.0}",
             r.strands,
             r.path,
             evaluation_name(r.filtering),
+            r.generate_alone_ms.map_or(String::new(), |ms| format!("{ms:.3}")),
             r.generate_ms,
             r.raster_ms,
             r.total_ms,
