@@ -67,9 +67,9 @@ layout(std430, set = 0, binding = HK_BINDING_BUNDLES) readonly buffer BundleBuff
 layout(std430, set = 0, binding = HK_BINDING_ROOT_SAMPLES) readonly buffer SampleBuffer { uint samples[]; };
 layout(std430, set = 0, binding = HK_BINDING_SAMPLE_SETS) readonly buffer SampleSetBuffer { SampleSetInfo sample_sets[]; };
 layout(set = 0, binding = HK_BINDING_HAIR_MESH_TEXTURE) uniform sampler3D hair_mesh_tex;
+// û in rgb, w in alpha (gen-gpu packs the asset's two layer textures into one at upload).
 layout(set = 0, binding = HK_BINDING_U_TEXTURE) uniform sampler3D u_tex;
 layout(set = 0, binding = HK_BINDING_V_TEXTURE) uniform sampler3D v_tex;
-layout(set = 0, binding = HK_BINDING_W_TEXTURE) uniform sampler3D w_tex;
 
 #include "float_int.glsl"
 
@@ -377,8 +377,9 @@ vec3 strand_point(uint bundle, uint strand, vec2 root, float tau) {
     vec3 fu;
     vec3 fv;
     vec3 fw;
-    styling_frame(fetch(u_tex, z).xyz, fetch(v_tex, z).xyz, fu, fv, fw);
-    return style_apply(strand_style(bundle, seed), tau, position, centre, fu, fv, fw, fetch(w_tex, z).x);
+    vec4 u_w = fetch(u_tex, z);
+    styling_frame(u_w.xyz, fetch(v_tex, z).xyz, fu, fv, fw);
+    return style_apply(strand_style(bundle, seed), tau, position, centre, fu, fv, fw, u_w.w);
 }
 
 float width_at(float tau) {
@@ -590,7 +591,7 @@ void strand_load_control(uint bundle, vec2 root, uint thread) {
             coherent_curve[i] = cell_blend(hair_mesh_tex, bundle, st, int(i % curve)).xyz;
         } else {
             int z = int(i - 2u * curve);
-            coherent_u_w[z] = vec4(cell_blend(u_tex, bundle, root, z).xyz, cell_blend(w_tex, bundle, root, z).x);
+            coherent_u_w[z] = cell_blend(u_tex, bundle, root, z);
             coherent_v[z] = cell_blend(v_tex, bundle, root, z).xyz;
         }
     }
@@ -809,10 +810,9 @@ void load_curve_slice(StrandCell cell, int z, out vec3 strand, out vec3 centre) 
     centre = blend_corners(k, cell.centre).xyz;
 }
 
-// Layer slice z of u (xyz) with w (in u_w.w) and of v, blended at the strand's root.
+// Layer slice z of u (xyz) with w (in u_w.w: one texture) and of v, blended at the strand's root.
 void load_layer_slice(StrandCell cell, int z, out vec4 u_w, out vec3 v) {
-    u_w = vec4(blend_corners(fetch_corners(u_tex, cell, z), cell.root).xyz,
-               blend_corners(fetch_corners(w_tex, cell, z), cell.root).x);
+    u_w = blend_corners(fetch_corners(u_tex, cell, z), cell.root);
     v = blend_corners(fetch_corners(v_tex, cell, z), cell.root).xyz;
 }
 

@@ -11,7 +11,7 @@
 //! # Set 0 of a strand pipeline
 //! | bindings | what | written by |
 //! |---|---|---|
-//! | [`binding::GEN_PARAMS`] … [`binding::W_TEXTURE`] (0–7) | frame parameters, bundle table, root samples, the four 3D textures | the CPU (per frame / per asset) |
+//! | [`binding::GEN_PARAMS`] … [`binding::V_TEXTURE`] (0–6) | frame parameters, bundle table, root samples, the three 3D textures (hair mesh, û with w, v̂) | the CPU (per frame / per asset) |
 //! | [`binding::BUNDLE_LODS`] … [`binding::STRAND_INFO`] (8–11) | LOD per bundle, prefix sum + indirect arguments, strand vertices, strand info | the generator |
 //! | [`binding::FIRST_CONSUMER`] and up (12–) | the consumer's own buffers (render: OIT lists, shadow maps, lights) | the consumer |
 //!
@@ -29,7 +29,7 @@
 //!   bytes (`vec4(position, width)`, `vec4(tangent, tau)`), `strand_info[slot]` its bundle,
 //!   index, vertex count and LOD width scale, `offsets[]`/`total_strands` how many slots are live.
 //! * **A compute consumer generating inside its own shader** (fused generation, no strand buffer):
-//!   include `hair_gen.glsl` with bindings 0–7 bound as the generator binds them, take a
+//!   include `hair_gen.glsl` with bindings 0–6 bound as the generator binds them, take a
 //!   bundle's `bundle_lod(bundle)` (or the LOD pass's `lods[]`), then either
 //!   - one strand per invocation (what `generate.comp` does in the strand-coherent variant):
 //!     `StrandStream s = strand_stream(bundle, strand, lod, from_control)`, then
@@ -56,12 +56,11 @@ pub mod binding {
     pub const SAMPLE_SETS: u32 = 3;
     /// The hair-mesh 3D texture (sampler3D).
     pub const HAIR_MESH_TEXTURE: u32 = 4;
-    /// û (sampler3D).
+    /// û in rgb and w in alpha (sampler3D): the asset's two layer textures in one, so a
+    /// fetch reads both (7 is free: w had it before).
     pub const U_TEXTURE: u32 = 5;
     /// v̂ (sampler3D).
     pub const V_TEXTURE: u32 = 6;
-    /// w (sampler3D).
-    pub const W_TEXTURE: u32 = 7;
     /// LOD per bundle (written by the LOD pass).
     pub const BUNDLE_LODS: u32 = 8;
     /// Prefix sum of strands per bundle, dispatch and draw arguments.
@@ -114,7 +113,6 @@ pub const GLSL_DEFINES: &[(&str, u64)] = &[
     ("HK_BINDING_HAIR_MESH_TEXTURE", binding::HAIR_MESH_TEXTURE as u64),
     ("HK_BINDING_U_TEXTURE", binding::U_TEXTURE as u64),
     ("HK_BINDING_V_TEXTURE", binding::V_TEXTURE as u64),
-    ("HK_BINDING_W_TEXTURE", binding::W_TEXTURE as u64),
     ("HK_BINDING_BUNDLE_LODS", binding::BUNDLE_LODS as u64),
     ("HK_BINDING_STRAND_OFFSETS", binding::STRAND_OFFSETS as u64),
     ("HK_BINDING_STRAND_VERTICES", binding::STRAND_VERTICES as u64),
@@ -139,7 +137,6 @@ pub const BINDINGS: &[u32] = &[
     binding::HAIR_MESH_TEXTURE,
     binding::U_TEXTURE,
     binding::V_TEXTURE,
-    binding::W_TEXTURE,
     binding::BUNDLE_LODS,
     binding::STRAND_OFFSETS,
     binding::STRAND_VERTICES,

@@ -29,8 +29,9 @@ use crate::{
 pub enum Filtering {
     /// Per strand: the workgroup blends the four texels of the strand's cell in every slice
     /// once (texelFetch + f32 lerps) and evaluates every vertex from those values in shared
-    /// memory — about `4·(3·(1 + 3L) + 3·(L + 1))` texel reads per strand instead of seven
-    /// trilinear fetches per vertex. Strands of fewer than 17 vertices (vertex levels below 4,
+    /// memory — about `4·((1 + 3L) + 2·(L + 1))` texel reads per strand (the curve slices serve
+    /// the strand and its bundle centre; a quarter of that where a subgroup fetches together)
+    /// instead of six trilinear fetches per vertex. Strands of fewer than 17 vertices (vertex levels below 4,
     /// where a mesh workgroup draws several) sample per vertex, filtering manually (the same
     /// f32 lerps), on both paths.
     #[default]
@@ -258,7 +259,7 @@ pub fn strand_bindings(extra: &[u32]) -> Vec<Binding> {
     use crate::contract::binding as b;
     let all = vk::ShaderStageFlags::ALL;
     let buffers = [b::GEN_PARAMS, b::BUNDLES, b::ROOT_SAMPLES, b::SAMPLE_SETS];
-    let textures = [b::HAIR_MESH_TEXTURE, b::U_TEXTURE, b::V_TEXTURE, b::W_TEXTURE];
+    let textures = [b::HAIR_MESH_TEXTURE, b::U_TEXTURE, b::V_TEXTURE];
     let outputs = [b::BUNDLE_LODS, b::STRAND_OFFSETS, b::STRAND_VERTICES, b::STRAND_INFO];
     let mut list: Vec<Binding> = buffers.iter().map(|&i| Binding::storage_buffer(i, all)).collect();
     list.extend(textures.iter().map(|&i| Binding {
@@ -502,7 +503,6 @@ impl Generator {
                 (b::HAIR_MESH_TEXTURE, &hair.hair_mesh, &hair.sampler),
                 (b::U_TEXTURE, &hair.u, &hair.sampler),
                 (b::V_TEXTURE, &hair.v, &hair.sampler),
-                (b::W_TEXTURE, &hair.w, &hair.sampler),
             ],
         );
     }

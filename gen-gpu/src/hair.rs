@@ -22,7 +22,7 @@ pub enum TexturePrecision {
 pub struct TextureBytes {
     pub hair_mesh: u64,
     pub uv: u64,
-    pub w: u64,
+    /// û with w in its alpha channel (one texture: a fetch reads both).
     pub u: u64,
     pub v: u64,
     /// Bundle table and root sample sets.
@@ -31,7 +31,7 @@ pub struct TextureBytes {
 
 impl TextureBytes {
     pub fn total(&self) -> u64 {
-        self.hair_mesh + self.uv + self.w + self.u + self.v + self.buffers
+        self.hair_mesh + self.uv + self.u + self.v + self.buffers
     }
 }
 
@@ -53,7 +53,7 @@ const CELL_AXIS_LIMIT: u32 = 1 << 14;
 pub struct GpuHair {
     pub(crate) hair_mesh: Image,
     pub(crate) uv: Image,
-    pub(crate) w: Image,
+    /// û in rgb, w in alpha ([`u_w_texel`]).
     pub(crate) u: Image,
     pub(crate) v: Image,
     pub(crate) sampler: Sampler,
@@ -78,6 +78,14 @@ fn push_texel(out: &mut Vec<u8>, texel: &[f64], channels: u32, half: bool) {
             out.extend((v as f32).to_le_bytes());
         }
     }
+}
+
+/// Texel (x, y, z) of the uploaded û texture: û's three channels, then w (the asset keeps them
+/// apart; `hair_gen.glsl` reads both with one fetch). Same extent asserted at upload.
+fn u_w_texel(u: &Texture3, w: &Texture3, x: u32, y: u32, z: u32) -> [f64; 4] {
+    let (a, b) = (u.texel(x, y, z), w.texel(x, y, z));
+    let at = |s: &[f64], i: usize| s.get(i).copied().unwrap_or(0.0);
+    [at(a, 0), at(a, 1), at(a, 2), at(b, 0)]
 }
 
 fn texels(tex: &Texture3, channels: u32, half: bool) -> Vec<u8> {
@@ -116,8 +124,8 @@ fn gpu_bundle(asset: &HairAsset, b: usize) -> GpuBundle {
 #[derive(Debug)]
 pub struct StagedHairUpdate {
     staging: Buffer,
-    /// Copies into the hair-mesh, w, u and v textures.
-    image_copies: [Vec<vk::BufferImageCopy>; 4],
+    /// Copies into the hair-mesh, û-with-w and v̂ textures.
+    image_copies: [Vec<vk::BufferImageCopy>; 3],
     bundle_copies: Vec<vk::BufferCopy>,
     pub report: HairUpdate,
     /// The asset revision the GPU copy holds once the update has run.
@@ -158,14 +166,13 @@ impl GpuHair {
                 why: "maxImageDimension3D",
             });
         }
-        let (rgba, rg, r) = if half {
-            (vk::Format::R16G16B16A16_SFLOAT, vk::Format::R16G16_SFLOAT, vk::Format::R16_SFLOAT)
+        let (rgba, rg) = if half {
+            (vk::Format::R16G16B16A16_SFLOAT, vk::Format::R16G16_SFLOAT)
         } else {
-            (vk::Format::R32G32B32A32_SFLOAT, vk::Format::R32G32_SFLOAT, vk::Format::R32_SFLOAT)
+            (vk::Format::R32G32B32A32_SFLOAT, vk::Format::R32G32_SFLOAT)
         };
-        let upload = |name: &str, tex: &Texture3, format, channels| -> Result<(Image, u64)> {
+        let upload = |name: &str, tex: &Texture3, format, data: Vec<u8>| -> Result<(Image, u64)> {
             let extent = vk::Extent3D { width: tex.width, height: tex.height, depth: tex.depth };
-            let data = texels(tex, channels, half);
             let len = data.len() as u64;
             let desc = if tex.depth > 1 || name != "uv" {
                 ImageDesc::d3(extent, format, vk::ImageUsageFlags::SAMPLED)
@@ -174,11 +181,24 @@ impl GpuHair {
             };
             Ok((ctx.create_image_with_data(name, desc, &data)?, len))
         };
-        let (hair_mesh, hm_bytes) = upload("hair_mesh", &t.hair_mesh, rgba, 4)?;
-        let (uv, uv_bytes) = upload("uv", &t.uv, rg, 2)?;
-        let (w, w_bytes) = upload("w", &t.w, r, 1)?;
-        let (u, u_bytes) = upload("u", &t.u, rgba, 4)?;
-        let (v, v_bytes) = upload("v", &t.v, rgba, 4)?;
+        if (t.u.width, t.u.height, t.u.depth) != (t.w.width, t.w.height, t.w.depth) {
+            return Err(GpuError::Mismatch(format!(
+                "the u texture is {}×{}×{} and w {}×{}×{}: they share one GPU texture",
+                t.u.width, t.u.height, t.u.depth, t.w.width, t.w.height, t.w.depth
+            )));
+        }
+        let (hair_mesh, hm_bytes) = upload("hair_mesh", &t.hair_mesh, rgba, texels(&t.hair_mesh, 4, half))?;
+        let (uv, uv_bytes) = upload("uv", &t.uv, rg, texels(&t.uv, 2, half))?;
+        let mut u_w = Vec::new();
+        for z in 0..t.u.depth {
+            for y in 0..t.u.height {
+                for x in 0..t.u.width {
+                    push_texel(&mut u_w, &u_w_texel(&t.u, &t.w, x, y, z), 4, half);
+                }
+            }
+        }
+        let (u, u_bytes) = upload("u and w", &t.u, rgba, u_w)?;
+        let (v, v_bytes) = upload("v", &t.v, rgba, texels(&t.v, 4, half))?;
 
         // Cells pack into one u32 each (hair_gen.glsl, block_coord).
         if t.layout.width > CELL_AXIS_LIMIT || t.layout.height > CELL_AXIS_LIMIT {
@@ -207,7 +227,6 @@ impl GpuHair {
         Ok(Self {
             hair_mesh,
             uv,
-            w,
             u,
             v,
             sampler: Sampler::linear_clamp(ctx, "hair texture sampler")?,
@@ -220,7 +239,6 @@ impl GpuHair {
             bytes: TextureBytes {
                 hair_mesh: hm_bytes,
                 uv: uv_bytes,
-                w: w_bytes,
                 u: u_bytes,
                 v: v_bytes,
                 buffers: (bundle_bytes.len() + sample_bytes.len() + set_bytes.len()) as u64,
@@ -304,10 +322,20 @@ impl GpuHair {
         };
         // One staging buffer: each texture's regions, then the bundle entries.
         let mut data = Vec::new();
-        let mut image_copies: [Vec<vk::BufferImageCopy>; 4] = Default::default();
-        // The uv texture holds the rest pose's root uvs, which edits keep.
-        let textures = [(&nt.hair_mesh, 4u32), (&nt.w, 1), (&nt.u, 4), (&nt.v, 4)];
-        for ((tex, channels), copies) in textures.into_iter().zip(&mut image_copies) {
+        let mut image_copies: [Vec<vk::BufferImageCopy>; 3] = Default::default();
+        // The hair mesh, û with w in its alpha (as at upload) and v̂; the uv texture holds the
+        // rest pose's root uvs, which edits keep.
+        let texel = |image: usize, x: u32, y: u32, z: u32| -> [f64; 4] {
+            let four = |s: &[f64]| std::array::from_fn(|i| s.get(i).copied().unwrap_or(0.0));
+            match image {
+                0 => four(nt.hair_mesh.texel(x, y, z)),
+                1 => u_w_texel(&nt.u, &nt.w, x, y, z),
+                _ => four(nt.v.texel(x, y, z)),
+            }
+        };
+        let depths = [nt.hair_mesh.depth, nt.u.depth, nt.v.depth];
+        for (image, copies) in image_copies.iter_mut().enumerate() {
+            let depth = depths[image];
             for &(x0, y, n) in &runs {
                 // Copy offsets must be multiples of the texel size (and of 4).
                 while data.len() % 16 != 0 {
@@ -318,11 +346,11 @@ impl GpuHair {
                         .buffer_offset(data.len() as u64)
                         .image_subresource(self.hair_mesh.layers())
                         .image_offset(vk::Offset3D { x: x0 as i32, y: y as i32, z: 0 })
-                        .image_extent(vk::Extent3D { width: n, height: 1, depth: tex.depth }),
+                        .image_extent(vk::Extent3D { width: n, height: 1, depth }),
                 );
-                for z in 0..tex.depth {
+                for z in 0..depth {
                     for x in x0..x0 + n {
-                        push_texel(&mut data, tex.texel(x, y, z), channels, half);
+                        push_texel(&mut data, &texel(image, x, y, z), 4, half);
                     }
                 }
             }
@@ -352,7 +380,7 @@ impl GpuHair {
     /// TRANSFER_DST and back to SHADER_READ_ONLY around its copies, the bundle table gets its
     /// entries; everything recorded after sees the new values.
     pub fn record_update(&self, rec: &crate::Recorder<'_>, staged: &StagedHairUpdate) {
-        let images = [&self.hair_mesh, &self.w, &self.u, &self.v];
+        let images = [&self.hair_mesh, &self.u, &self.v];
         for (image, copies) in images.into_iter().zip(&staged.image_copies) {
             rec.update_sampled_image(&staged.staging, image, copies);
         }

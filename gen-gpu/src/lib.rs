@@ -75,7 +75,6 @@ mod contract_tests {
             ("HK_BINDING_HAIR_MESH_TEXTURE", u64::from(binding::HAIR_MESH_TEXTURE)),
             ("HK_BINDING_U_TEXTURE", u64::from(binding::U_TEXTURE)),
             ("HK_BINDING_V_TEXTURE", u64::from(binding::V_TEXTURE)),
-            ("HK_BINDING_W_TEXTURE", u64::from(binding::W_TEXTURE)),
             ("HK_BINDING_BUNDLE_LODS", u64::from(binding::BUNDLE_LODS)),
             ("HK_BINDING_STRAND_OFFSETS", u64::from(binding::STRAND_OFFSETS)),
             ("HK_BINDING_STRAND_VERTICES", u64::from(binding::STRAND_VERTICES)),
