@@ -80,8 +80,19 @@ fn push_texel(out: &mut Vec<u8>, texel: &[f64], channels: u32, half: bool) {
     }
 }
 
+/// û and w share one GPU texture ([`u_w_texel`]): they must have one extent.
+fn check_u_w(t: &hairmesh::texture::HairTextures) -> Result<()> {
+    if (t.u.width, t.u.height, t.u.depth) != (t.w.width, t.w.height, t.w.depth) {
+        return Err(GpuError::Mismatch(format!(
+            "the u texture is {}×{}×{} and w {}×{}×{}: they share one GPU texture",
+            t.u.width, t.u.height, t.u.depth, t.w.width, t.w.height, t.w.depth
+        )));
+    }
+    Ok(())
+}
+
 /// Texel (x, y, z) of the uploaded û texture: û's three channels, then w (the asset keeps them
-/// apart; `hair_gen.glsl` reads both with one fetch). Same extent asserted at upload.
+/// apart; `hair_gen.glsl` reads both with one fetch). The two have one extent ([`check_u_w`]).
 fn u_w_texel(u: &Texture3, w: &Texture3, x: u32, y: u32, z: u32) -> [f64; 4] {
     let (a, b) = (u.texel(x, y, z), w.texel(x, y, z));
     let at = |s: &[f64], i: usize| s.get(i).copied().unwrap_or(0.0);
@@ -181,12 +192,7 @@ impl GpuHair {
             };
             Ok((ctx.create_image_with_data(name, desc, &data)?, len))
         };
-        if (t.u.width, t.u.height, t.u.depth) != (t.w.width, t.w.height, t.w.depth) {
-            return Err(GpuError::Mismatch(format!(
-                "the u texture is {}×{}×{} and w {}×{}×{}: they share one GPU texture",
-                t.u.width, t.u.height, t.u.depth, t.w.width, t.w.height, t.w.depth
-            )));
-        }
+        check_u_w(t)?;
         let (hair_mesh, hm_bytes) = upload("hair_mesh", &t.hair_mesh, rgba, texels(&t.hair_mesh, 4, half))?;
         let (uv, uv_bytes) = upload("uv", &t.uv, rg, texels(&t.uv, 2, half))?;
         let mut u_w = Vec::new();
@@ -294,6 +300,7 @@ impl GpuHair {
                 "the asset's layout, normalization, bundles or sample sets changed: upload it again".into(),
             ));
         }
+        check_u_w(nt)?;
         let slice = nt.layout.slice_texels();
         if let Some(t) = change.texels.iter().find(|&&t| u64::from(t) >= slice) {
             return Err(GpuError::Mismatch(format!("changed texel {t} is outside the {slice}-texel slice")));
