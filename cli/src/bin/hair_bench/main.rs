@@ -547,8 +547,9 @@ fn memory_section(setup: &Setup<'_>) -> Result<Section> {
 /// earlier frame filled.
 fn stored_section(setup: &Setup<'_>, progress: &indicatif::ProgressBar) -> Result<Section> {
     let Setup { ctx, width, height, frames, camera, .. } = *setup;
-    // The ratio is of two frames that differ by a small pass: more frames for steadier medians.
-    let frames = if setup.quick { frames } else { frames.max(5) };
+    // The ratio is of two frames that differ by a small pass: more frames for steadier medians
+    // (with 5, a 10k-strand ratio moved by a tenth from run to run).
+    let frames = if setup.quick { frames } else { frames.max(11) };
     let mut md = String::new();
     let _ = writeln!(md, "### On-the-fly vs stored strands\n");
     let _ = writeln!(
@@ -616,10 +617,11 @@ fn stored_compute_raster_table(
     progress: &indicatif::ProgressBar,
 ) -> Result<(String, String)> {
     let Setup { ctx, width, height, frames, camera, .. } = *setup;
+    let frames = if setup.quick { frames } else { frames.max(11) };
     let mut md = String::new();
     let _ = writeln!(
         md,
-        "\nThrough the compute rasterizer (opaque, LOD off): *on the fly* generates every strand inside the raster kernel each frame; *stored* draws the same strands (the CPU reference's, uploaded once, root width tapering to 0.3 at the tip) with the rasterizer's stored-strand kernel. Medians of {frames} frames after a warm-up, GPU timestamps.\n"
+        "\nThrough the compute rasterizer (opaque, LOD off): *on the fly* generates every strand inside the raster kernel each frame; *stored* draws the same strands (the CPU reference's, uploaded once, root width tapering to 0.3 at the tip) with the rasterizer's stored-strand kernel. Medians of {frames} frames after a warm-up, the two kinds' frames alternating, GPU timestamps.\n"
     );
     let _ = writeln!(
         md,
@@ -653,16 +655,18 @@ fn stored_compute_raster_table(
             root_uv: None,
         };
         let width_at_root = hair.style.width as f32;
-        let time = |character: render::instance::CharacterInstance| -> Result<f64> {
+        // A warmed-up renderer per kind; their frames alternate, so drift of the machine's speed
+        // falls on both alike.
+        let renderer = |character: render::instance::CharacterInstance| -> Result<_> {
             let mut instance = render::instance::SceneInstance::new(settings.clone());
             instance.characters.push(character);
             let renderer =
                 render::frame::SceneRenderer::from_instance(ctx, &instance, GenerationPath::Compute)?;
             renderer.render(ctx)?;
-            Ok(timed_frames(ctx, &renderer, frames)?.0)
+            Ok(renderer)
         };
-        let live = time(render::instance::CharacterInstance::generated("hair", hair))?;
-        let stored = time(render::instance::CharacterInstance {
+        let live_renderer = renderer(render::instance::CharacterInstance::generated("hair", hair))?;
+        let stored_renderer = renderer(render::instance::CharacterInstance {
             key: "stored".into(),
             hair: render::instance::CharacterHair::Stored {
                 strands: std::sync::Arc::new(set),
@@ -673,6 +677,12 @@ fn stored_compute_raster_table(
             color_variation: render::scene::DEFAULT_COLOR_VARIATION,
             occluder: None,
         })?;
+        let (mut live, mut stored) = (Vec::new(), Vec::new());
+        for _ in 0..frames {
+            live.push(timed_frames(ctx, &live_renderer, 1)?.0);
+            stored.push(timed_frames(ctx, &stored_renderer, 1)?.0);
+        }
+        let (live, stored) = (median(live), median(stored));
         let n = reference.len();
         let _ = writeln!(md, "| {n} | {live:.1} | {stored:.1} | **{:.2}×** |", live / stored);
         let _ = writeln!(csv, "{n},{live:.3},{stored:.3},{:.4}", live / stored);
