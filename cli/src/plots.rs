@@ -106,6 +106,52 @@ fn compact(v: f64) -> String {
     }
 }
 
+/// Ticks of a logarithmic axis over [lo, hi]: labels at 1, 2 and 5 times each power of ten
+/// (plotters' own choice crowded the top of a decade with overlapping labels and left decades
+/// with none), grid lines at every integer multiple. A range holding fewer than two labels is
+/// labelled at its ends.
+fn log_ticks(lo: f64, hi: f64) -> (Vec<f64>, Vec<f64>) {
+    let (mut labels, mut grid) = (Vec::new(), Vec::new());
+    if !(lo > 0.0 && hi > lo && hi.is_finite()) {
+        return (labels, grid);
+    }
+    let mut decade = 10f64.powf(lo.log10().floor());
+    while decade <= hi {
+        for m in 1..10 {
+            let v = decade * f64::from(m);
+            // Within a rounding step of the range (powers of ten are not exact in binary).
+            if v >= lo * (1.0 - 1e-9) && v <= hi * (1.0 + 1e-9) {
+                grid.push(v);
+                if matches!(m, 1 | 2 | 5) {
+                    labels.push(v);
+                }
+            }
+        }
+        decade *= 10.0;
+    }
+    if labels.len() < 2 {
+        labels = vec![lo, hi];
+    }
+    (labels, grid)
+}
+
+/// A legend entry's lines: names longer than the column holds break at spaces (the column
+/// is [`LEGEND_WIDTH`] wide; at 15 px a character is at most about 8.5 px).
+fn legend_lines(name: &str) -> Vec<String> {
+    const MAX_CHARS: usize = 34;
+    let mut lines: Vec<String> = Vec::new();
+    for word in name.split(' ') {
+        match lines.last_mut() {
+            Some(line) if line.chars().count() + 1 + word.chars().count() <= MAX_CHARS => {
+                line.push(' ');
+                line.push_str(word);
+            }
+            _ => lines.push(word.to_owned()),
+        }
+    }
+    lines
+}
+
 /// Draws `series` into a PNG at `path` (written atomically): a 900×540 chart with the legend
 /// in a column to its right ([`IMAGE_SIZE`] in all).
 pub fn draw(path: &Path, chart: &Chart<'_>, series: &[Series]) -> Result<(), PlotError> {
@@ -117,16 +163,24 @@ pub fn draw(path: &Path, chart: &Chart<'_>, series: &[Series]) -> Result<(), Plo
         let canvas = BitMapBackend::with_buffer(&mut pixels, (w, h)).into_drawing_area();
         canvas.fill(&WHITE).map_err(|e| err(&e))?;
         let (root, legend) = canvas.split_horizontally(CHART_SIZE.0);
+        let mut y = 70;
         for (i, s) in series.iter().enumerate() {
             let color = COLORS[i % COLORS.len()];
-            let y = 70 + 26 * i as i32;
             legend.draw(&Circle::new((12, y), 6, color.filled())).map_err(|e| err(&e))?;
-            legend
-                .draw(&Text::new(s.name.as_str(), (26, y - 9), ("sans-serif", 15).into_font()))
-                .map_err(|e| err(&e))?;
+            for line in legend_lines(&s.name) {
+                legend
+                    .draw(&Text::new(line, (26, y - 9), ("sans-serif", 15).into_font()))
+                    .map_err(|e| err(&e))?;
+                y += 19;
+            }
+            y += 7;
         }
         let xs = range(series.iter().flat_map(|s| s.points.iter().map(|p| p.0)), chart.log_x);
         let ys = range(series.iter().flat_map(|s| s.points.iter().map(|p| p.1)), chart.log_y);
+        let log_axis = |(lo, hi): (f64, f64)| {
+            let (labels, grid) = log_ticks(lo, hi);
+            (lo..hi).log_scale().with_key_points(labels).with_light_points(grid)
+        };
         let mut builder = ChartBuilder::on(&root);
         builder
             .caption(chart.title, ("sans-serif", 24))
@@ -160,9 +214,9 @@ pub fn draw(path: &Path, chart: &Chart<'_>, series: &[Series]) -> Result<(), Plo
         }
         match (chart.log_x, chart.log_y) {
             (false, false) => plot!(xs.0..xs.1, ys.0..ys.1),
-            (true, false) => plot!((xs.0..xs.1).log_scale(), ys.0..ys.1),
-            (false, true) => plot!(xs.0..xs.1, (ys.0..ys.1).log_scale()),
-            (true, true) => plot!((xs.0..xs.1).log_scale(), (ys.0..ys.1).log_scale()),
+            (true, false) => plot!(log_axis(xs), ys.0..ys.1),
+            (false, true) => plot!(xs.0..xs.1, log_axis(ys)),
+            (true, true) => plot!(log_axis(xs), log_axis(ys)),
         }
         root.present().map_err(|e| err(&e))?;
     }
@@ -190,6 +244,28 @@ mod tests {
         assert_eq!(compact(2.5), "2.5");
         assert_eq!(compact(0.001), "0.001");
         assert_eq!(compact(0.0), "0");
+    }
+
+    #[test]
+    fn log_axes_are_labelled_one_two_five() {
+        let (labels, grid) = log_ticks(107.0, 5055.0);
+        assert_eq!(labels, vec![200.0, 500.0, 1000.0, 2000.0, 5000.0]);
+        assert_eq!(grid.first(), Some(&200.0));
+        assert_eq!(grid.len(), 8 + 5);
+        // The crowd plot's FLIP axis: every decade gets labels.
+        let (labels, _) = log_ticks(0.02, 0.19);
+        assert_eq!(labels.len(), 3, "{labels:?}");
+        // No 1-2-5 value inside: the ends.
+        assert_eq!(log_ticks(1.1, 1.9).0, vec![1.1, 1.9]);
+        assert!(log_ticks(0.0, 1.0).0.is_empty());
+    }
+
+    #[test]
+    fn long_legend_names_wrap_at_spaces() {
+        let lines = legend_lines("100 heads × 100000 strands (strand LOD α = 16, vertex α = 256)");
+        assert!(lines.len() >= 2 && lines.iter().all(|l| l.chars().count() <= 34), "{lines:?}");
+        assert_eq!(lines.join(" "), "100 heads × 100000 strands (strand LOD α = 16, vertex α = 256)");
+        assert_eq!(legend_lines("short"), vec!["short".to_owned()]);
     }
 
     #[test]
