@@ -2,13 +2,15 @@
 // hair_raster_stored.comp), the tile, shade and resolve passes. The CPU port is
 // render/src/raster.rs (`cpu`); keep the two in step (tests compare them).
 //
-// Per pixel K + 1 64-bit words side by side, cleared to all ones: K visibility words (the K
-// nearest fragments in depth order; K = 1 in opaque and blended scenes, the scene's oit_k with
-// OIT), then the coverage word.
+// Per pixel 64-bit words side by side, cleared to all ones: K visibility words (the K nearest
+// fragments; K = 1 in opaque and blended scenes, the scene's oit_k with OIT), then the coverage
+// word, then with K > 1 the threshold word (pixel_stride: K + 1 words for K = 1, else K + 2).
 //
-// Visibility words: a fragment is inserted with atomicMin from the nearest slot on, the value a
-// slot held moving on to the next, so the slots hold the K smallest words in order whatever the
-// order strands arrive in.
+// Visibility words (visibility_write.glsl): with K = 1 the slot keeps the nearest word
+// (atomicMin). With K > 1 the slots hold the K nearest words in no particular order (the shade
+// pass sorts them) and the threshold word an upper bound of the farthest of them: a word at
+// or beyond it is not among the K nearest. Either way the slots end holding the K smallest
+// words whatever the order strands arrive in.
 //   bits 42-63  view depth w: the float's bits >> 9 (w > 0, so the sign bit is 0): 14 mantissa
 //               bits, a relative depth resolution of 2^-14 (60 µm at 1 m)
 //   bits 32-41  material index (the character's hair material; at most 1024 per frame)
@@ -50,9 +52,20 @@ float transition_dither(uvec2 xy) {
     return fract(52.9829189 * fract(dot(vec2(xy) + 0.5, vec2(0.06711056, 0.00583715))));
 }
 
-// Word i of pixel p with K slots (slot K is the coverage word).
+// 64-bit words per pixel with K slots (render/src/raster.rs `pixel_stride`).
+uint pixel_stride(uint k) {
+    return k == 1u ? 2u : k + 2u;
+}
+
+// Word i of pixel p with K slots (word K is the coverage word, K + 1 the threshold word).
 uint pixel_word(uint pixel, uint k, uint i) {
-    return pixel * (k + 1u) + i;
+    return pixel * pixel_stride(k) + i;
+}
+
+// The word that bounds the pixel's K nearest from above (K = 1: the slot itself), for the
+// pixel whose words start at `first`.
+uint threshold_word(uint first, uint k) {
+    return k == 1u ? first : first + k + 1u;
 }
 
 vec2 oct_wrap(vec2 v) {

@@ -8,6 +8,7 @@
 // where no hair is): the resolve filters it and applies the pixel's alpha. With K = 1 this is
 // the nearest fragment's colour. Pixels with fragments beyond their K slots are counted.
 #extension GL_GOOGLE_include_directive : require
+#extension GL_EXT_control_flow_attributes : require
 #include "raster_common.glsl"
 // Hair shading with volume shadows: the light through the character's own hair volume.
 float shade_light_transmittance(uint i, vec3 p);
@@ -23,7 +24,7 @@ layout(push_constant) uniform Rect {
     uint k;
 } area;
 
-layout(std430, set = 0, binding = HK_BINDING_VISIBILITY) readonly buffer PixelBuffer { uint64_t pixel_words[]; };
+layout(std430, set = 0, binding = HK_BINDING_VISIBILITY) buffer PixelBuffer { uint64_t pixel_words[]; };
 layout(std430, set = 0, binding = HK_BINDING_SHADED) writeonly buffer ShadedBuffer { vec4 shaded[]; };
 // x: pixels whose fragments did not all fit their K slots.
 layout(std430, set = 0, binding = HK_BINDING_RASTER_COUNTERS) buffer Counters { uint counters[]; };
@@ -33,6 +34,56 @@ layout(std430, set = 0, binding = HK_BINDING_RASTER_COUNTERS) buffer Counters { 
 layout(std430, set = 0, binding = HK_BINDING_VOLUME) readonly buffer VolumeBuffer { vec4 volume[]; };
 layout(std430, set = 0, binding = HK_BINDING_VOLUME_BRICKS) readonly buffer BrickBuffer { uint bricks[]; };
 #include "volume_sample.glsl"
+
+// scene.rs caps effects.oit_k at this.
+const uint MAX_SLOTS = 16u;
+
+// Orders s[i] <= s[j].
+#define ORDER_SLOTS(i, j) \
+    { uint64_t nearer = min(s[i], s[j]); s[j] = max(s[i], s[j]); s[i] = nearer; }
+
+// Sorts the K > 1 slots of the pixel whose words start at `first` in place, nearest first (the
+// raster kernels leave them unordered): Batcher's odd-even merge sort of 4, 8 or 16 words
+// (5, 19 or 63 compare-exchanges), the slots past K empty, with constant indices only so that
+// the words stay in registers on CPU devices.
+void sort_slots(uint first, uint k) {
+    uint64_t s[MAX_SLOTS];
+    [[unroll]] for (uint i = 0u; i < MAX_SLOTS; ++i) {
+        s[i] = i < k ? pixel_words[first + i] : VISIBILITY_EMPTY;
+    }
+    if (k <= 4u) {
+        ORDER_SLOTS(0, 1); ORDER_SLOTS(2, 3); ORDER_SLOTS(0, 2); ORDER_SLOTS(1, 3);
+        ORDER_SLOTS(1, 2);
+    } else if (k <= 8u) {
+        ORDER_SLOTS(0, 1); ORDER_SLOTS(2, 3); ORDER_SLOTS(4, 5); ORDER_SLOTS(6, 7);
+        ORDER_SLOTS(0, 2); ORDER_SLOTS(1, 3); ORDER_SLOTS(4, 6); ORDER_SLOTS(5, 7);
+        ORDER_SLOTS(1, 2); ORDER_SLOTS(5, 6); ORDER_SLOTS(0, 4); ORDER_SLOTS(1, 5);
+        ORDER_SLOTS(2, 6); ORDER_SLOTS(3, 7); ORDER_SLOTS(2, 4); ORDER_SLOTS(3, 5);
+        ORDER_SLOTS(1, 2); ORDER_SLOTS(3, 4); ORDER_SLOTS(5, 6);
+    } else {
+        ORDER_SLOTS(0, 1); ORDER_SLOTS(2, 3); ORDER_SLOTS(4, 5); ORDER_SLOTS(6, 7);
+        ORDER_SLOTS(8, 9); ORDER_SLOTS(10, 11); ORDER_SLOTS(12, 13); ORDER_SLOTS(14, 15);
+        ORDER_SLOTS(0, 2); ORDER_SLOTS(1, 3); ORDER_SLOTS(4, 6); ORDER_SLOTS(5, 7);
+        ORDER_SLOTS(8, 10); ORDER_SLOTS(9, 11); ORDER_SLOTS(12, 14); ORDER_SLOTS(13, 15);
+        ORDER_SLOTS(1, 2); ORDER_SLOTS(5, 6); ORDER_SLOTS(9, 10); ORDER_SLOTS(13, 14);
+        ORDER_SLOTS(0, 4); ORDER_SLOTS(1, 5); ORDER_SLOTS(2, 6); ORDER_SLOTS(3, 7);
+        ORDER_SLOTS(8, 12); ORDER_SLOTS(9, 13); ORDER_SLOTS(10, 14); ORDER_SLOTS(11, 15);
+        ORDER_SLOTS(2, 4); ORDER_SLOTS(3, 5); ORDER_SLOTS(10, 12); ORDER_SLOTS(11, 13);
+        ORDER_SLOTS(1, 2); ORDER_SLOTS(3, 4); ORDER_SLOTS(5, 6); ORDER_SLOTS(9, 10);
+        ORDER_SLOTS(11, 12); ORDER_SLOTS(13, 14); ORDER_SLOTS(0, 8); ORDER_SLOTS(1, 9);
+        ORDER_SLOTS(2, 10); ORDER_SLOTS(3, 11); ORDER_SLOTS(4, 12); ORDER_SLOTS(5, 13);
+        ORDER_SLOTS(6, 14); ORDER_SLOTS(7, 15); ORDER_SLOTS(4, 8); ORDER_SLOTS(5, 9);
+        ORDER_SLOTS(6, 10); ORDER_SLOTS(7, 11); ORDER_SLOTS(2, 4); ORDER_SLOTS(3, 5);
+        ORDER_SLOTS(6, 8); ORDER_SLOTS(7, 9); ORDER_SLOTS(10, 12); ORDER_SLOTS(11, 13);
+        ORDER_SLOTS(1, 2); ORDER_SLOTS(3, 4); ORDER_SLOTS(5, 6); ORDER_SLOTS(7, 8);
+        ORDER_SLOTS(9, 10); ORDER_SLOTS(11, 12); ORDER_SLOTS(13, 14);
+    }
+    [[unroll]] for (uint i = 0u; i < MAX_SLOTS; ++i) {
+        if (i < k) {
+            pixel_words[first + i] = s[i];
+        }
+    }
+}
 
 // The material of the fragment being shaded (for shade_light_transmittance).
 RasterMaterial shading_material;
@@ -83,6 +134,8 @@ void main() {
     uint pixel = xy.y * frame.size.x + xy.x;
     uint k = area.k;
     uint first = pixel_word(pixel, k, 0u);
+    // Slots fill in order (the first empty one is the farthest an insertion replaces), so an
+    // empty first slot is an empty pixel.
     uint64_t nearest = pixel_words[first];
     if (nearest == VISIBILITY_EMPTY) {
         shaded[pixel] = vec4(0.0, 0.0, 0.0, -1.0);
@@ -97,6 +150,9 @@ void main() {
     // (144 bytes, which CPU devices read lane by lane).
     uint material = 0xffffffffu;
     RasterMaterial m;
+    if (k > 1u) {
+        sort_slots(first, k);
+    }
     for (uint i = 0u; i < k; ++i) {
         uint64_t word = pixel_words[first + i];
         if (word == VISIBILITY_EMPTY) {
@@ -118,6 +174,7 @@ void main() {
     // Everything behind the slots: the pixel's whole transmittance over the slots'.
     float total = 1.0 - coverage_alpha(~pixel_words[first + k]);
     float tail = clamp(1.0 - total / max(transmittance, 1e-6), 0.0, 1.0);
+    // (Slots fill in order: the last holds a fragment when all do.)
     if (pixel_words[first + k - 1u] != VISIBILITY_EMPTY && tail > 1.0 / 255.0) {
         atomicAdd(counters[0], 1u);
     }

@@ -1,6 +1,6 @@
 #version 460
 // Compute rasterizer, tiles: after the front strands, per 8×8 tile the farthest of its pixels'
-// last-slot (K-th nearest) depths when every pixel of the tile is opaque (its coverage at the
+// threshold depths (their K-th nearest, or farther) when every pixel of the tile is opaque (its coverage at the
 // limit), else all ones. A later fragment strictly behind it can neither enter a pixel's slots
 // nor add coverage (the pixels are at the limit), so the rest of the strands skip such columns
 // and the image stays exactly what drawing every fragment gives. A second word per tile holds
@@ -23,7 +23,7 @@ layout(push_constant) uniform TileParams {
     uint k;
 } tiles;
 
-// The farthest last-slot depth bits of tile (x, y) if all its pixels are opaque, else all ones;
+// The farthest threshold depth bits of tile (x, y) if all its pixels are opaque, else all ones;
 // 0 for a tile outside the grid (no column reaches it).
 uint tile_farthest(uint tx, uint ty) {
     if (tx >= tiles.tiles_x || ty >= tiles.tiles_y) {
@@ -39,7 +39,7 @@ uint tile_farthest(uint tx, uint ty) {
             if (!opaque) {
                 return 0xffffffffu;
             }
-            farthest = max(farthest, uint(pixel_words[first + tiles.k - 1u] >> DEPTH_SHIFT));
+            farthest = max(farthest, uint(pixel_words[threshold_word(first, tiles.k)] >> DEPTH_SHIFT));
         }
     }
     return farthest;

@@ -21,9 +21,9 @@
 // The occluders' Vulkan depth per pixel (1 = none), read when raster.flags bit 0 is set.
 layout(std430, set = 0, binding = HK_BINDING_SCENE_DEPTH) readonly buffer SceneDepthBuffer { float scene_depth[]; };
 // Per 8×8 tile two words (raster_tiles.comp, after the front strands): the farthest depth bits
-// of its pixels' last (K-th) slots if every pixel is opaque and its slots full, else all ones —
-// a column behind it cannot change any pixel of the tile —, then the same over the 2×2 tiles
-// it is the top left of, for columns that reach into the next tiles.
+// of its pixels' threshold words (raster_common.glsl) if every pixel is opaque and its slots
+// full, else all ones — a column behind it cannot change any pixel of the tile —, then the same
+// over the 2×2 tiles it is the top left of, for columns that reach into the next tiles.
 layout(std430, set = 0, binding = HK_BINDING_RASTER_TILES) readonly buffer TileBuffer { uint tile_depth[]; };
 
 layout(push_constant) uniform RasterParams {
@@ -85,7 +85,27 @@ struct RasterVertex {
     vec4 side;         // clip-space offset of the strand's half width (linear, so it interpolates)
     vec3 tangent;      // world space
     float tau;
+    // Its projection (project_vertex), meaningful in front of the eye: pixel position, half
+    // width in pixels (at most max_half_width), 1 / w and NDC z.
+    vec2 screen;
+    float half_width;
+    float inv_w;
+    float z;
 };
+
+// Half the strand's width in pixels at a clip-space point (first-order projection of `side`).
+float half_width_pixels(vec4 clip, vec4 side) {
+    vec2 d = (side.xy - clip.xy * (side.w / clip.w)) / clip.w;
+    return length(d * 0.5 * params.viewport.xy);
+}
+
+RasterVertex project_vertex(RasterVertex r) {
+    r.screen = (r.clip.xy / r.clip.w * 0.5 + 0.5) * params.viewport.xy;
+    r.half_width = min(half_width_pixels(r.clip, r.side), raster.max_half_width);
+    r.inv_w = 1.0 / r.clip.w;
+    r.z = r.clip.z * r.inv_w;
+    return r;
+}
 
 RasterVertex raster_vertex(StrandVertex v) {
     RasterVertex r;
@@ -96,9 +116,11 @@ RasterVertex raster_vertex(StrandVertex v) {
     r.side = params.view_proj * vec4(side, 0.0);
     r.tangent = mat3(raster.model) * v.tangent;
     r.tau = v.tau;
-    return r;
+    // Projected once here for the vertex's two segments.
+    return project_vertex(r);
 }
 
+// The point at t between a and b, not projected (project_vertex).
 RasterVertex mix_vertex(RasterVertex a, RasterVertex b, float t) {
     RasterVertex r;
     r.clip = mix(a.clip, b.clip, t);
@@ -119,12 +141,6 @@ void clip_range(float da, float db, inout float t0, inout float t1) {
     }
 }
 
-// Half the strand's width in pixels at a clip-space point (first-order projection of `side`).
-float half_width_pixels(vec4 clip, vec4 side) {
-    vec2 d = (side.xy - clip.xy * (side.w / clip.w)) / clip.w;
-    return length(d * 0.5 * params.viewport.xy);
-}
-
 // One column's fragment attributes, encoded only when one of its pixels needs them (most
 // fragments of dense hair lie behind the pixel's nearest one and need none).
 struct ColumnAttributes {
@@ -138,9 +154,9 @@ struct ColumnAttributes {
 };
 
 #ifndef SHADOW_RASTER
-// Plain loads first: a fragment behind the pixel's K-th slot, or adding to a pixel whose hair is
-// already opaque, skips its atomics (on CPU devices an atomic minimum is a compare-and-swap
-// loop; most fragments of dense hair take neither).
+// Plain loads first: a fragment behind the pixel's threshold word (its K-th nearest), or adding
+// to a pixel whose hair is already opaque, skips its atomics (on CPU devices an atomic is a
+// loop over the SIMD lanes; most fragments of dense hair take neither).
 void raster_fragment(uint pixel, float coverage, float ndc_z, inout ColumnAttributes a) {
     if (!(coverage > 0.0)) {
         return;
@@ -156,7 +172,7 @@ void raster_fragment(uint pixel, float coverage, float ndc_z, inout ColumnAttrib
     }
     uint k = raster.k;
     uint first = pixel_word(pixel, k, 0u);
-    if (a.depth_bits <= uint(load_pixel_word(first + k - 1u) >> DEPTH_SHIFT)) {
+    if (a.depth_bits <= uint(load_pixel_word(threshold_word(first, k)) >> DEPTH_SHIFT)) {
         if (!a.encoded) {
             a.word = visibility_word(a.depth_bits, visibility_attributes(a.material, a.tangent, a.tau, a.random));
             a.encoded = true;
@@ -184,16 +200,22 @@ void raster_segment(RasterVertex a, RasterVertex b, uint material, float random)
     if (!(t0 < t1)) {
         return;
     }
-    RasterVertex p = mix_vertex(a, b, t0);
-    RasterVertex q = mix_vertex(a, b, t1);
+    RasterVertex p = a;
+    RasterVertex q = b;
+    // Nearly every segment lies within the view volume's depth and keeps its ends' projections
+    // (made once per vertex); a clipped one projects its clipped ends.
+    if (t0 > 0.0 || t1 < 1.0) {
+        p = project_vertex(mix_vertex(a, b, t0));
+        q = project_vertex(mix_vertex(a, b, t1));
+    }
     if (!(p.clip.w > 1e-20) || !(q.clip.w > 1e-20)) {
         return;
     }
     vec2 size = params.viewport.xy;
-    vec2 sp = (p.clip.xy / p.clip.w * 0.5 + 0.5) * size;
-    vec2 sq = (q.clip.xy / q.clip.w * 0.5 + 0.5) * size;
-    float hp = min(half_width_pixels(p.clip, p.side), raster.max_half_width);
-    float hq = min(half_width_pixels(q.clip, q.side), raster.max_half_width);
+    vec2 sp = p.screen;
+    vec2 sq = q.screen;
+    float hp = p.half_width;
+    float hq = q.half_width;
     vec2 d = sq - sp;
     float len = length(d);
     if (!(len > 1e-6) || !(hp + hq > 0.0)) {
@@ -217,10 +239,10 @@ void raster_segment(RasterVertex a, RasterVertex b, uint material, float random)
     int last = min(floor_int(ceil(hi - 0.5)) - 1, size_major - 1);
     // A footprint of perpendicular width 2h spans 2h * len / |d_major| along the minor axis.
     float stretch = len / abs(d_major);
-    float inv_wp = 1.0 / p.clip.w;
-    float inv_wq = 1.0 / q.clip.w;
-    float zp = p.clip.z * inv_wp;
-    float zq = q.clip.z * inv_wq;
+    float inv_wp = p.inv_w;
+    float inv_wq = q.inv_w;
+    float zp = p.z;
+    float zq = q.z;
     for (int i = first; i <= last; ++i) {
         float t = (float(i) + 0.5 - a_major) / d_major;
         float m = a_minor + t * d_minor;

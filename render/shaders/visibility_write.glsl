@@ -13,18 +13,49 @@ layout(std430, set = 0, binding = HK_BINDING_VISIBILITY) buffer PixelBuffer { ui
 #define PIXEL_WORD_LOAD(i) pixel_words[i]
 #endif
 
-// Inserts visibility word `v` among the K nearest of the pixel whose words start at `first`,
-// from the nearest slot on: a displaced word moves to the next slot.
+// Compare-and-swap attempts of one insertion (K > 1). An attempt fails only when another
+// insertion into the same pixel succeeded between its loads and its swap, which a handful of
+// concurrent invocations cannot make happen this often.
+const uint MAX_INSERT_ATTEMPTS = 64u;
+
+// Inserts visibility word `v` among the K nearest of the pixel whose words start at `first`.
+// K = 1: an atomic minimum. K > 1: the slots are unordered; `v` replaces the farthest of them
+// with a compare-and-swap (one atomic, where keeping them sorted moved every farther word one
+// slot on, an atomic each), then lowers the threshold word to the farthest of the others and
+// `v`. Slots only ever decrease, so the farthest found by the loads is the slots' current
+// farthest when its swap succeeds (if another insertion changed that slot meanwhile, the swap
+// fails and the slots are read again), and the threshold stays at or above the slots'
+// farthest. The slots end holding the K smallest words in any arrival order.
 void insert_visibility(uint first, uint k, uint64_t v) {
-    for (uint i = 0u; i < k; ++i) {
-        if (v >= PIXEL_WORD_LOAD(first + i)) {
-            continue;
+    if (k == 1u) {
+        if (v < PIXEL_WORD_LOAD(first)) {
+            atomicMin(pixel_words[first], v);
         }
-        uint64_t held = atomicMin(pixel_words[first + i], v);
-        if (held == VISIBILITY_EMPTY) {
-            break;
+        return;
+    }
+    for (uint attempt = 0u; attempt < MAX_INSERT_ATTEMPTS; ++attempt) {
+        uint64_t farthest = 0UL;
+        uint64_t second = 0UL;
+        uint at = 0u;
+        for (uint i = 0u; i < k; ++i) {
+            // A retry reads through the binding: loads through a readonly buffer reference may
+            // be hoisted out of this loop by the compiler and would see the same words again.
+            uint64_t w = attempt == 0u ? PIXEL_WORD_LOAD(first + i) : pixel_words[first + i];
+            if (w > farthest) {
+                second = farthest;
+                farthest = w;
+                at = i;
+            } else if (w > second) {
+                second = w;
+            }
         }
-        v = max(v, held);
+        if (v >= farthest) {
+            return;
+        }
+        if (atomicCompSwap(pixel_words[first + at], farthest, v) == farthest) {
+            atomicMin(pixel_words[first + k + 1u], max(second, v));
+            return;
+        }
     }
 }
 

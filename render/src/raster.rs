@@ -8,13 +8,14 @@
 //!    (gen-gpu's strand-coherent evaluation, `hair_gen.glsl`, fused: no strand buffer) and
 //!    walks each segment along its screen-space major axis; every pixel its footprint overlaps
 //!    gets a visibility word (view depth, then the shading inputs) inserted among its K nearest
-//!    by `atomicMin`, and its alpha's optical depth added to the coverage word
+//!    (`atomicMin` with one slot; with more, a compare-and-swap replacing the farthest of
+//!    unordered slots), and its alpha's optical depth added to the coverage word
 //!    (`strand_raster.glsl`; stored strands go through the same segment code,
 //!    `hair_raster_stored.comp`). Occluders hide hair through a copy of their depth buffer. The
 //!    strands go in two phases around the **occlusion tiles**, which let the second skip what
 //!    lies behind opaque 8×8 tiles without changing a pixel;
-//! 3. **shade**: each pixel's K fragments shaded with the triangle path's `shade_hair` and
-//!    composited front to back, the rest behind them with the K-th's colour;
+//! 3. **shade**: each pixel's K fragments sorted, shaded with the triangle path's `shade_hair`
+//!    and composited front to back, the rest behind them with the K-th's colour;
 //! 4. **resolve**: each pixel's colour averaged with its 3×3 neighbours' at about its depth (a
 //!    pixel of sub-pixel strands stands for several strands; its neighbours' fragments sample
 //!    them), composited at alpha `1 − exp(−Σ optical depth)` over the target, writing depth.
@@ -24,8 +25,8 @@
 //! the colour. A pixel thus never loses the coverage of strands behind a sub-pixel strand, as
 //! the triangle raster's opaque mode does.
 //!
-//! Memory is `8·(K + 1) + 16` bytes per pixel plus the materials: independent of the strand
-//! count. The visibility word (layout in `raster_common.glsl`) holds the shading inputs
+//! Memory is `8·(K + 1) + 16` bytes per pixel with one slot, `8·(K + 2) + 16` with more (a
+//! threshold word), plus the materials: independent of the strand count. The visibility word (layout in `raster_common.glsl`) holds the shading inputs
 //! themselves — view depth (relative resolution 2⁻¹⁴), the material, an octahedral world
 //! tangent (9 + 9 bits), τ and the strand random (5 bits each), the coverage (4 bits) — so
 //! nothing re-generates a strand. The CPU port of the kernel ([`cpu`]) is what the GPU results
@@ -140,11 +141,19 @@ pub enum RasterPhase {
     Rest = 2,
 }
 
+/// 64-bit words per pixel with `k` visibility slots (`pixel_stride` in `raster_common.glsl`):
+/// the slots and the coverage word, and with more than one slot the threshold word.
+pub fn pixel_stride(k: u32) -> u64 {
+    if k == 1 { 2 } else { u64::from(k) + 2 }
+}
+
 /// The visibility slots per pixel a frame gets: `wanted` (1 for opaque and blended scenes,
-/// `oit_k` with OIT), fewer when `K + 1` words per pixel would not fit one storage buffer.
+/// `oit_k` with OIT), fewer when [`pixel_stride`] words per pixel would not fit one storage
+/// buffer.
 pub fn slots_within(wanted: u32, pixels: u64, max_storage_buffer_range: u32) -> u32 {
     let words = u64::from(max_storage_buffer_range) / 8 / pixels.max(1);
-    (wanted as u64).min(words.saturating_sub(1)).max(1) as u32
+    let most = if words >= 4 { words - 2 } else { 1 };
+    u64::from(wanted).min(most).max(1) as u32
 }
 
 /// Side of the tiles of the occlusion test (`TILE_SIZE`).
@@ -251,10 +260,34 @@ impl ComputeRaster {
         through_references: bool,
     ) -> gen_gpu::Result<cpu::RasterBuffers> {
         let [width, height] = inputs.viewport;
+        let all = self.rasterize_stored_words(ctx, stored, inputs, model, material, 1, through_references)?;
+        Ok(cpu::RasterBuffers {
+            width,
+            height,
+            visibility: all.iter().step_by(2).copied().collect(),
+            coverage: all.iter().skip(1).step_by(2).map(|w| !w).collect(),
+        })
+    }
+
+    /// As [`Self::rasterize_stored`] with `k` visibility slots per pixel, returning the pixel
+    /// words as the kernel leaves them ([`pixel_stride`] per pixel: the K slots, unordered for
+    /// K > 1, the complemented coverage word, the threshold word).
+    #[allow(clippy::too_many_arguments)]
+    pub fn rasterize_stored_words(
+        &self,
+        ctx: &Context,
+        stored: &gen_gpu::StoredStrands,
+        inputs: &gen_gpu::FrameInputs,
+        model: Mat4,
+        material: u32,
+        k: u32,
+        through_references: bool,
+    ) -> gen_gpu::Result<Vec<u64>> {
+        let [width, height] = inputs.viewport;
         let pixels = u64::from(width) * u64::from(height);
         let transfer = vk::BufferUsageFlags::TRANSFER_DST | vk::BufferUsageFlags::TRANSFER_SRC;
-        let words =
-            Buffer::new(ctx, "visibility + coverage", BufferDesc::storage(pixels * 16).usage(transfer))?;
+        let bytes = pixels * pixel_stride(k) * 8;
+        let words = Buffer::new(ctx, "visibility + coverage", BufferDesc::storage(bytes).usage(transfer))?;
         let params = stored.frame_params(ctx, inputs)?;
         let extra = [
             (crate::contract::binding::VISIBILITY, &words),
@@ -272,7 +305,7 @@ impl ComputeRaster {
                 ),
             );
             stored.record_compute(rec, pipeline, &params, &extra, stored_group_size(), |rec, slots| {
-                let mut push = raster_push(model, material, slots, false, RasterPhase::All, 1, 1, 1.0);
+                let mut push = raster_push(model, material, slots, false, RasterPhase::All, 1, k, 1.0);
                 if through_references {
                     push.words_address = words.device_address();
                 }
@@ -281,14 +314,8 @@ impl ComputeRaster {
             compute_writes_to_readback(rec);
             Ok(())
         })?;
-        let bytes = ctx.read_buffer(&words, pixels * 16)?;
-        let all: Vec<u64> = bytemuck::pod_collect_to_vec(&bytes);
-        Ok(cpu::RasterBuffers {
-            width,
-            height,
-            visibility: all.iter().step_by(2).copied().collect(),
-            coverage: all.iter().skip(1).step_by(2).map(|w| !w).collect(),
-        })
+        let bytes = ctx.read_buffer(&words, bytes)?;
+        Ok(bytemuck::pod_collect_to_vec(&bytes))
     }
 }
 
@@ -353,7 +380,7 @@ impl RasterBuffers {
         let pixel_words = pool.buffer(
             ctx,
             "visibility + coverage",
-            BufferDesc::storage(pixels * (u64::from(k) + 1) * 8).usage(transfer),
+            BufferDesc::storage(pixels * pixel_stride(k) * 8).usage(transfer),
         )?;
         let counters = pool.buffer(
             ctx,
@@ -541,6 +568,12 @@ pub mod cpu {
         side: Vec4,
         tangent: Vec3,
         tau: f32,
+        /// The projection (`project_vertex`): pixel position, half width in pixels (capped),
+        /// 1 / w, NDC z.
+        screen: Vec2,
+        half_width: f32,
+        inv_w: f32,
+        z: f32,
     }
 
     fn try_normalize(v: Vec3, fallback: Vec3) -> Vec3 {
@@ -555,20 +588,49 @@ pub mod cpu {
     fn raster_vertex(view: &RasterView, v: &StrandPoint) -> RasterVertex {
         let to_eye = view.eye - v.position;
         let side = try_normalize(v.tangent.cross(to_eye), any_orthonormal(v.tangent)) * (0.5 * v.width);
+        project_vertex(
+            view,
+            RasterVertex {
+                clip: view.view_proj * v.position.extend(1.0),
+                side: view.view_proj * side.extend(0.0),
+                tangent: glam::Mat3::from_mat4(view.model) * v.tangent,
+                tau: v.tau,
+                ..UNPROJECTED
+            },
+        )
+    }
+
+    const UNPROJECTED: RasterVertex = RasterVertex {
+        clip: Vec4::ZERO,
+        side: Vec4::ZERO,
+        tangent: Vec3::ZERO,
+        tau: 0.0,
+        screen: Vec2::ZERO,
+        half_width: 0.0,
+        inv_w: 0.0,
+        z: 0.0,
+    };
+
+    fn project_vertex(view: &RasterView, r: RasterVertex) -> RasterVertex {
+        let size = Vec2::new(view.width as f32, view.height as f32);
+        let inv_w = 1.0 / r.clip.w;
         RasterVertex {
-            clip: view.view_proj * v.position.extend(1.0),
-            side: view.view_proj * side.extend(0.0),
-            tangent: glam::Mat3::from_mat4(view.model) * v.tangent,
-            tau: v.tau,
+            screen: (Vec2::new(r.clip.x, r.clip.y) / r.clip.w * 0.5 + 0.5) * size,
+            half_width: half_width_pixels(view, r.clip, r.side).min(view.max_half_width),
+            inv_w,
+            z: r.clip.z * inv_w,
+            ..r
         }
     }
 
+    /// The point at t between a and b, not projected.
     fn mix_vertex(a: &RasterVertex, b: &RasterVertex, t: f32) -> RasterVertex {
         RasterVertex {
             clip: a.clip.lerp(b.clip, t),
             side: a.side.lerp(b.side, t),
             tangent: a.tangent.lerp(b.tangent, t),
             tau: a.tau + (b.tau - a.tau) * t,
+            ..UNPROJECTED
         }
     }
 
@@ -679,16 +741,17 @@ pub mod cpu {
         if !(t0 < t1) {
             return;
         }
-        let p = mix_vertex(a, b, t0);
-        let q = mix_vertex(a, b, t1);
+        // Unclipped segments keep their ends' projections, as the kernel does.
+        let (p, q) = if t0 > 0.0 || t1 < 1.0 {
+            (project_vertex(view, mix_vertex(a, b, t0)), project_vertex(view, mix_vertex(a, b, t1)))
+        } else {
+            (*a, *b)
+        };
         if !(p.clip.w > 1e-20) || !(q.clip.w > 1e-20) {
             return;
         }
-        let size = Vec2::new(view.width as f32, view.height as f32);
-        let sp = (Vec2::new(p.clip.x, p.clip.y) / p.clip.w * 0.5 + 0.5) * size;
-        let sq = (Vec2::new(q.clip.x, q.clip.y) / q.clip.w * 0.5 + 0.5) * size;
-        let hp = half_width_pixels(view, p.clip, p.side).min(view.max_half_width);
-        let hq = half_width_pixels(view, q.clip, q.side).min(view.max_half_width);
+        let (sp, sq) = (p.screen, q.screen);
+        let (hp, hq) = (p.half_width, q.half_width);
         let d = sq - sp;
         let len = d.length();
         if !(len > 1e-6) || !(hp + hq > 0.0) {
@@ -707,8 +770,8 @@ pub mod cpu {
         let first = ((lo - 0.5).ceil() as i32).max(0);
         let last = (((hi - 0.5).ceil() as i32) - 1).min(size_major - 1);
         let stretch = len / d_major.abs();
-        let (inv_wp, inv_wq) = (1.0 / p.clip.w, 1.0 / q.clip.w);
-        let (zp, zq) = (p.clip.z * inv_wp, q.clip.z * inv_wq);
+        let (inv_wp, inv_wq) = (p.inv_w, q.inv_w);
+        let (zp, zq) = (p.z, q.z);
         for i in first..=last {
             let t = (i as f32 + 0.5 - a_major) / d_major;
             let m = a_minor + t * d_minor;
@@ -799,6 +862,26 @@ pub mod cpu {
         }
     }
 
+    /// Every fragment of one strand as the GPU kernels make it: `fragment(pixel, word)` with
+    /// the visibility word (coverage bits included) of each pixel its segments cover.
+    pub fn strand_fragments(
+        view: &RasterView,
+        strand: &[StrandPoint],
+        material: u32,
+        random: f32,
+        mut fragment: impl FnMut(usize, u64),
+    ) {
+        let vertices: Vec<RasterVertex> = strand.iter().map(|v| raster_vertex(view, v)).collect();
+        for pair in vertices.windows(2) {
+            walk_segment(view, &pair[0], &pair[1], |pixel, coverage, c| {
+                if coverage > 0.0 {
+                    let word = visibility_word(c.w, material, c.tangent, c.tau, random);
+                    fragment(pixel, word | coverage_bits(coverage));
+                }
+            });
+        }
+    }
+
     /// Rasterizes one strand (its vertices in order) into `out`, as the GPU kernels do.
     pub fn raster_strand(
         view: &RasterView,
@@ -825,6 +908,21 @@ mod tests {
         Mat4::from_scale(Vec3::new(1.0, -1.0, 1.0))
             * proj
             * Mat4::look_at_rh(Vec3::new(0.0, 0.0, 5.0), Vec3::ZERO, Vec3::Y)
+    }
+
+    #[test]
+    fn slots_fit_one_storage_buffer_with_their_coverage_and_threshold_words() {
+        use super::{pixel_stride, slots_within};
+        assert_eq!((pixel_stride(1), pixel_stride(2), pixel_stride(8)), (2, 4, 10));
+        let pixels = 1280 * 720;
+        assert_eq!(slots_within(16, pixels, 128 << 20), 16);
+        // 9 words per pixel fit 64 MiB at 1280×720: 7 slots and their two words.
+        let range = 64 << 20;
+        assert_eq!(slots_within(16, pixels, range), 7);
+        assert!(pixels * pixel_stride(7) * 8 <= u64::from(range) && pixels * pixel_stride(8) * 8 > u64::from(range));
+        // Too small for two slots and their two words: one slot (two words), or one anyway.
+        assert_eq!(slots_within(8, pixels, (pixels * 3 * 8) as u32), 1);
+        assert_eq!(slots_within(8, pixels, 8), 1);
     }
 
     #[test]

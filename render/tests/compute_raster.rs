@@ -191,6 +191,89 @@ fn kernel_vs_port(
     Ok((gpu, port))
 }
 
+/// With K > 1 slots the kernel keeps each pixel's K nearest fragments unordered, replacing the
+/// farthest by compare-and-swap: rasterizes `strands` (uploaded together, so invocations race
+/// for the same pixels) twice on the GPU and checks every pixel: the filled slots come first,
+/// the threshold word is at or beyond the farthest of them (all ones while a slot is empty),
+/// both runs keep the same set of words and the same coverage, and the set is the CPU port's K
+/// nearest fragments (sorted, word by word within a depth step; at most 1 % of the pixels may
+/// differ, by fragments on pixel boundaries). Returns the pixels holding K fragments.
+fn k_nearest_vs_port(
+    ctx: &gen_gpu::Context,
+    raster: &ComputeRaster,
+    inputs: &FrameInputs,
+    strands: &[(Vec<Vec3>, f32)],
+    k: u32,
+) -> anyhow::Result<usize> {
+    let [width, height] = inputs.viewport;
+    let view = RasterView {
+        view_proj: inputs.view_proj,
+        eye: inputs.view.eye.as_vec3(),
+        width,
+        height,
+        model: Mat4::IDENTITY,
+        max_half_width: 64.0,
+    };
+    let points: Vec<Vec3> = strands.iter().flat_map(|(p, _)| p.iter().copied()).collect();
+    let counts: Vec<u32> = strands.iter().map(|(p, _)| p.len() as u32).collect();
+    let width_of_all = strands[0].1;
+    ensure!(strands.iter().all(|(_, w)| *w == width_of_all), "one width for all the strands");
+    let stored = StoredStrands::upload(ctx, &points, &counts, width_of_all, 0.5)?;
+    let stride = render::raster::pixel_stride(k) as usize;
+    let runs = [
+        raster.rasterize_stored_words(ctx, &stored, inputs, Mat4::IDENTITY, 3, k, true)?,
+        raster.rasterize_stored_words(ctx, &stored, inputs, Mat4::IDENTITY, 3, k, false)?,
+    ];
+    let mut port: Vec<Vec<u64>> = vec![Vec::new(); (width * height) as usize];
+    for (p, w) in strands {
+        cpu::strand_fragments(&view, &stored_points(p, *w, 0.5), 3, 0.0, |pixel, word| {
+            port[pixel].push(word);
+        });
+    }
+    let k = k as usize;
+    let sorted_slots = |words: &[u64], pixel: usize| -> anyhow::Result<Vec<u64>> {
+        let w = &words[pixel * stride..(pixel + 1) * stride];
+        let filled = w[..k].iter().take_while(|&&x| x != u64::MAX).count();
+        ensure!(
+            w[filled..k].iter().all(|&x| x == u64::MAX),
+            "pixel {pixel}: slots filled out of order: {w:x?}"
+        );
+        let farthest = w[..filled].iter().copied().max().unwrap_or(0);
+        let threshold = w[k + 1];
+        ensure!(
+            threshold >= farthest && (filled == k || threshold == u64::MAX),
+            "pixel {pixel}: threshold {threshold:x} below the farthest slot {farthest:x} or set early"
+        );
+        let mut s = w[..filled].to_vec();
+        s.sort_unstable();
+        Ok(s)
+    };
+    let depth_step = |a: u64, b: u64| ((a >> 42) as i64 - (b >> 42) as i64).abs();
+    let mut off = 0;
+    let mut full = 0;
+    let mut covered = 0;
+    for (pixel, fragments) in port.iter_mut().enumerate() {
+        let gpu = sorted_slots(&runs[0], pixel)?;
+        // Coverage past its limit depends on the order (it is read clamped there).
+        let coverage = |run: &[u64]| (!run[pixel * stride + k]).min(u64::from(cpu::COVERAGE_LIMIT));
+        ensure!(
+            gpu == sorted_slots(&runs[1], pixel)? && coverage(&runs[0]) == coverage(&runs[1]),
+            "pixel {pixel}: two runs kept different words"
+        );
+        fragments.sort_unstable();
+        fragments.truncate(k);
+        covered += usize::from(!fragments.is_empty());
+        full += usize::from(gpu.len() == k);
+        let agree = gpu.len() == fragments.len()
+            && gpu.iter().zip(fragments.iter()).all(|(&g, &c)| depth_step(g, c) <= 1);
+        off += usize::from(!agree);
+    }
+    eprintln!("  K = {k}: {covered} pixels covered by the CPU port, {full} with K fragments, {off} differ");
+    let allowed = (covered as f64 * 0.01).ceil() as usize;
+    ensure!(off <= allowed, "more than {allowed} pixels differ from the port's K nearest");
+    Ok(full)
+}
+
 /// The compute shadow kernel against its CPU port on `strands` (uploaded together) in the
 /// `size`² map of `inputs`: the nearest depth per texel (within f32 rounding of the GPU's
 /// interpolation), then the opacity sums over the GPU's depth map (within 1 % + 2 units per
@@ -451,6 +534,48 @@ fn main() -> ExitCode {
             inputs.viewport = [1, 1];
             let (gpu, _) = kernel_vs_port(ctx, &raster, &inputs, &strands[..2])?;
             ensure!(gpu.coverage[0] > 0, "the diagonal crosses the only pixel");
+            Ok(())
+        }),
+        GpuTest::new("the_k_nearest_slots_match_the_cpu_port", Requirements::INT64_ATOMICS, |ctx| {
+            let raster = ComputeRaster::new(ctx)?;
+            let (width, height) = (61, 45);
+            let proj = Mat4::perspective_rh(60f32.to_radians(), width as f32 / height as f32, 0.01, 100.0);
+            let flip = Mat4::from_scale(Vec3::new(1.0, -1.0, 1.0));
+            let eye = Vec3::new(0.0, 0.0, 1.0);
+            let inputs = FrameInputs {
+                view_proj: flip * proj * Mat4::look_at_rh(eye, Vec3::ZERO, Vec3::Y),
+                view: hairmesh::reference::ViewParams {
+                    eye: eye.as_dvec3(),
+                    vertical_resolution: f64::from(height),
+                    projection: hairmesh::reference::Projection::Perspective { fov_y: 60f64.to_radians() },
+                },
+                lod: hairmesh::reference::LodParams::default(),
+                viewport: [width, height],
+                cull: false,
+            };
+            // 160 strands crossing each other at many depths (a fan around the centre, each
+            // tilted in depth), so most pixels hold more fragments than slots and neighbouring
+            // invocations insert into the same pixels at once.
+            let strands: Vec<(Vec<Vec3>, f32)> = (0..160)
+                .map(|i| {
+                    let a = i as f32 * 0.039;
+                    let (s, c) = a.sin_cos();
+                    let z = -0.004 * (i % 17) as f32;
+                    (line(Vec3::new(-0.5 * c, -0.5 * s, z), Vec3::new(0.5 * c, 0.5 * s, z - 0.05), 9), 0.02)
+                })
+                .collect();
+            for k in [2, 4, 8, 16] {
+                let full = k_nearest_vs_port(ctx, &raster, &inputs, &strands, k)?;
+                ensure!(full > 40, "K = {k}: too few pixels hold K fragments ({full})");
+            }
+            // 2,000 strands through one spot: the contention of a dense crown.
+            let spot: Vec<(Vec<Vec3>, f32)> = (0..2_000)
+                .map(|i| {
+                    let z = -0.0005 * i as f32;
+                    (line(Vec3::new(-0.1, -0.02, z), Vec3::new(0.1, 0.02, z - 0.001), 3), 0.01)
+                })
+                .collect();
+            k_nearest_vs_port(ctx, &raster, &inputs, &spot, 8)?;
             Ok(())
         }),
         GpuTest::new(
