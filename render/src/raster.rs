@@ -919,7 +919,10 @@ mod tests {
         // 9 words per pixel fit 64 MiB at 1280×720: 7 slots and their two words.
         let range = 64 << 20;
         assert_eq!(slots_within(16, pixels, range), 7);
-        assert!(pixels * pixel_stride(7) * 8 <= u64::from(range) && pixels * pixel_stride(8) * 8 > u64::from(range));
+        assert!(
+            pixels * pixel_stride(7) * 8 <= u64::from(range)
+                && pixels * pixel_stride(8) * 8 > u64::from(range)
+        );
         // Too small for two slots and their two words: one slot (two words), or one anyway.
         assert_eq!(slots_within(8, pixels, (pixels * 3 * 8) as u32), 1);
         assert_eq!(slots_within(8, pixels, 8), 1);
