@@ -117,6 +117,24 @@ fn stored_points(points: &[Vec3], width: f32, tip_width: f32) -> Vec<StrandPoint
         .collect()
 }
 
+/// A `width × height` frame seen from z = 1 looking down −z (60° vertical field of view).
+fn camera_at_z1(width: u32, height: u32) -> FrameInputs {
+    let proj = Mat4::perspective_rh(60f32.to_radians(), width as f32 / height as f32, 0.01, 100.0);
+    let flip = Mat4::from_scale(Vec3::new(1.0, -1.0, 1.0));
+    let eye = Vec3::new(0.0, 0.0, 1.0);
+    FrameInputs {
+        view_proj: flip * proj * Mat4::look_at_rh(eye, Vec3::ZERO, Vec3::Y),
+        view: hairmesh::reference::ViewParams {
+            eye: eye.as_dvec3(),
+            vertical_resolution: f64::from(height),
+            projection: hairmesh::reference::Projection::Perspective { fov_y: 60f64.to_radians() },
+        },
+        lod: hairmesh::reference::LodParams::default(),
+        viewport: [width, height],
+        cull: false,
+    }
+}
+
 /// A straight strand from `a` to `b` with `n` points.
 fn line(a: Vec3, b: Vec3, n: usize) -> Vec<Vec3> {
     (0..n).map(|k| a.lerp(b, k as f32 / (n - 1) as f32)).collect()
@@ -480,20 +498,7 @@ fn main() -> ExitCode {
             let raster = ComputeRaster::new(ctx)?;
             // An odd size (no multiple of any tile), the camera at z = 1 looking down -z.
             let (width, height) = (97, 61);
-            let proj = Mat4::perspective_rh(60f32.to_radians(), width as f32 / height as f32, 0.01, 100.0);
-            let flip = Mat4::from_scale(Vec3::new(1.0, -1.0, 1.0));
-            let eye = Vec3::new(0.0, 0.0, 1.0);
-            let mut inputs = FrameInputs {
-                view_proj: flip * proj * Mat4::look_at_rh(eye, Vec3::ZERO, Vec3::Y),
-                view: hairmesh::reference::ViewParams {
-                    eye: eye.as_dvec3(),
-                    vertical_resolution: f64::from(height),
-                    projection: hairmesh::reference::Projection::Perspective { fov_y: 60f64.to_radians() },
-                },
-                lod: hairmesh::reference::LodParams::default(),
-                viewport: [width, height],
-                cull: false,
-            };
+            let mut inputs = camera_at_z1(width, height);
             let curve: Vec<Vec3> = (0..33)
                 .map(|k| {
                     let a = k as f32 / 32.0 * std::f32::consts::FRAC_PI_2;
@@ -539,20 +544,7 @@ fn main() -> ExitCode {
         GpuTest::new("the_k_nearest_slots_match_the_cpu_port", Requirements::INT64_ATOMICS, |ctx| {
             let raster = ComputeRaster::new(ctx)?;
             let (width, height) = (61, 45);
-            let proj = Mat4::perspective_rh(60f32.to_radians(), width as f32 / height as f32, 0.01, 100.0);
-            let flip = Mat4::from_scale(Vec3::new(1.0, -1.0, 1.0));
-            let eye = Vec3::new(0.0, 0.0, 1.0);
-            let inputs = FrameInputs {
-                view_proj: flip * proj * Mat4::look_at_rh(eye, Vec3::ZERO, Vec3::Y),
-                view: hairmesh::reference::ViewParams {
-                    eye: eye.as_dvec3(),
-                    vertical_resolution: f64::from(height),
-                    projection: hairmesh::reference::Projection::Perspective { fov_y: 60f64.to_radians() },
-                },
-                lod: hairmesh::reference::LodParams::default(),
-                viewport: [width, height],
-                cull: false,
-            };
+            let inputs = camera_at_z1(width, height);
             // 160 strands crossing each other at many depths (a fan around the centre, each
             // tilted in depth), so most pixels hold more fragments than slots and neighbouring
             // invocations insert into the same pixels at once.
