@@ -1,9 +1,9 @@
 #version 460
 // Compute rasterizer, tiles: after the front strands, per 8×8 tile the farthest of its pixels'
-// threshold depths (their K-th nearest, or farther) when every pixel of the tile is opaque (its coverage at the
-// limit), else all ones. A later fragment strictly behind it can neither enter a pixel's slots
-// nor add coverage (the pixels are at the limit), so the rest of the strands skip such columns
-// and the image stays exactly what drawing every fragment gives. A second word per tile holds
+// threshold depths (their K-th nearest, or farther) when every pixel of the tile is opaque (its
+// coverage at the limit), else all ones. A later fragment strictly behind it can neither enter
+// a pixel's slots nor add coverage (the pixels are at the limit), so the rest of the strands
+// skip such columns and the image stays exactly what drawing every fragment gives. A second word per tile holds
 // the farthest over the 2×2 tiles it is the top left of: a column's test is then one load
 // (on CPU devices each lane's load is a scalar load; four per column were a sixth of the rest
 // phase's time).

@@ -26,8 +26,8 @@
 //! the triangle raster's opaque mode does.
 //!
 //! Memory is `8·(K + 1) + 16` bytes per pixel with one slot, `8·(K + 2) + 16` with more (a
-//! threshold word), plus the materials: independent of the strand count. The visibility word (layout in `raster_common.glsl`) holds the shading inputs
-//! themselves — view depth (relative resolution 2⁻¹⁴), the material, an octahedral world
+//! threshold word), plus the materials: independent of the strand count. The visibility word
+//! (layout in `raster_common.glsl`) holds the shading inputs themselves — view depth (relative resolution 2⁻¹⁴), the material, an octahedral world
 //! tangent (9 + 9 bits), τ and the strand random (5 bits each), the coverage (4 bits) — so
 //! nothing re-generates a strand. The CPU port of the kernel ([`cpu`]) is what the GPU results
 //! are tested against.
@@ -708,10 +708,7 @@ pub mod cpu {
 
     /// One slot (K = 1), strands of opacity 1.
     fn fragment(out: &mut RasterBuffers, pixel: usize, coverage: f32, word: u64) {
-        if !(coverage > 0.0) {
-            return;
-        }
-        out.visibility[pixel] = out.visibility[pixel].min(word | coverage_bits(coverage));
+        out.visibility[pixel] = out.visibility[pixel].min(word);
         if out.coverage[pixel] < u64::from(COVERAGE_LIMIT) {
             out.coverage[pixel] += u64::from(coverage_increment(coverage));
         }
@@ -794,20 +791,6 @@ pub mod cpu {
         }
     }
 
-    fn segment(
-        view: &RasterView,
-        out: &mut RasterBuffers,
-        a: &RasterVertex,
-        b: &RasterVertex,
-        material: u32,
-        random: f32,
-    ) {
-        walk_segment(view, a, b, |pixel, coverage, c| {
-            let word = visibility_word(c.w, material, c.tangent, c.tau, random);
-            fragment(out, pixel, coverage, word);
-        });
-    }
-
     /// A light's deep opacity maps as the compute shadow kernels fill them
     /// (`shadow_raster.glsl`): the nearest hair depth's bits per texel and the fixed-point
     /// opacity sums of the three layers behind it (and one unused word).
@@ -862,27 +845,29 @@ pub mod cpu {
         }
     }
 
-    /// Every fragment of one strand as the GPU kernels make it: `fragment(pixel, word)` with
-    /// the visibility word (coverage bits included) of each pixel its segments cover.
+    /// Every fragment of one strand as the GPU kernels make it: `fragment(pixel, coverage,
+    /// word)` for each pixel its segments cover (coverage > 0), with the visibility word
+    /// (coverage bits included).
     pub fn strand_fragments(
         view: &RasterView,
         strand: &[StrandPoint],
         material: u32,
         random: f32,
-        mut fragment: impl FnMut(usize, u64),
+        mut fragment: impl FnMut(usize, f32, u64),
     ) {
         let vertices: Vec<RasterVertex> = strand.iter().map(|v| raster_vertex(view, v)).collect();
         for pair in vertices.windows(2) {
             walk_segment(view, &pair[0], &pair[1], |pixel, coverage, c| {
                 if coverage > 0.0 {
                     let word = visibility_word(c.w, material, c.tangent, c.tau, random);
-                    fragment(pixel, word | coverage_bits(coverage));
+                    fragment(pixel, coverage, word | coverage_bits(coverage));
                 }
             });
         }
     }
 
-    /// Rasterizes one strand (its vertices in order) into `out`, as the GPU kernels do.
+    /// Rasterizes one strand (its vertices in order) into `out` with one slot, as the GPU
+    /// kernels do.
     pub fn raster_strand(
         view: &RasterView,
         out: &mut RasterBuffers,
@@ -890,10 +875,9 @@ pub mod cpu {
         material: u32,
         random: f32,
     ) {
-        let vertices: Vec<RasterVertex> = strand.iter().map(|v| raster_vertex(view, v)).collect();
-        for pair in vertices.windows(2) {
-            segment(view, out, &pair[0], &pair[1], material, random);
-        }
+        strand_fragments(view, strand, material, random, |pixel, coverage, word| {
+            fragment(out, pixel, coverage, word);
+        });
     }
 }
 

@@ -244,7 +244,7 @@ fn k_nearest_vs_port(
     ];
     let mut port: Vec<Vec<u64>> = vec![Vec::new(); (width * height) as usize];
     for (p, w) in strands {
-        cpu::strand_fragments(&view, &stored_points(p, *w, 0.5), 3, 0.0, |pixel, word| {
+        cpu::strand_fragments(&view, &stored_points(p, *w, 0.5), 3, 0.0, |pixel, _, word| {
             port[pixel].push(word);
         });
     }
