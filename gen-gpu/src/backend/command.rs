@@ -9,6 +9,9 @@ use crate::{Buffer, BufferDesc, Context, GpuError, Image, ImageDesc, MemoryLocat
 /// Most timestamp scopes one submission records (a crowd frame has a few per character); later
 /// scopes are labelled but untimed.
 const MAX_SCOPES: u32 = 2048;
+/// Queries of a submission's pool: each scope's begin and end, then as many settling writes
+/// (see `Recorder::write_timestamp`).
+const POOL_QUERIES: u32 = 4 * MAX_SCOPES;
 
 /// GPU time of one pass.
 #[derive(Clone, Debug, PartialEq)]
@@ -63,6 +66,8 @@ pub struct Recorder<'a> {
     scopes: Vec<Scope>,
     depth: u32,
     next_query: u32,
+    /// Follow every timestamp with a settling one (CPU devices, see `write_timestamp`).
+    settle_timestamps: bool,
 }
 
 impl std::fmt::Debug for Recorder<'_> {
@@ -120,14 +125,27 @@ impl<'a> Recorder<'a> {
     }
 
     fn write_timestamp(&mut self, index: u32) {
-        // SAFETY: the pool was reset before recording and `index` was reserved in range.
-        unsafe {
-            self.device().cmd_write_timestamp2(
-                self.cmd,
-                vk::PipelineStageFlags2::ALL_COMMANDS,
-                self.query_pool,
-                index,
-            );
+        let write = |index| {
+            // SAFETY: the pool was reset before recording, and each index is written once: the
+            // scopes' in [0, 2 * MAX_SCOPES) as reserved, their settling ones above.
+            unsafe {
+                self.device().cmd_write_timestamp2(
+                    self.cmd,
+                    vk::PipelineStageFlags2::ALL_COMMANDS,
+                    self.query_pool,
+                    index,
+                );
+            }
+        };
+        write(index);
+        // llvmpipe (lavapipe) reads the clock for a timestamp written while a framebuffer is
+        // bound — after any rendering, until the submission ends — only when its rasterizer
+        // runs the binned commands, at the next flush; lavapipe flushes before each timestamp
+        // write. So such a timestamp took the time of the next one: a pass's begin that of its
+        // end, and every pass after the first draw measured ~0 ms. A second write right after
+        // flushes the first at its own time (its value is never read).
+        if self.settle_timestamps {
+            write(2 * MAX_SCOPES + index);
         }
     }
 
@@ -636,11 +654,11 @@ impl Context {
         if self.capabilities().timestamp_period_ns.is_some() {
             let info = vk::QueryPoolCreateInfo::default()
                 .query_type(vk::QueryType::TIMESTAMP)
-                .query_count(2 * MAX_SCOPES);
+                .query_count(POOL_QUERIES);
             // SAFETY: valid device.
             sub.query_pool = unsafe { device.create_query_pool(&info, None) }.call("vkCreateQueryPool")?;
             // SAFETY: host query reset is enabled at device creation.
-            unsafe { device.reset_query_pool(sub.query_pool, 0, 2 * MAX_SCOPES) };
+            unsafe { device.reset_query_pool(sub.query_pool, 0, POOL_QUERIES) };
         }
         let begin = vk::CommandBufferBeginInfo::default().flags(vk::CommandBufferUsageFlags::ONE_TIME_SUBMIT);
         // SAFETY: freshly allocated command buffer.
@@ -652,6 +670,7 @@ impl Context {
             scopes: Vec::new(),
             depth: 0,
             next_query: 0,
+            settle_timestamps: self.capabilities().is_cpu(),
         };
         let result = rec.pass(name, f);
         // Make every write visible to the host before the fence signals.

@@ -878,7 +878,7 @@ fn raster_table(setup: &Setup<'_>, progress: &indicatif::ProgressBar) -> Result<
     let _ = writeln!(md, "\n### Triangle raster vs compute rasterizer\n");
     let _ = writeln!(
         md,
-        "{width}×{height}, LOD on, GPU timestamps, median of {frames} frames after a warm-up, both rasterizers in one run. *hair passes*: generation (LOD + cull, and the compute path's generation pass for triangles) plus the raster passes (triangles: the strip draw, or the OIT clear, fill and resolve; compute: clear, both fused raster phases, occlusion tiles, shade, resolve); *frame*: every submission of the frame (shadow maps are cached after the first frame). lavapipe defers some work across pass boundaries when a scene has occluders, so their hair-pass times are unreliable (the frame time is exact). FLIP: mean, compute image against the triangle image.\n"
+        "{width}×{height}, LOD on, GPU timestamps, median of {frames} frames after a warm-up, both rasterizers in one run. *hair passes*: generation (LOD + cull, and the compute path's generation pass for triangles) plus the raster passes (triangles: the strip draw, or the OIT clear, fill and resolve; compute: clear, both fused raster phases, occlusion tiles, shade, resolve); *frame*: every submission of the frame (shadow maps are cached after the first frame). FLIP: mean, compute image against the triangle image.\n"
     );
     let _ = writeln!(
         md,
