@@ -26,39 +26,39 @@ vec3 light_direction(uint i, vec3 p) {
     return lv.w > 0.5 ? normalize(lv.xyz - p) : normalize(lv.xyz);
 }
 
-// World distance from light `i` of a depth-buffer value of its maps.
-float light_linear_depth(uint i, float z) {
-    vec4 d = lights[i].depth;
-    return d.z > 0.5 ? d.x * d.y / (d.y - z * (d.y - d.x)) : d.x + z * (d.y - d.x);
-}
-
 // Whether the hair's own volume shadows it from light `i` (effects.volume_shadows and the
 // light's cast_shadows; render/src/volume.rs) instead of the deep opacity map's hair layers.
 bool light_volume_shadows(uint i) {
     return lights[i].depth.w > 0.5;
 }
 
-// Fraction of light `i` reaching a point at world distance `depth` from it past the occluders
-// (x) and through the hair (y) in front of it, by texel `index` of its maps alone.
-vec2 texel_visibility(uint i, uint index, float depth) {
-    if (depth - light_linear_depth(i, occluder_depth[index]) > lights[i].map.z) {
+// What a lookup in one light's maps needs, read from its SceneLight once per lookup rather
+// than once per texel (CPU devices load each field lane by lane).
+struct MapLookup {
+    vec4 depth;         // the light's depth parameters (light_linear_depth)
+    float bias;         // occluder bias (world units)
+    vec3 ends;          // ends of the opacity layers
+    vec3 inv_widths;    // 1 / the layers' widths
+};
+
+// World distance from the light of a depth-buffer value of its maps.
+float map_linear_depth(MapLookup m, float z) {
+    vec4 d = m.depth;
+    return d.z > 0.5 ? d.x * d.y / (d.y - z * (d.y - d.x)) : d.x + z * (d.y - d.x);
+}
+
+// Fraction of the light reaching a point at world distance `depth` from it past the occluders
+// (x) and through the hair (y) in front of it, by texel `index` of its maps alone. The opacity
+// at d behind the texel's nearest hair interpolates (0, 0), (ends.x, o.x), (ends.y, o.y),
+// (ends.z, o.z) linearly and stays o.z beyond: a sum of clamped ramps, without branches.
+vec2 texel_visibility(MapLookup m, uint index, float depth) {
+    if (depth - map_linear_depth(m, occluder_depth[index]) > m.bias) {
         return vec2(0.0, 1.0);
     }
-    float d = depth - light_linear_depth(i, shadow_depth[index]);
-    vec3 ends = lights[i].layer_ends.xyz;
-    vec4 o = shadow_opacity[index];
-    float opacity;
-    if (d <= 0.0) {
-        opacity = 0.0;
-    } else if (d < ends.x) {
-        opacity = o.x * d / ends.x;
-    } else if (d < ends.y) {
-        opacity = mix(o.x, o.y, (d - ends.x) / (ends.y - ends.x));
-    } else if (d < ends.z) {
-        opacity = mix(o.y, o.z, (d - ends.y) / (ends.z - ends.y));
-    } else {
-        opacity = o.z;
-    }
+    float d = depth - map_linear_depth(m, shadow_depth[index]);
+    vec3 o = shadow_opacity[index].xyz;
+    vec3 ramps = clamp((vec3(d) - vec3(0.0, m.ends.xy)) * m.inv_widths, 0.0, 1.0);
+    float opacity = dot(ramps, vec3(o.x, o.y - o.x, o.z - o.y));
     return vec2(1.0, exp(-1.5 * opacity));
 }
 
@@ -67,7 +67,8 @@ vec2 texel_visibility(uint i, uint index, float depth) {
 // answers for p's depth, and their answers are blended bilinearly (percentage-closer filtering;
 // a single texel's answer shows the texels as stair steps along shadow edges).
 vec2 light_visibility(uint i, vec3 p) {
-    float size = lights[i].map.x;
+    vec4 map = lights[i].map;
+    float size = map.x;
     if (size < 0.5) {
         return vec2(1.0);
     }
@@ -80,18 +81,24 @@ vec2 light_visibility(uint i, vec3 p) {
     if (any(lessThan(uv, vec2(0.0))) || any(greaterThanEqual(uv, vec2(1.0)))) {
         return vec2(1.0);
     }
-    float depth = light_linear_depth(i, ndc.z);
+    MapLookup m;
+    m.depth = lights[i].depth;
+    m.bias = map.z;
+    m.ends = lights[i].layer_ends.xyz;
+    // (The scene validates the ends as increasing; never a division by zero.)
+    m.inv_widths = 1.0 / max(m.ends - vec3(0.0, m.ends.xy), vec3(1e-20));
+    float depth = map_linear_depth(m, ndc.z);
     vec2 st = uv * size - 0.5;
     vec2 f = fract(st);
     ivec2 t0 = floor_int2(st);
     int last = floor_int(size) - 1;
-    uint first = uint(lights[i].map.y);
+    uint first = uint(map.y);
     vec2 v = vec2(0.0);
     for (int k = 0; k < 4; ++k) {
         ivec2 o = ivec2(k & 1, k >> 1);
         uvec2 texel = uvec2(clamp(t0 + o, ivec2(0), ivec2(last)));
         vec2 w = mix(1.0 - f, f, vec2(o));
-        v += w.x * w.y * texel_visibility(i, first + texel.y * uint(size) + texel.x, depth);
+        v += w.x * w.y * texel_visibility(m, first + texel.y * uint(size) + texel.x, depth);
     }
     return v;
 }
