@@ -19,12 +19,15 @@
 //   bits 4-8    per-strand random, 5 bits
 //   bits 0-3    the fragment's coverage in 15ths (at least 1): OIT composites with it
 // Coverage word, stored complemented (~sum, so the clear to all ones is a zero sum; a fragment
-// subtracts its increment, ~s - i = ~(s + i)): the optical depth d = -ln(1 - a) of every
-// fragment's alpha a (coverage times the strand opacity) in fixed point, so the pixel's alpha
-// 1 - exp(-sum) keeps the density of sub-pixel hair (1 - prod(1 - a_i), what blending every
-// fragment gives). Nothing is added once the sum reaches COVERAGE_LIMIT, and it is read as
-// min(sum, COVERAGE_LIMIT): a fragment is only skipped when the sum already is at the limit,
-// so the result is the same in any order.
+// subtracts its increment, ~s - i = ~(s + i)). Its low 32 bits: the optical depth
+// d = -ln(1 - a) of every fragment's alpha a (coverage times the strand opacity) in fixed point,
+// so the pixel's alpha 1 - exp(-sum) keeps the density of sub-pixel hair (1 - prod(1 - a_i),
+// what blending every fragment gives). Nothing is added once the sum reaches COVERAGE_LIMIT,
+// and it is read as min(sum, COVERAGE_LIMIT): a fragment is only skipped when the sum already
+// is at the limit, so the result is the same in any order. (The sum stays far below 2^32: it
+// never carries into the high half.) Its high 32 bits, with K > 1: how many of the K slots
+// have been claimed (visibility_write.glsl `claim_and_cover`), counted by the same atomic that
+// adds the claimant's coverage.
 
 #ifndef HK_RASTER_COMMON_GLSL
 #define HK_RASTER_COMMON_GLSL
@@ -137,9 +140,20 @@ uint coverage_increment(float a) {
     return uint(max(floor_int(-log(1.0 - min(a, MAX_FRAGMENT_COVERAGE)) * COVERAGE_SCALE + 0.5), 0));
 }
 
-// The alpha of a coverage sum (the complemented coverage word, ~word).
-float coverage_alpha(uint64_t sum) {
-    return 1.0 - exp(-float(min(sum, uint64_t(COVERAGE_LIMIT))) / COVERAGE_SCALE);
+// The optical-depth sum of a coverage word (its low half, complemented).
+uint coverage_sum(uint64_t word) {
+    return ~uint(word);
+}
+
+// How many slots of the pixel have been claimed, from its coverage word (its high half,
+// complemented).
+uint claimed_slots(uint64_t word) {
+    return ~uint(word >> 32);
+}
+
+// The alpha of a pixel's coverage word.
+float coverage_alpha(uint64_t word) {
+    return 1.0 - exp(-float(min(coverage_sum(word), COVERAGE_LIMIT)) / COVERAGE_SCALE);
 }
 
 #endif

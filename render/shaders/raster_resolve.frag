@@ -50,7 +50,7 @@ void main() {
         }
     }
     // The coverage word holds every fragment's alpha (coverage times opacity).
-    float alpha = coverage_alpha(~pixel_words[pixel_word(pixel, area.size.z, area.size.z)]);
+    float alpha = coverage_alpha(pixel_words[pixel_word(pixel, area.size.z, area.size.z)]);
     out_color = vec4(sum / weights * alpha, alpha);
     // The pixel centre's point at the fragment's view depth, projected.
     vec2 ndc = gl_FragCoord.xy / vec2(size) * 2.0 - 1.0;

@@ -172,7 +172,7 @@ void main() {
         transmittance *= 1.0 - alpha;
     }
     // Everything behind the slots: the pixel's whole transmittance over the slots'.
-    float total = 1.0 - coverage_alpha(~pixel_words[first + k]);
+    float total = 1.0 - coverage_alpha(pixel_words[first + k]);
     float tail = clamp(1.0 - total / max(transmittance, 1e-6), 0.0, 1.0);
     // (Slots fill in order: the last holds a fragment when all do.)
     if (pixel_words[first + k - 1u] != VISIBILITY_EMPTY && tail > 1.0 / 255.0) {

@@ -35,7 +35,7 @@ uint tile_farthest(uint tx, uint ty) {
     for (uint y = origin.y; y < min(origin.y + 8u, tiles.height); ++y) {
         for (uint x = origin.x; x < min(origin.x + 8u, tiles.width); ++x) {
             uint first = pixel_word(y * tiles.width + x, tiles.k, 0u);
-            bool opaque = ~pixel_words[first + tiles.k] >= uint64_t(COVERAGE_LIMIT);
+            bool opaque = coverage_sum(pixel_words[first + tiles.k]) >= COVERAGE_LIMIT;
             if (!opaque) {
                 return 0xffffffffu;
             }

@@ -172,20 +172,24 @@ void raster_fragment(uint pixel, float coverage, float ndc_z, inout ColumnAttrib
     }
     uint k = raster.k;
     uint first = pixel_word(pixel, k, 0u);
+    uint64_t cover = load_pixel_word(first + k);
+    // add_coverage's test, with the increment (a logarithm: dear on CPU devices) computed only
+    // for pixels not yet opaque.
+    uint add = coverage_sum(cover) < COVERAGE_LIMIT ? coverage_increment(coverage * raster.opacity) : 0u;
     if (a.depth_bits <= uint(load_pixel_word(threshold_word(first, k)) >> DEPTH_SHIFT)) {
         if (!a.encoded) {
             a.word = visibility_word(a.depth_bits, visibility_attributes(a.material, a.tangent, a.tau, a.random));
             a.encoded = true;
         }
-        insert_visibility(first, k, a.word | uint64_t(coverage_bits(coverage)));
-    }
-    // add_coverage's test, with the increment (a logarithm: dear on CPU devices) computed only
-    // for pixels not yet opaque.
-    if (~load_pixel_word(first + k) < uint64_t(COVERAGE_LIMIT)) {
-        uint add = coverage_increment(coverage * raster.opacity);
-        if (add > 0u) {
-            atomicAdd(pixel_words[first + k], ~uint64_t(add) + 1UL);
+        uint64_t v = a.word | uint64_t(coverage_bits(coverage));
+        if (k > 1u && claimed_slots(cover) < k) {
+            claim_and_cover(first, k, v, add);
+            return;
         }
+        insert_visibility(first, k, v);
+    }
+    if (add > 0u) {
+        atomicAdd(pixel_words[first + k], ~uint64_t(add) + 1UL);
     }
 }
 

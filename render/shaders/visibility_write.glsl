@@ -50,10 +50,21 @@ void insert_visibility(uint first, uint k, uint64_t v) {
             }
         }
         if (v >= farthest) {
+            // Not among the K nearest. If the threshold word (an upper bound) lies beyond the
+            // full slots' farthest, which claim_and_cover's fills leave it at, lower it: later
+            // fragments are rejected by its plain load instead of this scan.
+            if (attempt == 0u && farthest != VISIBILITY_EMPTY && farthest < PIXEL_WORD_LOAD(first + k + 1u)) {
+                atomicMin(pixel_words[first + k + 1u], farthest);
+            }
             return;
         }
         if (atomicCompSwap(pixel_words[first + at], farthest, v) == farthest) {
-            atomicMin(pixel_words[first + k + 1u], max(second, v));
+            // While the slots are filling (another empty one left) the bound is all ones, the
+            // cleared threshold: the atomic would change nothing.
+            uint64_t bound = max(second, v);
+            if (bound != VISIBILITY_EMPTY) {
+                atomicMin(pixel_words[first + k + 1u], bound);
+            }
             return;
         }
     }
@@ -62,7 +73,26 @@ void insert_visibility(uint first, uint k, uint64_t v) {
 // Adds `add` fixed-point units of optical depth to coverage word `cover`, unless it already
 // reached COVERAGE_LIMIT (a plain load first: opaque pixels skip the atomic).
 void add_coverage(uint cover, uint add) {
-    if (add > 0u && ~PIXEL_WORD_LOAD(cover) < uint64_t(COVERAGE_LIMIT)) {
+    if (add > 0u && coverage_sum(PIXEL_WORD_LOAD(cover)) < COVERAGE_LIMIT) {
         atomicAdd(pixel_words[cover], ~uint64_t(add) + 1UL);
     }
+}
+
+// One claimed slot in the coverage word's high half.
+const uint64_t CLAIM_UNIT = 1UL << 32;
+
+// K > 1, while the pixel's slots are filling (`cover_word`, a plain load of its coverage word,
+// counts fewer than K claimed): claims the next slot and adds `add` units of coverage in one
+// atomic, then fills the claimed slot if it is still empty — where scanning the K slots for
+// the farthest cost K loads and a compare-and-swap besides the coverage's atomic. Slot n is
+// claimed once, by the n-th claim; a claim past K, or of a slot that an insertion already
+// filled (insert_visibility's first empty one), inserts `v` the general way. Slots only leave
+// the empty state, so the filled ones still form a prefix and the K nearest end in them.
+void claim_and_cover(uint first, uint k, uint64_t v, uint add) {
+    uint64_t before = atomicAdd(pixel_words[first + k], ~(CLAIM_UNIT + uint64_t(add)) + 1UL);
+    uint slot = claimed_slots(before);
+    if (slot < k && atomicCompSwap(pixel_words[first + slot], VISIBILITY_EMPTY, v) == VISIBILITY_EMPTY) {
+        return;
+    }
+    insert_visibility(first, k, v);
 }

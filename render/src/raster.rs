@@ -8,8 +8,10 @@
 //!    (gen-gpu's strand-coherent evaluation, `hair_gen.glsl`, fused: no strand buffer) and
 //!    walks each segment along its screen-space major axis; every pixel its footprint overlaps
 //!    gets a visibility word (view depth, then the shading inputs) inserted among its K nearest
-//!    (`atomicMin` with one slot; with more, a compare-and-swap replacing the farthest of
-//!    unordered slots), and its alpha's optical depth added to the coverage word
+//!    (`atomicMin` with one slot; with more, while the slots are filling, the next slot
+//!    claimed by the same atomic that adds the fragment's coverage, then a compare-and-swap
+//!    replacing the farthest of the unordered slots), and its alpha's optical depth added to
+//!    the coverage word
 //!    (`strand_raster.glsl`; stored strands go through the same segment code,
 //!    `hair_raster_stored.comp`). Occluders hide hair through a copy of their depth buffer. The
 //!    strands go in two phases around the **occlusion tiles**, which let the second skip what
@@ -147,6 +149,18 @@ pub fn pixel_stride(k: u32) -> u64 {
     if k == 1 { 2 } else { u64::from(k) + 2 }
 }
 
+/// The optical-depth sum (fixed point) of a pixel's coverage word: its low half, complemented
+/// (`coverage_sum` in `raster_common.glsl`).
+pub fn coverage_sum(word: u64) -> u64 {
+    u64::from(!(word as u32))
+}
+
+/// How many of a pixel's K > 1 slots have been claimed, from its coverage word: its high half,
+/// complemented (`claimed_slots` in `raster_common.glsl`; 0 with one slot).
+pub fn claimed_slots(word: u64) -> u32 {
+    !((word >> 32) as u32)
+}
+
 /// The visibility slots per pixel a frame gets: `wanted` (1 for opaque and blended scenes,
 /// `oit_k` with OIT), fewer when [`pixel_stride`] words per pixel would not fit one storage
 /// buffer.
@@ -260,18 +274,21 @@ impl ComputeRaster {
         through_references: bool,
     ) -> gen_gpu::Result<cpu::RasterBuffers> {
         let [width, height] = inputs.viewport;
-        let all = self.rasterize_stored_words(ctx, stored, inputs, model, material, 1, through_references)?;
+        let all =
+            self.rasterize_stored_words(ctx, stored, inputs, model, material, 1, through_references, None)?;
         Ok(cpu::RasterBuffers {
             width,
             height,
             visibility: all.iter().step_by(2).copied().collect(),
-            coverage: all.iter().skip(1).step_by(2).map(|w| !w).collect(),
+            coverage: all.iter().skip(1).step_by(2).map(|&w| coverage_sum(w)).collect(),
         })
     }
 
     /// As [`Self::rasterize_stored`] with `k` visibility slots per pixel, returning the pixel
     /// words as the kernel leaves them ([`pixel_stride`] per pixel: the K slots, unordered for
-    /// K > 1, the complemented coverage word, the threshold word).
+    /// K > 1, the complemented coverage word, the threshold word). The kernel starts from
+    /// `initial` when given (that many words: what earlier passes left), else from cleared
+    /// words.
     #[allow(clippy::too_many_arguments)]
     pub fn rasterize_stored_words(
         &self,
@@ -282,12 +299,27 @@ impl ComputeRaster {
         material: u32,
         k: u32,
         through_references: bool,
+        initial: Option<&[u64]>,
     ) -> gen_gpu::Result<Vec<u64>> {
         let [width, height] = inputs.viewport;
         let pixels = u64::from(width) * u64::from(height);
         let transfer = vk::BufferUsageFlags::TRANSFER_DST | vk::BufferUsageFlags::TRANSFER_SRC;
         let bytes = pixels * pixel_stride(k) * 8;
-        let words = Buffer::new(ctx, "visibility + coverage", BufferDesc::storage(bytes).usage(transfer))?;
+        let desc = BufferDesc::storage(bytes).usage(transfer);
+        let words = match initial {
+            Some(initial) if initial.len() as u64 * 8 != bytes => {
+                return Err(gen_gpu::GpuError::BadUpload {
+                    name: "visibility + coverage".into(),
+                    offset: 0,
+                    size: initial.len() as u64 * 8,
+                    why: "not the pixel words of the viewport and slots",
+                });
+            }
+            Some(initial) => {
+                ctx.create_buffer_with_data("visibility + coverage", desc, bytemuck::cast_slice(initial))?
+            }
+            None => Buffer::new(ctx, "visibility + coverage", desc)?,
+        };
         let params = stored.frame_params(ctx, inputs)?;
         let extra = [
             (crate::contract::binding::VISIBILITY, &words),
@@ -296,14 +328,17 @@ impl ComputeRaster {
         ];
         let pipeline = &self.raster_stored;
         ctx.submit("compute raster (stored strands)", |rec| {
-            rec.fill_buffer(&words, u32::MAX);
-            rec.memory_barrier(
-                (vk::PipelineStageFlags2::CLEAR, vk::AccessFlags2::TRANSFER_WRITE),
-                (
-                    vk::PipelineStageFlags2::COMPUTE_SHADER,
-                    vk::AccessFlags2::SHADER_STORAGE_READ | vk::AccessFlags2::SHADER_STORAGE_WRITE,
-                ),
-            );
+            // (Initial words were written before the submission: visible to it.)
+            if initial.is_none() {
+                rec.fill_buffer(&words, u32::MAX);
+                rec.memory_barrier(
+                    (vk::PipelineStageFlags2::CLEAR, vk::AccessFlags2::TRANSFER_WRITE),
+                    (
+                        vk::PipelineStageFlags2::COMPUTE_SHADER,
+                        vk::AccessFlags2::SHADER_STORAGE_READ | vk::AccessFlags2::SHADER_STORAGE_WRITE,
+                    ),
+                );
+            }
             stored.record_compute(rec, pipeline, &params, &extra, stored_group_size(), |rec, slots| {
                 let mut push = raster_push(model, material, slots, false, RasterPhase::All, 1, k, 1.0);
                 if through_references {

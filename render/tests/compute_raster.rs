@@ -14,7 +14,7 @@ use hairkit_tests::image_compare::{Tolerance, compare, output_dir};
 use hairkit_tests::scenes::{scene_with, sintel_scene};
 use render::frame::{RenderedFrame, SceneRenderer};
 use render::raster::cpu::{self, RasterView, StrandPoint};
-use render::raster::{ComputeRaster, RasterPath};
+use render::raster::{ComputeRaster, RasterPath, claimed_slots, coverage_sum};
 use render::scene::load_scene;
 
 /// Mean alpha (hair + occluder coverage) of a frame.
@@ -209,10 +209,13 @@ fn kernel_vs_port(
     Ok((gpu, port))
 }
 
-/// With K > 1 slots the kernel keeps each pixel's K nearest fragments unordered, replacing the
-/// farthest by compare-and-swap: rasterizes `strands` (uploaded together, so invocations race
-/// for the same pixels) twice on the GPU and checks every pixel: the filled slots come first,
-/// the threshold word is at or beyond the farthest of them (all ones while a slot is empty),
+/// With K > 1 slots the kernel keeps each pixel's K nearest fragments unordered, claiming
+/// empty slots through the coverage word's count and then replacing the farthest by
+/// compare-and-swap: rasterizes `strands` (uploaded together, so invocations race for the same
+/// pixels) twice on the GPU and checks every pixel: the filled slots come first, at least as
+/// many slots were claimed as are filled (every fill but those after a failed claim or past K
+/// went through a claim), the threshold word is at or beyond the farthest of them (all ones
+/// while a slot is empty),
 /// both runs keep the same set of words and the same coverage, and the set is the CPU port's K
 /// nearest fragments (sorted, word by word within a depth step; at most 1 % of the pixels may
 /// differ, by fragments on pixel boundaries). Returns the pixels holding K fragments.
@@ -239,9 +242,19 @@ fn k_nearest_vs_port(
     let stored = StoredStrands::upload(ctx, &points, &counts, width_of_all, 0.5)?;
     let stride = render::raster::pixel_stride(k) as usize;
     let runs = [
-        raster.rasterize_stored_words(ctx, &stored, inputs, Mat4::IDENTITY, 3, k, true)?,
-        raster.rasterize_stored_words(ctx, &stored, inputs, Mat4::IDENTITY, 3, k, false)?,
+        raster.rasterize_stored_words(ctx, &stored, inputs, Mat4::IDENTITY, 3, k, true, None)?,
+        raster.rasterize_stored_words(ctx, &stored, inputs, Mat4::IDENTITY, 3, k, false, None)?,
     ];
+    // A third run over words where an earlier insertion (the volume march's, which claims no
+    // slot) filled every pixel's first slot with the nearest word there can be: the strands'
+    // claims count from 0 and find that slot taken, and it must stay among the K nearest.
+    let earlier = 5u64 << 32;
+    let mut initial = vec![u64::MAX; (width * height) as usize * stride];
+    for pixel in initial.chunks_exact_mut(stride) {
+        pixel[0] = earlier;
+    }
+    let over_earlier =
+        raster.rasterize_stored_words(ctx, &stored, inputs, Mat4::IDENTITY, 3, k, true, Some(&initial))?;
     let mut port: Vec<Vec<u64>> = vec![Vec::new(); (width * height) as usize];
     for (p, w) in strands {
         cpu::strand_fragments(&view, &stored_points(p, *w, 0.5), 3, 0.0, |pixel, _, word| {
@@ -249,13 +262,16 @@ fn k_nearest_vs_port(
         });
     }
     let k = k as usize;
-    let sorted_slots = |words: &[u64], pixel: usize| -> anyhow::Result<Vec<u64>> {
+    // `unclaimed`: slots the words started with filled (no claim counted for them).
+    let sorted_slots = |words: &[u64], pixel: usize, unclaimed: usize| -> anyhow::Result<Vec<u64>> {
         let w = &words[pixel * stride..(pixel + 1) * stride];
         let filled = w[..k].iter().take_while(|&&x| x != u64::MAX).count();
         ensure!(
             w[filled..k].iter().all(|&x| x == u64::MAX),
             "pixel {pixel}: slots filled out of order: {w:x?}"
         );
+        let claimed = claimed_slots(w[k]) as usize;
+        ensure!(claimed + unclaimed >= filled, "pixel {pixel}: {filled} slots filled, {claimed} claimed");
         let farthest = w[..filled].iter().copied().max().unwrap_or(0);
         let threshold = w[k + 1];
         ensure!(
@@ -271,11 +287,12 @@ fn k_nearest_vs_port(
     let mut full = 0;
     let mut covered = 0;
     for (pixel, fragments) in port.iter_mut().enumerate() {
-        let gpu = sorted_slots(&runs[0], pixel)?;
+        let gpu = sorted_slots(&runs[0], pixel, 0)?;
         // Coverage past its limit depends on the order (it is read clamped there).
-        let coverage = |run: &[u64]| (!run[pixel * stride + k]).min(u64::from(cpu::COVERAGE_LIMIT));
+        let coverage =
+            |run: &[u64]| coverage_sum(run[pixel * stride + k]).min(u64::from(cpu::COVERAGE_LIMIT));
         ensure!(
-            gpu == sorted_slots(&runs[1], pixel)? && coverage(&runs[0]) == coverage(&runs[1]),
+            gpu == sorted_slots(&runs[1], pixel, 0)? && coverage(&runs[0]) == coverage(&runs[1]),
             "pixel {pixel}: two runs kept different words"
         );
         fragments.sort_unstable();
@@ -284,7 +301,12 @@ fn k_nearest_vs_port(
         full += usize::from(gpu.len() == k);
         let agree = gpu.len() == fragments.len()
             && gpu.iter().zip(fragments.iter()).all(|(&g, &c)| depth_step(g, c) <= 1);
-        off += usize::from(!agree);
+        // Over the earlier word: it, then the port's K - 1 nearest.
+        let over = sorted_slots(&over_earlier, pixel, 1)?;
+        ensure!(over.first() == Some(&earlier), "pixel {pixel}: the earlier insertion was lost: {over:x?}");
+        let agree_over = over.len() == (fragments.len() + 1).min(k)
+            && over[1..].iter().zip(fragments.iter()).all(|(&g, &c)| depth_step(g, c) <= 1);
+        off += usize::from(!agree || !agree_over);
     }
     eprintln!("  K = {k}: {covered} pixels covered by the CPU port, {full} with K fragments, {off} differ");
     let allowed = (covered as f64 * 0.01).ceil() as usize;
