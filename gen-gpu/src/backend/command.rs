@@ -66,8 +66,10 @@ pub struct Recorder<'a> {
     scopes: Vec<Scope>,
     depth: u32,
     next_query: u32,
-    /// Follow every timestamp with a settling one (CPU devices, see `write_timestamp`).
+    /// Follow every timestamp with a settling one (CPU devices, see `write_timestamp`)...
     settle_timestamps: bool,
+    /// ...once the submission has begun rendering.
+    rendered: std::cell::Cell<bool>,
 }
 
 impl std::fmt::Debug for Recorder<'_> {
@@ -143,8 +145,9 @@ impl<'a> Recorder<'a> {
         // runs the binned commands, at the next flush; lavapipe flushes before each timestamp
         // write. So such a timestamp took the time of the next one: a pass's begin that of its
         // end, and every pass after the first draw measured ~0 ms. A second write right after
-        // flushes the first at its own time (its value is never read).
-        if self.settle_timestamps {
+        // flushes the first at its own time (its value is never read). Before any rendering
+        // a timestamp reads the clock when written: no second write.
+        if self.settle_timestamps && self.rendered.get() {
             write(2 * MAX_SCOPES + index);
         }
     }
@@ -393,6 +396,7 @@ impl<'a> Recorder<'a> {
             min_depth: 0.0,
             max_depth: 1.0,
         };
+        self.rendered.set(true);
         // SAFETY: recording; the caller's attachments are live and in the stated layouts.
         unsafe {
             self.device().cmd_begin_rendering(self.cmd, info);
@@ -671,6 +675,7 @@ impl Context {
             depth: 0,
             next_query: 0,
             settle_timestamps: self.capabilities().is_cpu(),
+            rendered: std::cell::Cell::new(false),
         };
         let result = rec.pass(name, f);
         // Make every write visible to the host before the fence signals.
