@@ -35,7 +35,7 @@ bool light_volume_shadows(uint i) {
 // What a lookup in one light's maps needs, read from its SceneLight once per lookup rather
 // than once per texel (CPU devices load each field lane by lane).
 struct MapLookup {
-    vec4 depth;         // the light's depth parameters (light_linear_depth)
+    vec4 depth;         // the light's depth parameters (map_linear_depth)
     float bias;         // occluder bias (world units)
     vec3 ends;          // ends of the opacity layers
     vec3 inv_widths;    // 1 / the layers' widths

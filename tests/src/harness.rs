@@ -11,12 +11,17 @@ pub struct Requirements {
     pub mesh_shader: bool,
     /// 64-bit buffer atomics (the compute rasterizer).
     pub int64_atomics: bool,
+    /// GPU timestamps (per-pass timings).
+    pub timestamps: bool,
 }
 
 impl Requirements {
-    pub const NONE: Self = Self { mesh_shader: false, int64_atomics: false };
-    pub const MESH_SHADER: Self = Self { mesh_shader: true, int64_atomics: false };
-    pub const INT64_ATOMICS: Self = Self { mesh_shader: false, int64_atomics: true };
+    pub const NONE: Self = Self { mesh_shader: false, int64_atomics: false, timestamps: false };
+    pub const MESH_SHADER: Self = Self { mesh_shader: true, ..Self::NONE };
+    pub const INT64_ATOMICS: Self = Self { int64_atomics: true, ..Self::NONE };
+    /// The compute rasterizer's per-pass timings.
+    pub const INT64_ATOMICS_AND_TIMESTAMPS: Self =
+        Self { int64_atomics: true, timestamps: true, ..Self::NONE };
 }
 
 type Body = Box<dyn FnOnce(&Context) -> anyhow::Result<()> + Send>;
@@ -126,6 +131,10 @@ pub fn run_gpu_tests(tests: Vec<GpuTest>) -> ExitCode {
                 }
                 if requires.int64_atomics && !ctx.capabilities().buffer_int64_atomics {
                     let reason = format!("{} lacks 64-bit buffer atomics", ctx.capabilities().device_name);
+                    return Ok(Completion::ignored_with(reason));
+                }
+                if requires.timestamps && ctx.capabilities().timestamp_period_ns.is_none() {
+                    let reason = format!("{} has no GPU timestamps", ctx.capabilities().device_name);
                     return Ok(Completion::ignored_with(reason));
                 }
                 run_checked(ctx, body).map(|()| Completion::Completed)

@@ -66,9 +66,7 @@ pub struct Recorder<'a> {
     scopes: Vec<Scope>,
     depth: u32,
     next_query: u32,
-    /// Follow every timestamp with a settling one (CPU devices, see `write_timestamp`)...
-    settle_timestamps: bool,
-    /// ...once the submission has begun rendering.
+    /// Whether the submission has begun rendering (`write_timestamp`).
     rendered: std::cell::Cell<bool>,
 }
 
@@ -147,7 +145,7 @@ impl<'a> Recorder<'a> {
         // end, and every pass after the first draw measured ~0 ms. A second write right after
         // flushes the first at its own time (its value is never read). Before any rendering
         // a timestamp reads the clock when written: no second write.
-        if self.settle_timestamps && self.rendered.get() {
+        if self.rendered.get() && self.ctx.capabilities().is_cpu() {
             write(2 * MAX_SCOPES + index);
         }
     }
@@ -674,7 +672,6 @@ impl Context {
             scopes: Vec::new(),
             depth: 0,
             next_query: 0,
-            settle_timestamps: self.capabilities().is_cpu(),
             rendered: std::cell::Cell::new(false),
         };
         let result = rec.pass(name, f);
