@@ -25,6 +25,9 @@ layout(std430, set = 0, binding = HK_BINDING_STRAND_OFFSETS) buffer OffsetBuffer
     uint pad1;
     DispatchArgs dispatches[MAX_CHUNKS];
     DrawArgs draws[MAX_CHUNKS];
+    // One strand per invocation over chunk 0's sparse slots, then over the others
+    // (SLOT_SUBSET_SPARSE, SLOT_SUBSET_REMAINDER; subset_slot).
+    DispatchArgs subset_dispatches[2];
     uint offsets[];            // exclusive prefix sum of lods[].strands
 };
 // The current chunk's window. Per slot: MAX_VERTICES x (vec4(position, width),
@@ -63,13 +66,50 @@ uint slot_bundle(uint slot) {
     return lo;
 }
 
+// Which of chunk 0's slots a fused dispatch covers (gen_gpu::SlotSubset): all of them, every
+// SPARSE_SLOT_STRIDE-th one (slots 0, 8, 16, ...: an even sample of every bundle's strands,
+// whose slots are consecutive), or the others. Each subset's invocations are dense: the
+// subset's index-th slot is subset_slot(subset, index).
+const uint SLOT_SUBSET_ALL = 0u;
+const uint SLOT_SUBSET_SPARSE = 1u;
+const uint SLOT_SUBSET_REMAINDER = 2u;
+const uint SPARSE_SLOT_STRIDE = HK_SPARSE_SLOT_STRIDE;
+
+uint subset_slot(uint subset, uint index) {
+    if (subset == SLOT_SUBSET_SPARSE) {
+        return index * SPARSE_SLOT_STRIDE;
+    }
+    if (subset == SLOT_SUBSET_REMAINDER) {
+        return index + index / (SPARSE_SLOT_STRIDE - 1u) + 1u;
+    }
+    return index;
+}
+
+// Slots of subset `subset` among the first `slots`.
+uint subset_size(uint subset, uint slots) {
+    uint sparse = (slots + SPARSE_SLOT_STRIDE - 1u) / SPARSE_SLOT_STRIDE;
+    return subset == SLOT_SUBSET_SPARSE ? sparse : subset == SLOT_SUBSET_REMAINDER ? slots - sparse : slots;
+}
+
 #ifndef HAIR_GEN_NO_WORKGROUP
+// This invocation's index in a one-strand-per-invocation dispatch (rows of DISPATCH_ROW
+// workgroups of STRANDS_PER_GROUP).
+uint invocation_index() {
+    return (gl_WorkGroupID.y * DISPATCH_ROW + gl_WorkGroupID.x) * STRANDS_PER_GROUP + gl_LocalInvocationID.x;
+}
+
+// The slot of chunk 0 this invocation of a dispatch over subset `subset`
+// (Generator::record_fused_subset_dispatch) generates; false past the subset's last.
+bool invocation_subset_slot(uint subset, out uint slot) {
+    slot = subset_slot(subset, invocation_index());
+    return slot < chunk_size(0u);
+}
+
 // The slot, relative to chunk `chunk`'s window, of this invocation in a one-strand-per-
 // invocation dispatch (generate.comp's strand-coherent variant and the fused kernels of
 // render/shaders); false past the chunk's last slot.
 bool invocation_slot(uint chunk, out uint local_slot) {
-    uint group = gl_WorkGroupID.y * DISPATCH_ROW + gl_WorkGroupID.x;
-    local_slot = group * STRANDS_PER_GROUP + gl_LocalInvocationID.x;
+    local_slot = invocation_index();
     return local_slot < chunk_size(chunk);
 }
 #endif

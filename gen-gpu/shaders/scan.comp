@@ -51,4 +51,11 @@ void main() {
         draws[t].first_vertex = 0u;
         draws[t].first_instance = 0u;
     }
+    if (t < 2u) {
+        uint subset = t == 0u ? SLOT_SUBSET_SPARSE : SLOT_SUBSET_REMAINDER;
+        uint groups = (subset_size(subset, chunk_size(0u)) + STRANDS_PER_GROUP - 1u) / STRANDS_PER_GROUP;
+        subset_dispatches[t].x = min(groups, DISPATCH_ROW);
+        subset_dispatches[t].y = (groups + DISPATCH_ROW - 1u) / DISPATCH_ROW;
+        subset_dispatches[t].z = 1u;
+    }
 }

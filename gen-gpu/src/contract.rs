@@ -104,6 +104,11 @@ pub const MAX_VERTICES: u64 = (1 << MAX_SEGMENTS_LOG2) + 1;
 /// Bytes per generated vertex: `vec4(position, width)`, `vec4(tangent, tau)`.
 pub const VERTEX_BYTES: u64 = 32;
 
+/// A fused consumer may split its dispatch over the live strand slots into two
+/// ([`crate::SlotSubset`]): every `SPARSE_SLOT_STRIDE`-th slot (an even sample of the whole hair,
+/// for a first pass whose results let the second skip work), then the others.
+pub const SPARSE_SLOT_STRIDE: u32 = 8;
+
 /// Every constant of the header, as `(GLSL macro, value)`.
 pub const GLSL_DEFINES: &[(&str, u64)] = &[
     ("HK_BINDING_GEN_PARAMS", binding::GEN_PARAMS as u64),
@@ -126,6 +131,7 @@ pub const GLSL_DEFINES: &[(&str, u64)] = &[
     ("HK_MAX_SEGMENTS_LOG2", MAX_SEGMENTS_LOG2 as u64),
     ("HK_MAX_VERTICES", MAX_VERTICES),
     ("HK_MAX_LAYERS", MAX_LAYERS as u64),
+    ("HK_SPARSE_SLOT_STRIDE", SPARSE_SLOT_STRIDE as u64),
 ];
 
 /// Every binding number a gen-gpu shader may use.

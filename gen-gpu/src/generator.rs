@@ -157,7 +157,28 @@ const _: () = assert!(crate::contract::MAX_LAYERS == hairmesh::hair_mesh::MAX_LA
 pub const MAX_CHUNKS: u64 = 16;
 const DISPATCH_ARGS_OFFSET: u64 = 16;
 pub(crate) const DRAW_ARGS_OFFSET: u64 = DISPATCH_ARGS_OFFSET + MAX_CHUNKS * 12;
-const OFFSETS_HEADER: u64 = DRAW_ARGS_OFFSET + MAX_CHUNKS * 16;
+/// `subset_dispatches` (`hair_outputs.glsl`): the sparse subset's, then the remainder's.
+const SUBSET_DISPATCH_OFFSET: u64 = DRAW_ARGS_OFFSET + MAX_CHUNKS * 16;
+const OFFSETS_HEADER: u64 = SUBSET_DISPATCH_OFFSET + 2 * 12;
+
+/// Which live strand slots a fused dispatch covers ([`Generator::record_fused_subset_dispatch`];
+/// `subset_slot` in `hair_outputs.glsl`). The two proper subsets partition the slots, so a
+/// consumer may draw in two passes — a sparse first one whose results let the second skip work
+/// (render's occlusion tiles) — with each pass's invocations dense: a pass whose shader skipped
+/// the other subset's strands would leave most SIMD lanes idle.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum SlotSubset {
+    /// Every live slot.
+    All = 0,
+    /// Every [`contract::SPARSE_SLOT_STRIDE`]-th slot (0, 8, 16, …): a bundle's strands have
+    /// consecutive slots, so this samples every bundle evenly (an eighth of its strands, or for
+    /// bundles of fewer than eight strands under LOD, one strand in eight over the whole hair).
+    ///
+    /// [`contract::SPARSE_SLOT_STRIDE`]: crate::contract::SPARSE_SLOT_STRIDE
+    Sparse = 1,
+    /// The slots `Sparse` leaves out.
+    Remainder = 2,
+}
 pub(crate) const SLOT_BYTES: u64 = MAX_VERTICES * VERTEX_BYTES;
 
 /// Strand slots per chunk: as many as one storage-buffer window holds (capped by `limit`),
@@ -468,6 +489,17 @@ impl Generator {
     /// workgroups), with the arguments [`Self::record_lod`] wrote.
     pub fn record_fused_dispatch(rec: &Recorder<'_>, frame: &FrameBuffers) {
         rec.dispatch_indirect(&frame.offsets, DISPATCH_ARGS_OFFSET);
+    }
+
+    /// [`Self::record_fused_dispatch`] over one [`SlotSubset`] of the live slots: the shader
+    /// takes its slot from `invocation_subset_slot(subset, slot)` (`hair_outputs.glsl`) with the
+    /// same `subset` (as `uint(SlotSubset)`, e.g. in a push constant).
+    pub fn record_fused_subset_dispatch(rec: &Recorder<'_>, frame: &FrameBuffers, subset: SlotSubset) {
+        match subset {
+            SlotSubset::All => Self::record_fused_dispatch(rec, frame),
+            SlotSubset::Sparse => rec.dispatch_indirect(&frame.offsets, SUBSET_DISPATCH_OFFSET),
+            SlotSubset::Remainder => rec.dispatch_indirect(&frame.offsets, SUBSET_DISPATCH_OFFSET + 12),
+        }
     }
 
     /// Binds everything, with chunk `chunk`'s windows of the strand buffers and the fragment

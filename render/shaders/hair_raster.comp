@@ -11,16 +11,14 @@
 layout(local_size_x = 32) in;
 
 void main() {
+    // The phase's slots, one per invocation (Generator::record_fused_subset_dispatch).
     uint slot;
-    if (!invocation_slot(0u, slot)) {
+    if (!invocation_subset_slot(raster.phase, slot)) {
         return;
     }
     uint bundle = slot_bundle(slot);
     uint strand = slot - offsets[bundle];
     BundleLod l = lods[bundle];
-    if (!in_phase(strand, l.strands)) {
-        return;
-    }
     uint segments = 1u << l.level;
     // Every strand from its control data, short ones too: the generator samples strands of
     // fewer than 17 vertices per vertex (so its compute and mesh paths agree), which equals this

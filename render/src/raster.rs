@@ -137,11 +137,32 @@ pub(crate) struct RasterPush {
 pub enum RasterPhase {
     /// Every strand.
     All = 0,
-    /// Each bundle's first eighth of strands (a blue-noise prefix), before the tile pass.
+    /// An eighth of the strands spread over the whole hair, before the tile pass: generated
+    /// strands, every eighth slot ([`gen_gpu::SlotSubset::Sparse`], an even sample of every
+    /// bundle); stored strands, the first eighth of the slots.
     Front = 1,
     /// The rest, skipping columns behind the tiles the front strands made opaque.
     Rest = 2,
 }
+
+impl RasterPhase {
+    /// The generator's slot subset a fused dispatch of this phase covers (the same numbers:
+    /// the shader passes its phase to `invocation_subset_slot`).
+    pub fn slots(self) -> gen_gpu::SlotSubset {
+        match self {
+            Self::All => gen_gpu::SlotSubset::All,
+            Self::Front => gen_gpu::SlotSubset::Sparse,
+            Self::Rest => gen_gpu::SlotSubset::Remainder,
+        }
+    }
+}
+
+// The shader hands its phase to gen-gpu as a slot subset.
+const _: () = assert!(
+    RasterPhase::All as u32 == gen_gpu::SlotSubset::All as u32
+        && RasterPhase::Front as u32 == gen_gpu::SlotSubset::Sparse as u32
+        && RasterPhase::Rest as u32 == gen_gpu::SlotSubset::Remainder as u32
+);
 
 /// 64-bit words per pixel with `k` visibility slots (`pixel_stride` in `raster_common.glsl`):
 /// the slots and the coverage word, and with more than one slot the threshold word.

@@ -160,7 +160,7 @@ pub(crate) fn record_raster(
         (push.words_address, push.tiles_address) = addresses;
         push.volume_fraction = state.plan.volume_fraction(*i);
         rec.push_constants(&cr.raster, &push);
-        Generator::record_fused_dispatch(rec, frame);
+        Generator::record_fused_subset_dispatch(rec, frame, phase.slots());
     }
     let stored_materials = &state.materials[r.characters.len()..];
     let stored = r.stored_characters.iter().zip(state.stored_params).zip(stored_materials).enumerate();
