@@ -179,6 +179,18 @@ pub enum SlotSubset {
     /// The slots `Sparse` leaves out.
     Remainder = 2,
 }
+
+impl SlotSubset {
+    /// Slots of this subset among `slots` (`subset_size` in `hair_outputs.glsl`).
+    pub fn count(self, slots: u32) -> u32 {
+        let sparse = slots.div_ceil(crate::contract::SPARSE_SLOT_STRIDE);
+        match self {
+            Self::All => slots,
+            Self::Sparse => sparse,
+            Self::Remainder => slots - sparse,
+        }
+    }
+}
 pub(crate) const SLOT_BYTES: u64 = MAX_VERTICES * VERTEX_BYTES;
 
 /// Strand slots per chunk: as many as one storage-buffer window holds (capped by `limit`),

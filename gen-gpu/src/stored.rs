@@ -7,7 +7,7 @@ use glam::Vec3;
 use crate::generator::{
     DRAW_ARGS_OFFSET, FRAGMENT_PUSH_OFFSET, MAX_CHUNKS, MAX_VERTICES, SLOT_BYTES, chunk_slots,
 };
-use crate::{Buffer, BufferDesc, Context, DrawExtras, FrameInputs, GpuError, Recorder, Result};
+use crate::{Buffer, BufferDesc, Context, DrawExtras, FrameInputs, GpuError, Recorder, Result, SlotSubset};
 
 /// Strands uploaded once, in the generator's strand-buffer layout.
 #[derive(Debug)]
@@ -146,6 +146,24 @@ impl StoredStrands {
         params: &Buffer,
         extra: &[(u32, &Buffer)],
         group_size: u32,
+        per_chunk: impl FnMut(&Recorder<'_>, u32),
+    ) {
+        self.record_compute_subset(rec, pipeline, params, extra, group_size, SlotSubset::All, per_chunk);
+    }
+
+    /// [`Self::record_compute`] over one [`SlotSubset`] of each chunk's slots: the dispatch has
+    /// an invocation per slot of the subset, and the shader takes its slot (relative to the
+    /// chunk window) from `subset_slot(subset, gl_GlobalInvocationID.x)` (`hair_outputs.glsl`),
+    /// skipping slots past the chunk's count (`per_chunk`'s second argument).
+    #[allow(clippy::too_many_arguments)]
+    pub fn record_compute_subset(
+        &self,
+        rec: &Recorder<'_>,
+        pipeline: &crate::Pipeline,
+        params: &Buffer,
+        extra: &[(u32, &Buffer)],
+        group_size: u32,
+        subset: SlotSubset,
         mut per_chunk: impl FnMut(&Recorder<'_>, u32),
     ) {
         use crate::contract::binding as b;
@@ -163,7 +181,7 @@ impl StoredStrands {
             buffers.extend(extra.iter().map(|(b, buf)| (*b, *buf, 0, whole)));
             rec.push_descriptors_ranged(pipeline, &buffers, &[]);
             per_chunk(rec, slots as u32);
-            rec.dispatch((slots as u32).div_ceil(group_size.max(1)), 1, 1);
+            rec.dispatch(subset.count(slots as u32).div_ceil(group_size.max(1)), 1, 1);
         }
     }
 

@@ -21,11 +21,9 @@ StrandVertex stored_vertex(uint slot, uint k) {
 }
 
 void main() {
-    uint slot = gl_GlobalInvocationID.x;
+    // The phase's slots, one per invocation (StoredStrands::record_compute_subset).
+    uint slot = subset_slot(raster.phase, gl_GlobalInvocationID.x);
     if (slot >= raster.slots) {
-        return;
-    }
-    if (!in_phase(slot, raster.slots)) {
         return;
     }
     uvec4 info = strand_info[slot];

@@ -63,19 +63,11 @@ uint load_tile_word(uint i) {
 
 // Which strands a dispatch draws: all of them, or in two phases around the tile pass: first a
 // front subset spread over the whole hair, then the rest, skipping the columns that lie behind
-// opaque tiles. Generated strands: the phases are gen-gpu's slot subsets (every eighth slot,
-// then the others: SLOT_SUBSET_SPARSE, SLOT_SUBSET_REMAINDER), dispatched densely; stored
-// strands: the first eighth of the slots, then the rest (in_phase).
+// opaque tiles. The phases are gen-gpu's slot subsets (every eighth slot, then the others:
+// SLOT_SUBSET_SPARSE, SLOT_SUBSET_REMAINDER), each dispatched over its own slots.
 const uint RASTER_ALL = SLOT_SUBSET_ALL;
 const uint RASTER_FRONT = SLOT_SUBSET_SPARSE;
 const uint RASTER_REST = SLOT_SUBSET_REMAINDER;
-const uint FRONT_FRACTION = 8u;
-
-// Whether stored strand `index` of `count` belongs to this dispatch's phase.
-bool in_phase(uint index, uint count) {
-    bool front = index * FRONT_FRACTION < count;
-    return raster.phase == RASTER_ALL || (raster.phase == RASTER_FRONT) == front;
-}
 
 #endif
 

@@ -137,9 +137,9 @@ pub(crate) struct RasterPush {
 pub enum RasterPhase {
     /// Every strand.
     All = 0,
-    /// An eighth of the strands spread over the whole hair, before the tile pass: generated
-    /// strands, every eighth slot ([`gen_gpu::SlotSubset::Sparse`], an even sample of every
-    /// bundle); stored strands, the first eighth of the slots.
+    /// An eighth of the strands spread over the whole hair, before the tile pass: every
+    /// eighth slot ([`gen_gpu::SlotSubset::Sparse`]; generated strands, an even sample of every
+    /// bundle, whose slots are consecutive).
     Front = 1,
     /// The rest, skipping columns behind the tiles the front strands made opaque.
     Rest = 2,

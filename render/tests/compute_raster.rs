@@ -723,6 +723,24 @@ fn main() -> ExitCode {
                         bound.render(ctx)?.linear == a.linear,
                         "{transparency}: reading through the bindings instead of buffer references changes the image"
                     );
+                    // Stored strands (the artist's groom) go through the same two phases: every
+                    // eighth slot, then the others.
+                    let effects =
+                        serde_json::json!({ "transparency": transparency, "oit_k": 4, "raster": "compute" });
+                    let stored = load_scene(&sintel_scene(dir.path(), "sintel_tiles", effects)?)?;
+                    let tiled = SceneRenderer::new(ctx, &stored, GenerationPath::Compute)?.render(ctx)?;
+                    let single = SceneRenderer::new(ctx, &stored, GenerationPath::Compute)?
+                        .with_occlusion_tiles(false)
+                        .render(ctx)?;
+                    ensure!(
+                        tiled.passes.iter().any(|p| p.contains("occlusion tiles")),
+                        "stored strands: {:?}",
+                        tiled.passes
+                    );
+                    ensure!(
+                        tiled.linear == single.linear,
+                        "{transparency}: stored strands drawn without the occlusion tiles change the image"
+                    );
                 }
                 Ok(())
             },

@@ -172,12 +172,22 @@ pub(crate) fn record_raster(
         }
         let pipeline = &cr.raster_stored;
         let opacity = r.raster_opacity(material);
-        r.stored[c.hair].record_compute(rec, pipeline, params, &extra, stored_group_size(), |rec, slots| {
-            let mut push = raster_push(c.transform, material, slots, occluders, phase, tiles_x, b.k, opacity);
-            (push.words_address, push.tiles_address) = addresses;
-            push.volume_fraction = volume_fraction;
-            rec.push_constants(pipeline, &push);
-        });
+        let stored = &r.stored[c.hair];
+        stored.record_compute_subset(
+            rec,
+            pipeline,
+            params,
+            &extra,
+            stored_group_size(),
+            phase.slots(),
+            |rec, slots| {
+                let mut push =
+                    raster_push(c.transform, material, slots, occluders, phase, tiles_x, b.k, opacity);
+                (push.words_address, push.tiles_address) = addresses;
+                push.volume_fraction = volume_fraction;
+                rec.push_constants(pipeline, &push);
+            },
+        );
     }
     Ok(())
 }
