@@ -9,35 +9,41 @@ layout(local_size_x = 256) in;
 
 shared uint partial[256];
 
+// Each invocation sums a contiguous run of bundles, one invocation scans the 256 sums, and each
+// writes its run's offsets: two barriers whatever the bundle count (a tree scan of 256 took 16
+// per 256 bundles, and on CPU devices a barrier costs more than the whole serial work).
 void main() {
     uint t = gl_LocalInvocationID.x;
     uint count = params.counts.x;
-    uint carry = 0u;
-    for (uint base = 0u; base < count; base += 256u) {
-        uint i = base + t;
-        uint value = i < count ? lods[i].strands : 0u;
-        partial[t] = value;
-        barrier();
-        // Hillis-Steele inclusive scan.
-        for (uint step = 1u; step < 256u; step <<= 1u) {
-            uint add = t >= step ? partial[t - step] : 0u;
-            barrier();
-            partial[t] += add;
-            barrier();
-        }
-        if (i < count) {
-            offsets[i] = carry + partial[t] - value;
-        }
-        carry += partial[255];
-        barrier();
+    uint run = (count + 255u) / 256u;
+    uint begin = min(t * run, count);
+    uint end = min(begin + run, count);
+    uint sum = 0u;
+    for (uint i = begin; i < end; ++i) {
+        sum += lods[i].strands;
     }
+    partial[t] = sum;
+    barrier();
     if (t == 0u) {
+        uint carry = 0u;
+        for (uint j = 0u; j < 256u; ++j) {
+            uint value = partial[j];
+            partial[j] = carry;
+            carry += value;
+        }
+        total_strands = carry;
         // Slots beyond the buffers' capacity are not generated (the host sized them from its
         // own LOD estimate; total_strands still reports the real count).
-        total_strands = carry;
         generated_strands = min(carry, params.seed_info.z);
     }
+    // (total_strands is read below by every invocation: chunk_size.)
+    memoryBarrierBuffer();
     barrier();
+    uint carry = partial[t];
+    for (uint i = begin; i < end; ++i) {
+        offsets[i] = carry;
+        carry += lods[i].strands;
+    }
     if (t < MAX_CHUNKS) {
         uint slots = chunk_size(t);
         // generate.comp: a workgroup per slot, or per STRANDS_PER_GROUP slots (one per
