@@ -42,7 +42,10 @@
 //!     `strand_coherent(…)`, `strand_compute_vertex(bundle, strand, lod, base, k, …)` into the
 //!     shared vertex array, `barrier()`, and `strand_vertex_of_group(…)`.
 //!
-//!   Its own buffers go at `FIRST_CONSUMER` and up.
+//!   Its own buffers go at `FIRST_CONSUMER` and up. A consumer that draws in two passes (a sparse
+//!   first one whose results let the second skip work) dispatches each over its own slots with
+//!   `Generator::record_fused_subset_dispatch(…, SlotSubset::Sparse)`, then `Remainder`, and takes
+//!   its slot from `invocation_subset_slot(subset, slot)`: every invocation draws a strand.
 
 /// Descriptor bindings of set 0.
 pub mod binding {

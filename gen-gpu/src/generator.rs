@@ -832,3 +832,20 @@ fn params(hair: &GpuHair, inputs: &FrameInputs, capacity: u64, chunk_slots: u64)
         lod_error: [f(lod.vertex_error_pixels), 0.0, 0.0, 0.0],
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::SlotSubset;
+
+    #[test]
+    fn slot_subsets_partition_the_slots() {
+        for slots in [0u32, 1, 7, 8, 9, 15, 16, 17, 1000, 100_003] {
+            let sparse = SlotSubset::Sparse.count(slots);
+            assert_eq!(SlotSubset::All.count(slots), slots);
+            assert_eq!(sparse + SlotSubset::Remainder.count(slots), slots, "{slots} slots");
+            // Slots 0, 8, 16, … below `slots` (`subset_slot` in hair_outputs.glsl).
+            let stride = crate::contract::SPARSE_SLOT_STRIDE as usize;
+            assert_eq!(sparse as usize, (0..slots).step_by(stride).count(), "{slots} slots");
+        }
+    }
+}
