@@ -138,25 +138,15 @@ impl StoredStrands {
     /// Runs `pipeline` (a compute consumer created with [`crate::strand_bindings`]) over these
     /// strands, one chunk window at a time: binds `params`, the chunk's vertices and info and
     /// `extra`, calls `per_chunk` with the chunk's slot count (to push constants), then
-    /// dispatches one invocation per slot in workgroups of `group_size`.
+    /// dispatches one invocation per slot of `subset` in workgroups of `group_size`: with
+    /// [`SlotSubset::All`] invocation i draws slot i; otherwise the shader takes its slot
+    /// (relative to the chunk window) from `subset_slot(subset, gl_GlobalInvocationID.x)`
+    /// (`hair_outputs.glsl`) and skips slots past the chunk's count.
+    #[allow(
+        clippy::too_many_arguments,
+        reason = "the binding inputs, the dispatch shape and the push callback"
+    )]
     pub fn record_compute(
-        &self,
-        rec: &Recorder<'_>,
-        pipeline: &crate::Pipeline,
-        params: &Buffer,
-        extra: &[(u32, &Buffer)],
-        group_size: u32,
-        per_chunk: impl FnMut(&Recorder<'_>, u32),
-    ) {
-        self.record_compute_subset(rec, pipeline, params, extra, group_size, SlotSubset::All, per_chunk);
-    }
-
-    /// [`Self::record_compute`] over one [`SlotSubset`] of each chunk's slots: the dispatch has
-    /// an invocation per slot of the subset, and the shader takes its slot (relative to the
-    /// chunk window) from `subset_slot(subset, gl_GlobalInvocationID.x)` (`hair_outputs.glsl`),
-    /// skipping slots past the chunk's count (`per_chunk`'s second argument).
-    #[allow(clippy::too_many_arguments)]
-    pub fn record_compute_subset(
         &self,
         rec: &Recorder<'_>,
         pipeline: &crate::Pipeline,

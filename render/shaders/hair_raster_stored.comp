@@ -21,7 +21,7 @@ StrandVertex stored_vertex(uint slot, uint k) {
 }
 
 void main() {
-    // The phase's slots, one per invocation (StoredStrands::record_compute_subset).
+    // The phase's slots, one per invocation (StoredStrands::record_compute).
     uint slot = subset_slot(raster.phase, gl_GlobalInvocationID.x);
     if (slot >= raster.slots) {
         return;

@@ -34,7 +34,9 @@
 //! nothing re-generates a strand. The CPU port of the kernel ([`cpu`]) is what the GPU results
 //! are tested against.
 
-use gen_gpu::{Binding, Buffer, BufferDesc, ComputePipelineDesc, Context, MemoryLocation, Pipeline, vk};
+use gen_gpu::{
+    Binding, Buffer, BufferDesc, ComputePipelineDesc, Context, MemoryLocation, Pipeline, SlotSubset, vk,
+};
 use glam::{Mat4, Vec3};
 
 use crate::contract::{RASTER_BINDINGS, RASTER_SHADE_BINDINGS, RASTER_TILE_BINDINGS, RESOLVE_BINDINGS};
@@ -119,6 +121,8 @@ pub(crate) struct RasterPush {
     pub(crate) slots: u32,
     pub(crate) flags: u32,
     pub(crate) max_half_width: f32,
+    /// The phase: the [`SlotSubset`] this dispatch draws (`RASTER_FRONT` = `SLOT_SUBSET_SPARSE`,
+    /// … in `strand_raster.glsl`).
     pub(crate) phase: u32,
     pub(crate) tiles_x: u32,
     pub(crate) k: u32,
@@ -131,38 +135,6 @@ pub(crate) struct RasterPush {
     pub(crate) words_address: u64,
     pub(crate) tiles_address: u64,
 }
-
-/// Which strands a raster dispatch draws (`RASTER_ALL`, … in `strand_raster.glsl`).
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub enum RasterPhase {
-    /// Every strand.
-    All = 0,
-    /// An eighth of the strands spread over the whole hair, before the tile pass: every
-    /// eighth slot ([`gen_gpu::SlotSubset::Sparse`]; generated strands, an even sample of every
-    /// bundle, whose slots are consecutive).
-    Front = 1,
-    /// The rest, skipping columns behind the tiles the front strands made opaque.
-    Rest = 2,
-}
-
-impl RasterPhase {
-    /// The generator's slot subset a fused dispatch of this phase covers (the same numbers:
-    /// the shader passes its phase to `invocation_subset_slot`).
-    pub fn slots(self) -> gen_gpu::SlotSubset {
-        match self {
-            Self::All => gen_gpu::SlotSubset::All,
-            Self::Front => gen_gpu::SlotSubset::Sparse,
-            Self::Rest => gen_gpu::SlotSubset::Remainder,
-        }
-    }
-}
-
-// The shader hands its phase to gen-gpu as a slot subset.
-const _: () = assert!(
-    RasterPhase::All as u32 == gen_gpu::SlotSubset::All as u32
-        && RasterPhase::Front as u32 == gen_gpu::SlotSubset::Sparse as u32
-        && RasterPhase::Rest as u32 == gen_gpu::SlotSubset::Remainder as u32
-);
 
 /// 64-bit words per pixel with `k` visibility slots (`pixel_stride` in `raster_common.glsl`):
 /// the slots and the coverage word, and with more than one slot the threshold word.
@@ -360,13 +332,21 @@ impl ComputeRaster {
                     ),
                 );
             }
-            stored.record_compute(rec, pipeline, &params, &extra, stored_group_size(), |rec, slots| {
-                let mut push = raster_push(model, material, slots, false, RasterPhase::All, 1, k, 1.0);
-                if through_references {
-                    push.words_address = words.device_address();
-                }
-                rec.push_constants(pipeline, &push);
-            });
+            stored.record_compute(
+                rec,
+                pipeline,
+                &params,
+                &extra,
+                stored_group_size(),
+                SlotSubset::All,
+                |rec, slots| {
+                    let mut push = raster_push(model, material, slots, false, SlotSubset::All, 1, k, 1.0);
+                    if through_references {
+                        push.words_address = words.device_address();
+                    }
+                    rec.push_constants(pipeline, &push);
+                },
+            );
             compute_writes_to_readback(rec);
             Ok(())
         })?;
@@ -530,7 +510,7 @@ pub(crate) fn raster_push(
     material: u32,
     slots: u32,
     occluders: bool,
-    phase: RasterPhase,
+    phase: SlotSubset,
     tiles_x: u32,
     k: u32,
     opacity: f32,

@@ -288,6 +288,7 @@ impl ComputeShadow {
                 &params,
                 &extra,
                 Self::stored_group_size(),
+                gen_gpu::SlotSubset::All,
                 |rec, slots| {
                     rec.push_constants(
                         &self.stored,

@@ -3,13 +3,13 @@
 //! characters (generation fused into the raster kernel) and the stored strands in two phases
 //! around the occlusion tiles, shade, resolve over the target.
 
-use gen_gpu::{Generator, Recorder};
+use gen_gpu::{Generator, Recorder, SlotSubset};
 
 use super::ScenePass;
 use crate::contract::binding;
 use crate::frame::{FrameIds, FrameState, SceneRenderer};
 use crate::graph::{Access, FrameGraph};
-use crate::raster::{RasterPhase, raster_push, stored_group_size, tile_grid};
+use crate::raster::{raster_push, stored_group_size, tile_grid};
 use crate::shaders;
 
 pub(crate) fn plan_clear(g: &mut FrameGraph<ScenePass>, ids: &FrameIds, submission: usize) {
@@ -39,10 +39,10 @@ pub(crate) fn plan_raster(
     last: bool,
     submission: usize,
 ) {
-    let phases: &[RasterPhase] =
-        if r.occlusion_tiles { &[RasterPhase::Front, RasterPhase::Rest] } else { &[RasterPhase::All] };
+    let phases: &[SlotSubset] =
+        if r.occlusion_tiles { &[SlotSubset::Sparse, SlotSubset::Remainder] } else { &[SlotSubset::All] };
     for &phase in phases {
-        if phase == RasterPhase::Rest {
+        if phase == SlotSubset::Remainder {
             g.pass("occlusion tiles (compute raster)")
                 .read(ids.visibility, Access::ComputeRead)
                 .write(ids.raster_tiles, Access::ComputeWrite)
@@ -50,9 +50,9 @@ pub(crate) fn plan_raster(
                 .add(ScenePass::RasterTiles);
         }
         let name = match phase {
-            RasterPhase::All => r.raster_pass_name(),
-            RasterPhase::Front => format!("{}: front strands", r.raster_pass_name()),
-            RasterPhase::Rest => format!("{}: other strands, tile-culled", r.raster_pass_name()),
+            SlotSubset::All => r.raster_pass_name(),
+            SlotSubset::Sparse => format!("{}: front strands", r.raster_pass_name()),
+            SlotSubset::Remainder => format!("{}: other strands, tile-culled", r.raster_pass_name()),
         };
         let mut pass = g.pass(name);
         for &i in batch {
@@ -67,7 +67,7 @@ pub(crate) fn plan_raster(
         if !r.occluders.is_empty() {
             pass = pass.read(ids.scene_depth, Access::ComputeRead);
         }
-        if phase == RasterPhase::Rest {
+        if phase == SlotSubset::Remainder {
             pass = pass.read(ids.raster_tiles, Access::ComputeRead);
         }
         pass.write(ids.visibility, Access::ComputeWrite)
@@ -134,7 +134,7 @@ pub(crate) fn record_raster(
     r: &SceneRenderer,
     rec: &mut Recorder<'_>,
     state: &FrameState<'_>,
-    phase: RasterPhase,
+    phase: SlotSubset,
 ) -> gen_gpu::Result<()> {
     let (Some(cr), Some(b)) = (&r.compute_raster, state.raster) else { return Ok(()) };
     let occluders = b.scene_depth.is_some();
@@ -160,7 +160,7 @@ pub(crate) fn record_raster(
         (push.words_address, push.tiles_address) = addresses;
         push.volume_fraction = state.plan.volume_fraction(*i);
         rec.push_constants(&cr.raster, &push);
-        Generator::record_fused_subset_dispatch(rec, frame, phase.slots());
+        Generator::record_fused_subset_dispatch(rec, frame, phase);
     }
     let stored_materials = &state.materials[r.characters.len()..];
     let stored = r.stored_characters.iter().zip(state.stored_params).zip(stored_materials).enumerate();
@@ -173,21 +173,12 @@ pub(crate) fn record_raster(
         let pipeline = &cr.raster_stored;
         let opacity = r.raster_opacity(material);
         let stored = &r.stored[c.hair];
-        stored.record_compute_subset(
-            rec,
-            pipeline,
-            params,
-            &extra,
-            stored_group_size(),
-            phase.slots(),
-            |rec, slots| {
-                let mut push =
-                    raster_push(c.transform, material, slots, occluders, phase, tiles_x, b.k, opacity);
-                (push.words_address, push.tiles_address) = addresses;
-                push.volume_fraction = volume_fraction;
-                rec.push_constants(pipeline, &push);
-            },
-        );
+        stored.record_compute(rec, pipeline, params, &extra, stored_group_size(), phase, |rec, slots| {
+            let mut push = raster_push(c.transform, material, slots, occluders, phase, tiles_x, b.k, opacity);
+            (push.words_address, push.tiles_address) = addresses;
+            push.volume_fraction = volume_fraction;
+            rec.push_constants(pipeline, &push);
+        });
     }
     Ok(())
 }

@@ -53,7 +53,7 @@ pub enum ScenePass {
     OccluderDepthCopy,
     /// Compute rasterizer: one batch's characters (and the stored strands on the last), one
     /// phase.
-    ComputeRaster(crate::raster::RasterPhase),
+    ComputeRaster(gen_gpu::SlotSubset),
     /// Compute rasterizer: the occlusion tiles between the phases.
     RasterTiles,
     RasterShade,

@@ -578,11 +578,19 @@ fn record_compute_maps(
     for (c, params) in r.stored_characters.iter().zip(&light.stored_params) {
         let pipeline = &compute.stored;
         let group = ComputeShadow::stored_group_size();
-        r.stored[c.hair].record_compute(rec, pipeline, params, &extra, group, |rec, slots| {
-            rec.push_constants(
-                pipeline,
-                &ShadowRasterPush::new(&light.shadow, s.size, c.transform, mode, slots),
-            );
-        });
+        r.stored[c.hair].record_compute(
+            rec,
+            pipeline,
+            params,
+            &extra,
+            group,
+            gen_gpu::SlotSubset::All,
+            |rec, slots| {
+                rec.push_constants(
+                    pipeline,
+                    &ShadowRasterPush::new(&light.shadow, s.size, c.transform, mode, slots),
+                );
+            },
+        );
     }
 }

@@ -154,9 +154,20 @@ pub(crate) fn record_hair(
         (VolumeStep::Voxelize, VoxelSource::Stored(s, params)) => {
             let pipeline = &p.voxelize_stored;
             let group = shaders::HAIR_VOXELIZE_STORED_COMP.workgroup_size[0];
-            r.stored[*s].record_compute(rec, pipeline, params, &sums, group, |rec, slots| {
-                rec.push_constants(pipeline, &VoxelizePush { object_to_voxel, dims: [nx, ny, nz, slots] });
-            });
+            r.stored[*s].record_compute(
+                rec,
+                pipeline,
+                params,
+                &sums,
+                group,
+                gen_gpu::SlotSubset::All,
+                |rec, slots| {
+                    rec.push_constants(
+                        pipeline,
+                        &VoxelizePush { object_to_voxel, dims: [nx, ny, nz, slots] },
+                    );
+                },
+            );
         }
         (VolumeStep::Resolve, _) => {
             rec.bind_pipeline(&p.resolve);
