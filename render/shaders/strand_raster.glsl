@@ -32,7 +32,7 @@ layout(push_constant) uniform RasterParams {
     uint slots;           // stored strands: slots in the bound chunk window
     uint flags;           // bit 0: hide fragments behind scene_depth
     float max_half_width; // pixels: wider strands are drawn this wide (bounds the work per segment)
-    uint phase;           // RASTER_ALL, RASTER_FRONT or RASTER_REST
+    uint phase;           // the slot subset drawn: SLOT_SUBSET_ALL, _SPARSE (front) or _REMAINDER (rest)
     uint tiles_x;         // tiles per row of tile_depth
     uint k;               // visibility slots per pixel
     float opacity;        // of one strand (its material's)
@@ -64,10 +64,7 @@ uint load_tile_word(uint i) {
 // Which strands a dispatch draws: all of them, or in two phases around the tile pass: first a
 // front subset spread over the whole hair, then the rest, skipping the columns that lie behind
 // opaque tiles. The phases are gen-gpu's slot subsets (every eighth slot, then the others:
-// SLOT_SUBSET_SPARSE, SLOT_SUBSET_REMAINDER), each dispatched over its own slots.
-const uint RASTER_ALL = SLOT_SUBSET_ALL;
-const uint RASTER_FRONT = SLOT_SUBSET_SPARSE;
-const uint RASTER_REST = SLOT_SUBSET_REMAINDER;
+// SLOT_SUBSET_SPARSE, SLOT_SUBSET_REMAINDER: raster.phase), each dispatched over its own slots.
 
 #endif
 
@@ -259,7 +256,7 @@ void raster_segment(RasterVertex a, RasterVertex b, uint material, float random)
         int j0 = max(floor_int(m - h), 0);
         int j1 = min(floor_int(m + h), size_minor - 1);
 #ifndef SHADOW_RASTER
-        if (raster.phase == RASTER_REST && j0 <= j1) {
+        if (raster.phase == SLOT_SUBSET_REMAINDER && j0 <= j1) {
             // The column's end pixels' tiles (and the two others of their square when it spans
             // two tiles): strictly behind all of them, it changes nothing.
             uvec2 e0 = uvec2(x_major ? ivec2(i, j0) : ivec2(j0, i)) / TILE_SIZE;

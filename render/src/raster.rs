@@ -121,8 +121,8 @@ pub(crate) struct RasterPush {
     pub(crate) slots: u32,
     pub(crate) flags: u32,
     pub(crate) max_half_width: f32,
-    /// The phase: the [`SlotSubset`] this dispatch draws (`RASTER_FRONT` = `SLOT_SUBSET_SPARSE`,
-    /// … in `strand_raster.glsl`).
+    /// The phase: the [`SlotSubset`] this dispatch draws (`SLOT_SUBSET_SPARSE`, … in
+    /// `hair_outputs.glsl`).
     pub(crate) phase: u32,
     pub(crate) tiles_x: u32,
     pub(crate) k: u32,
@@ -324,13 +324,7 @@ impl ComputeRaster {
             // (Initial words were written before the submission: visible to it.)
             if initial.is_none() {
                 rec.fill_buffer(&words, u32::MAX);
-                rec.memory_barrier(
-                    (vk::PipelineStageFlags2::CLEAR, vk::AccessFlags2::TRANSFER_WRITE),
-                    (
-                        vk::PipelineStageFlags2::COMPUTE_SHADER,
-                        vk::AccessFlags2::SHADER_STORAGE_READ | vk::AccessFlags2::SHADER_STORAGE_WRITE,
-                    ),
-                );
+                fills_to_compute(rec);
             }
             stored.record_compute(
                 rec,
@@ -353,6 +347,18 @@ impl ComputeRaster {
         let bytes = ctx.read_buffer(&words, bytes)?;
         Ok(bytemuck::pod_collect_to_vec(&bytes))
     }
+}
+
+/// Before a test kernel: the buffer fills that cleared its storage visible to its reads and
+/// writes.
+pub(crate) fn fills_to_compute(rec: &gen_gpu::Recorder<'_>) {
+    rec.memory_barrier(
+        (vk::PipelineStageFlags2::CLEAR, vk::AccessFlags2::TRANSFER_WRITE),
+        (
+            vk::PipelineStageFlags2::COMPUTE_SHADER,
+            vk::AccessFlags2::SHADER_STORAGE_READ | vk::AccessFlags2::SHADER_STORAGE_WRITE,
+        ),
+    );
 }
 
 /// After a test kernel: its storage writes visible to the copy and host reads of a read-back.

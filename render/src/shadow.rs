@@ -275,13 +275,7 @@ impl ComputeShadow {
                 rec.fill_buffer(&depth, 1f32.to_bits());
             }
             rec.fill_buffer(&opacity, 0);
-            rec.memory_barrier(
-                (vk::PipelineStageFlags2::CLEAR, vk::AccessFlags2::TRANSFER_WRITE),
-                (
-                    vk::PipelineStageFlags2::COMPUTE_SHADER,
-                    vk::AccessFlags2::SHADER_STORAGE_READ | vk::AccessFlags2::SHADER_STORAGE_WRITE,
-                ),
-            );
+            crate::raster::fills_to_compute(rec);
             stored.record_compute(
                 rec,
                 &self.stored,
