@@ -20,6 +20,14 @@ layout(std430, set = 0, binding = HK_BINDING_SHADOW_OPACITY) readonly buffer Sha
 layout(std430, set = 0, binding = HK_BINDING_LIGHTS) readonly buffer Lights { SceneLight lights[]; };
 layout(std430, set = 0, binding = HK_BINDING_OCCLUDER_DEPTH) readonly buffer OccluderDepth { float occluder_depth[]; };
 
+// The maps' loads: an includer may read through a faster path (raster_shade.comp: buffer
+// references, which CPU devices gather with vector instructions).
+#ifndef SHADOW_DEPTH_LOAD
+#define SHADOW_DEPTH_LOAD(i) shadow_depth[i]
+#define SHADOW_OPACITY_LOAD(i) shadow_opacity[i]
+#define OCCLUDER_DEPTH_LOAD(i) occluder_depth[i]
+#endif
+
 // Direction toward light `i` from the world point p.
 vec3 light_direction(uint i, vec3 p) {
     vec4 lv = lights[i].vector;
@@ -52,11 +60,11 @@ float map_linear_depth(MapLookup m, float z) {
 // at d behind the texel's nearest hair interpolates (0, 0), (ends.x, o.x), (ends.y, o.y),
 // (ends.z, o.z) linearly and stays o.z beyond: a sum of clamped ramps, without branches.
 vec2 texel_visibility(MapLookup m, uint index, float depth) {
-    if (depth - map_linear_depth(m, occluder_depth[index]) > m.bias) {
+    if (depth - map_linear_depth(m, OCCLUDER_DEPTH_LOAD(index)) > m.bias) {
         return vec2(0.0, 1.0);
     }
-    float d = depth - map_linear_depth(m, shadow_depth[index]);
-    vec3 o = shadow_opacity[index].xyz;
+    float d = depth - map_linear_depth(m, SHADOW_DEPTH_LOAD(index));
+    vec3 o = SHADOW_OPACITY_LOAD(index).xyz;
     vec3 ramps = clamp((vec3(d) - vec3(0.0, m.ends.xy)) * m.inv_widths, 0.0, 1.0);
     float opacity = dot(ramps, vec3(o.x, o.y - o.x, o.z - o.y));
     return vec2(1.0, exp(-1.5 * opacity));

@@ -9,20 +9,41 @@
 // the nearest fragment's colour. Pixels with fragments beyond their K slots are counted.
 #extension GL_GOOGLE_include_directive : require
 #extension GL_EXT_control_flow_attributes : require
+#extension GL_EXT_buffer_reference : require
 #include "raster_common.glsl"
+
+layout(local_size_x = 8, local_size_y = 8) in;
+
+// The pixel rectangle the frame's hair can cover (x0, y0, x1, y1; x1, y1 exclusive); slots K;
+// device addresses of the buffers whose loads dominate (0: none, read through the bindings):
+// CPU devices (llvmpipe) gather loads through a buffer reference with vector instructions,
+// where a storage-buffer load of a divergent address is a loop over the SIMD lanes.
+layout(push_constant) uniform Rect {
+    uvec4 rect;
+    uint k;
+    uint pad0;
+    uint64_t words_address;          // the pixel words (read before the sort writes them)
+    uint64_t shadow_depth_address;
+    uint64_t shadow_opacity_address;
+    uint64_t occluder_depth_address;
+} area;
+
+layout(buffer_reference, std430, buffer_reference_align = 8) readonly buffer PixelWordsRef { uint64_t words[]; };
+layout(buffer_reference, std430, buffer_reference_align = 4) readonly buffer FloatsRef { float values[]; };
+layout(buffer_reference, std430, buffer_reference_align = 16) readonly buffer Vec4sRef { vec4 values[]; };
+
+#define SHADOW_DEPTH_LOAD(i) \
+    (area.shadow_depth_address != 0UL ? FloatsRef(area.shadow_depth_address).values[i] : shadow_depth[i])
+#define SHADOW_OPACITY_LOAD(i) \
+    (area.shadow_opacity_address != 0UL ? Vec4sRef(area.shadow_opacity_address).values[i] : shadow_opacity[i])
+#define OCCLUDER_DEPTH_LOAD(i) \
+    (area.occluder_depth_address != 0UL ? FloatsRef(area.occluder_depth_address).values[i] : occluder_depth[i])
+
 // Hair shading with volume shadows: the light through the character's own hair volume.
 float shade_light_transmittance(uint i, vec3 p);
 #define HAIR_LIGHT_TRANSMITTANCE(i, p) shade_light_transmittance(i, p)
 #include "hair_shading.glsl"
 #include "raster_frame.glsl"
-
-layout(local_size_x = 8, local_size_y = 8) in;
-
-// The pixel rectangle the frame's hair can cover (x0, y0, x1, y1; x1, y1 exclusive); slots K.
-layout(push_constant) uniform Rect {
-    uvec4 rect;
-    uint k;
-} area;
 
 layout(std430, set = 0, binding = HK_BINDING_VISIBILITY) buffer PixelBuffer { uint64_t pixel_words[]; };
 layout(std430, set = 0, binding = HK_BINDING_SHADED) writeonly buffer ShadedBuffer { vec4 shaded[]; };
@@ -42,6 +63,12 @@ const uint MAX_SLOTS = 16u;
 #define ORDER_SLOTS(i, j) \
     { uint64_t nearer = min(s[i], s[j]); s[j] = max(s[i], s[j]); s[i] = nearer; }
 
+// A plain load of word i, before the sort writes the pixel's words (a load through the
+// read-only reference after a store through the binding could be reordered before it).
+uint64_t load_pixel_word(uint i) {
+    return area.words_address != 0UL ? PixelWordsRef(area.words_address).words[i] : pixel_words[i];
+}
+
 // Sorts the K > 1 slots of the pixel whose words start at `first` in place, nearest first (the
 // raster kernels leave them unordered): Batcher's odd-even merge sort of 4, 8 or 16 words
 // (5, 19 or 63 compare-exchanges), the slots past K empty, with constant indices only so that
@@ -49,7 +76,7 @@ const uint MAX_SLOTS = 16u;
 void sort_slots(uint first, uint k) {
     uint64_t s[MAX_SLOTS];
     [[unroll]] for (uint i = 0u; i < MAX_SLOTS; ++i) {
-        s[i] = i < k ? pixel_words[first + i] : VISIBILITY_EMPTY;
+        s[i] = i < k ? load_pixel_word(first + i) : VISIBILITY_EMPTY;
     }
     if (k <= 4u) {
         ORDER_SLOTS(0, 1); ORDER_SLOTS(2, 3); ORDER_SLOTS(0, 2); ORDER_SLOTS(1, 3);

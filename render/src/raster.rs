@@ -229,7 +229,7 @@ impl ComputeRaster {
             "compute raster shade",
             &shaders::RASTER_SHADE_COMP,
             &Binding::storage_buffers(&RASTER_SHADE_BINDINGS, stage),
-            32,
+            size_of::<ShadePush>() as u32,
         )?;
         let tiles = compute(
             "compute raster tiles",
@@ -507,6 +507,19 @@ pub fn screen_rect(
     let lo = (lo - margin).floor().clamp(glam::Vec2::ZERO, size);
     let hi = (hi + margin).ceil().clamp(glam::Vec2::ZERO, size);
     [lo.x as u32, lo.y as u32, hi.x as u32, hi.y as u32]
+}
+
+/// The shade kernel's push constants (raster_shade.comp `Rect`).
+#[repr(C)]
+#[derive(Clone, Copy, bytemuck::Pod, bytemuck::Zeroable)]
+pub(crate) struct ShadePush {
+    pub(crate) rect: [u32; 4],
+    pub(crate) k: u32,
+    pub(crate) pad: u32,
+    pub(crate) words_address: u64,
+    pub(crate) shadow_depth_address: u64,
+    pub(crate) shadow_opacity_address: u64,
+    pub(crate) occluder_depth_address: u64,
 }
 
 /// The push constants of one character's raster dispatch.

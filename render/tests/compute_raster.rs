@@ -741,6 +741,21 @@ fn main() -> ExitCode {
                         tiled.linear == single.linear,
                         "{transparency}: stored strands drawn without the occlusion tiles change the image"
                     );
+                    // With shadows, the shade pass reads the shadow maps through buffer
+                    // references too (and the OIT slots before sorting them): again only how.
+                    let effects = serde_json::json!({
+                        "transparency": transparency, "oit_k": 4, "raster": "compute", "shadows": true
+                    });
+                    let shadowed = load_scene(&sintel_scene(dir.path(), "sintel_shadowed", effects)?)?;
+                    let referenced =
+                        SceneRenderer::new(ctx, &shadowed, GenerationPath::Compute)?.render(ctx)?;
+                    let bound = SceneRenderer::new(ctx, &shadowed, GenerationPath::Compute)?
+                        .with_buffer_references(false)
+                        .render(ctx)?;
+                    ensure!(
+                        referenced.linear == bound.linear,
+                        "{transparency}: shading through the bindings instead of buffer references changes the image"
+                    );
                 }
                 Ok(())
             },

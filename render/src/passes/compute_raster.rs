@@ -9,7 +9,7 @@ use super::ScenePass;
 use crate::contract::binding;
 use crate::frame::{FrameIds, FrameState, SceneRenderer};
 use crate::graph::{Access, FrameGraph};
-use crate::raster::{raster_push, stored_group_size, tile_grid};
+use crate::raster::{ShadePush, raster_push, stored_group_size, tile_grid};
 use crate::shaders;
 
 pub(crate) fn plan_clear(g: &mut FrameGraph<ScenePass>, ids: &FrameIds, submission: usize) {
@@ -206,7 +206,19 @@ pub(crate) fn record_shade(
     rec.bind_pipeline(&cr.shade);
     rec.push_storage_buffers(&cr.shade, &buffers);
     let [x0, y0, x1, y1] = b.rect;
-    rec.push_constants(&cr.shade, &[x0, y0, x1, y1, b.k, 0, 0, 0]);
+    // Where the kernel's plain loads read through (0: the bindings): the pixel words and the
+    // shadow maps (contract::LIGHTING_BINDINGS: depth, opacity, lights, occluder depth).
+    let address = |buffer: &gen_gpu::Buffer| if r.buffer_references { buffer.device_address() } else { 0 };
+    let push = ShadePush {
+        rect: b.rect,
+        k: b.k,
+        pad: 0,
+        words_address: address(&b.pixel_words),
+        shadow_depth_address: address(l[0].1),
+        shadow_opacity_address: address(l[1].1),
+        occluder_depth_address: address(l[3].1),
+    };
+    rec.push_constants(&cr.shade, &push);
     let [gx, gy, _] = shaders::RASTER_SHADE_COMP.workgroup_size;
     rec.dispatch((x1 - x0).div_ceil(gx), (y1 - y0).div_ceil(gy), 1);
     Ok(())
