@@ -149,8 +149,10 @@ impl OccluderMesh {
 
 pub use crate::contract::LIGHTING_BINDINGS;
 
-/// The occluder pipelines: shaded into the scene target, and depth-only into shadow maps.
+/// The occluder pipelines: depth-only into the scene target (a prepass), shaded into it where
+/// the prepass left each pixel's nearest surface, and depth-only into shadow maps.
 pub struct OccluderPipelines {
+    pub depth: Pipeline,
     pub shade: Pipeline,
     pub shadow: Pipeline,
 }
@@ -171,7 +173,7 @@ impl OccluderPipelines {
             .chain([b::VOLUME_AO])
             .map(|b| Binding::storage_buffer(b, stages))
             .collect();
-        let desc = |name, fragment, color_format, samples, color_write| GraphicsPipelineDesc {
+        let desc = |name, fragment, color_format, samples, color_write, depth_compare| GraphicsPipelineDesc {
             name,
             stages: GraphicsStages::Vertex(&shaders::OCCLUDER_VERT),
             fragment,
@@ -184,16 +186,44 @@ impl OccluderPipelines {
             depth_write: true,
             color_write,
             samples,
-            depth_compare: vk::CompareOp::LESS,
+            depth_compare,
         };
+        let less = vk::CompareOp::LESS;
         Ok(Self {
+            depth: Pipeline::graphics(
+                ctx,
+                &desc(
+                    "occluder depth prepass",
+                    &shaders::SHADOW_DEPTH_FRAG,
+                    color_format,
+                    samples,
+                    false,
+                    less,
+                ),
+            )?,
+            // After the prepass only each pixel's nearest surface passes (the same vertex code
+            // gives the same depths), so a pixel is lit once however many surfaces cover it.
             shade: Pipeline::graphics(
                 ctx,
-                &desc("occluders", &shaders::OCCLUDER_FRAG, color_format, samples, true),
+                &desc(
+                    "occluders",
+                    &shaders::OCCLUDER_FRAG,
+                    color_format,
+                    samples,
+                    true,
+                    vk::CompareOp::LESS_OR_EQUAL,
+                ),
             )?,
             shadow: Pipeline::graphics(
                 ctx,
-                &desc("occluder shadow depth", &shaders::SHADOW_DEPTH_FRAG, gen_gpu::COLOR_FORMAT, 1, false),
+                &desc(
+                    "occluder shadow depth",
+                    &shaders::SHADOW_DEPTH_FRAG,
+                    gen_gpu::COLOR_FORMAT,
+                    1,
+                    false,
+                    less,
+                ),
             )?,
         })
     }

@@ -29,6 +29,12 @@ pub(crate) fn record(
     let view = &state.plan.view;
     let view_proj = crate::camera::view_proj(&view.camera, view.width, view.height);
     state.target.begin_rendering(rec, clear);
+    // Depth first: the lighting (shadow-map lookups, AO) then runs once per pixel, where
+    // drawing shaded surfaces in mesh order lit every surface that was nearest so far.
+    for o in &r.occluders {
+        let push = occluder_push(o.transform, view_proj, view.camera.eye, 0, o.color);
+        r.meshes[o.mesh].record_draw(rec, &pipes.depth, &push, &[]);
+    }
     let light_count = r.scene.lights().len();
     for o in &r.occluders {
         let mut push = occluder_push(o.transform, view_proj, view.camera.eye, light_count, o.color);
