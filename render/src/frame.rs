@@ -789,13 +789,19 @@ impl SceneRenderer {
         self
     }
 
-    /// Compute rasterizer: `false` has its raster kernels read the pixel words and occlusion
-    /// tiles through their bindings instead of buffer references (the image is the same; tests
-    /// compare them). References are the default where the device has buffer device
-    /// addresses: CPU devices gather loads through them with vector instructions.
+    /// Compute rasterizer: `false` has its raster and shade kernels read the pixel words,
+    /// occlusion tiles and shadow maps through their bindings instead of buffer references (the
+    /// image is the same; tests compare them). References are the default where the device has
+    /// buffer device addresses: CPU devices gather loads through them with vector instructions.
     pub fn with_buffer_references(mut self, on: bool) -> Self {
         self.buffer_references = on;
         self
+    }
+
+    /// The address a compute-raster kernel's plain loads of `buffer` read through: its device
+    /// address with buffer references on (0 where the device has none), else 0 (the binding).
+    pub(crate) fn load_address(&self, buffer: &Buffer) -> u64 {
+        if self.buffer_references { buffer.device_address() } else { 0 }
     }
 
     /// With `"volume_lod"`: `true` raymarches every character, whatever its projected size (the

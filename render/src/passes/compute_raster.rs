@@ -146,8 +146,7 @@ pub(crate) fn record_raster(
     ];
     let tiles_x = tile_grid(state.plan.view.width, state.plan.view.height).0;
     // Where the kernels' plain loads read through (0: the bindings).
-    let addresses =
-        if r.buffer_references { (b.pixel_words.device_address(), b.tiles.device_address()) } else { (0, 0) };
+    let addresses = (r.load_address(&b.pixel_words), r.load_address(&b.tiles));
     if !state.frames.is_empty() {
         rec.bind_pipeline(&cr.raster);
     }
@@ -207,16 +206,16 @@ pub(crate) fn record_shade(
     rec.push_storage_buffers(&cr.shade, &buffers);
     let [x0, y0, x1, y1] = b.rect;
     // Where the kernel's plain loads read through (0: the bindings): the pixel words and the
-    // shadow maps (contract::LIGHTING_BINDINGS: depth, opacity, lights, occluder depth).
-    let address = |buffer: &gen_gpu::Buffer| if r.buffer_references { buffer.device_address() } else { 0 };
+    // shadow maps, found by their bindings among the frame's lighting buffers.
+    let map = |binding| l.iter().find(|(b, _)| *b == binding).map_or(0, |(_, buffer)| r.load_address(buffer));
     let push = ShadePush {
         rect: b.rect,
         k: b.k,
         pad: 0,
-        words_address: address(&b.pixel_words),
-        shadow_depth_address: address(l[0].1),
-        shadow_opacity_address: address(l[1].1),
-        occluder_depth_address: address(l[3].1),
+        words_address: r.load_address(&b.pixel_words),
+        shadow_depth_address: map(binding::SHADOW_DEPTH),
+        shadow_opacity_address: map(binding::SHADOW_OPACITY),
+        occluder_depth_address: map(binding::OCCLUDER_DEPTH),
     };
     rec.push_constants(&cr.shade, &push);
     let [gx, gy, _] = shaders::RASTER_SHADE_COMP.workgroup_size;
