@@ -37,7 +37,7 @@ pub use generator::{
 pub use gpu_allocator::MemoryLocation;
 pub use hair::{GpuHair, HairUpdate, StagedHairUpdate, TextureBytes, TexturePrecision};
 pub use path::{GenerationPath, PathChoice};
-pub use stored::StoredStrands;
+pub use stored::{StoredChunk, StoredStrands};
 
 /// The SPIR-V modules of this crate, compiled from `gen-gpu/shaders` at build time.
 pub mod shaders {

@@ -9,6 +9,16 @@ use crate::generator::{
 };
 use crate::{Buffer, BufferDesc, Context, DrawExtras, FrameInputs, GpuError, Recorder, Result, SlotSubset};
 
+/// One chunk of [`StoredStrands::record_compute`]'s dispatches.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct StoredChunk {
+    /// Strand slots in the chunk (the bound window of the strand buffers).
+    pub slots: u32,
+    /// Device address of the chunk's first vertex (0 where the device has no buffer device
+    /// addresses): kernels may load the vertices through a buffer reference.
+    pub vertices_address: u64,
+}
+
 /// Strands uploaded once, in the generator's strand-buffer layout.
 #[derive(Debug)]
 pub struct StoredStrands {
@@ -137,7 +147,8 @@ impl StoredStrands {
 
     /// Runs `pipeline` (a compute consumer created with [`crate::strand_bindings`]) over these
     /// strands, one chunk window at a time: binds `params`, the chunk's vertices and info and
-    /// `extra`, calls `per_chunk` with the chunk's slot count (to push constants), then
+    /// `extra`, calls `per_chunk` with the chunk (its slot count and vertices' address, to push
+    /// constants), then
     /// dispatches one invocation per slot of `subset` in workgroups of `group_size`: with
     /// [`SlotSubset::All`] invocation i draws slot i; otherwise the shader takes its slot
     /// (relative to the chunk window) from `subset_slot(subset, gl_GlobalInvocationID.x)`
@@ -154,7 +165,7 @@ impl StoredStrands {
         extra: &[(u32, &Buffer)],
         group_size: u32,
         subset: SlotSubset,
-        mut per_chunk: impl FnMut(&Recorder<'_>, u32),
+        mut per_chunk: impl FnMut(&Recorder<'_>, StoredChunk),
     ) {
         use crate::contract::binding as b;
         let whole = ash::vk::WHOLE_SIZE;
@@ -170,7 +181,9 @@ impl StoredStrands {
             ];
             buffers.extend(extra.iter().map(|(b, buf)| (*b, *buf, 0, whole)));
             rec.push_descriptors_ranged(pipeline, &buffers, &[]);
-            per_chunk(rec, slots as u32);
+            let base = self.vertices.device_address();
+            let vertices_address = if base == 0 { 0 } else { base + first * SLOT_BYTES };
+            per_chunk(rec, StoredChunk { slots: slots as u32, vertices_address });
             rec.dispatch(subset.count(slots as u32).div_ceil(group_size.max(1)), 1, 1);
         }
     }

@@ -10,13 +10,23 @@
 
 layout(local_size_x = 32) in;
 
+layout(buffer_reference, std430, buffer_reference_align = 16) readonly buffer StrandVerticesRef { vec4 values[]; };
+
+// Through the reference when there is one: a gather on CPU devices, where the binding's load
+// at a per-invocation address is a loop over the SIMD lanes.
+vec4 load_stored(uint i) {
+    return raster.vertices_address != 0UL ? StrandVerticesRef(raster.vertices_address).values[i] : strand_vertices[i];
+}
+
 StrandVertex stored_vertex(uint slot, uint k) {
     uint base = (slot * MAX_VERTICES + k) * 2u;
+    vec4 position_width = load_stored(base);
+    vec4 tangent_tau = load_stored(base + 1u);
     StrandVertex v;
-    v.position = strand_vertices[base].xyz;
-    v.width = strand_vertices[base].w;
-    v.tangent = strand_vertices[base + 1u].xyz;
-    v.tau = strand_vertices[base + 1u].w;
+    v.position = position_width.xyz;
+    v.width = position_width.w;
+    v.tangent = tangent_tau.xyz;
+    v.tau = tangent_tau.w;
     return v;
 }
 

@@ -27,7 +27,7 @@ layout(std430, set = 0, binding = HK_BINDING_SCENE_DEPTH) readonly buffer SceneD
 layout(std430, set = 0, binding = HK_BINDING_RASTER_TILES) readonly buffer TileBuffer { uint tile_depth[]; };
 
 layout(push_constant) uniform RasterParams {
-    mat4 model;           // object -> world: tangents are stored in world space
+    mat3 model;           // object -> world, its linear part: tangents are stored in world space
     uint material;        // the character's material index
     uint slots;           // stored strands: slots in the bound chunk window
     uint flags;           // bit 0: hide fragments behind scene_depth
@@ -38,15 +38,21 @@ layout(push_constant) uniform RasterParams {
     float opacity;        // of one strand (its material's)
     float volume_fraction; // transition band: pixels whose dither is below it are the volume's
     uint pad;             // (the addresses are 8-byte aligned)
-    // Device addresses of pixel_words and tile_depth (0: none), for the plain loads: CPU devices
-    // (llvmpipe) gather loads through a buffer reference with vector instructions, where a
-    // storage-buffer load of a divergent address is a loop over the SIMD lanes.
+    // Device addresses of pixel_words, tile_depth and scene_depth (0: none), for the plain
+    // loads: CPU devices (llvmpipe) gather loads through a buffer reference with vector
+    // instructions, where a storage-buffer load of a divergent address is a loop over the SIMD
+    // lanes.
     uint64_t words_address;
     uint64_t tiles_address;
+    uint64_t scene_depth_address;
+    // Stored strands: the device address of the bound chunk's vertices (0: read through the
+    // binding).
+    uint64_t vertices_address;
 } raster;
 
 layout(buffer_reference, std430, buffer_reference_align = 8) readonly buffer PixelWordsRef { uint64_t words[]; };
 layout(buffer_reference, std430, buffer_reference_align = 4) readonly buffer TileWordsRef { uint words[]; };
+layout(buffer_reference, std430, buffer_reference_align = 4) readonly buffer SceneDepthRef { float depth[]; };
 
 // visibility_write.glsl's plain loads, through the reference when there is one.
 #define PIXEL_WORD_LOAD(i) \
@@ -59,6 +65,11 @@ uint64_t load_pixel_word(uint i) {
 
 uint load_tile_word(uint i) {
     return raster.tiles_address != 0UL ? TileWordsRef(raster.tiles_address).words[i] : tile_depth[i];
+}
+
+float load_scene_depth(uint pixel) {
+    return raster.scene_depth_address != 0UL ? SceneDepthRef(raster.scene_depth_address).depth[pixel]
+                                             : scene_depth[pixel];
 }
 
 // Which strands a dispatch draws: all of them, or in two phases around the tile pass: first a
@@ -158,7 +169,7 @@ void raster_fragment(uint pixel, float coverage, float ndc_z, inout ColumnAttrib
             return;
         }
     }
-    if ((raster.flags & 1u) != 0u && !(ndc_z < scene_depth[pixel])) {
+    if ((raster.flags & 1u) != 0u && !(ndc_z < load_scene_depth(pixel))) {
         return;
     }
     uint k = raster.k;

@@ -116,7 +116,8 @@ pub fn resolve_raster(
 #[repr(C)]
 #[derive(Clone, Copy, Debug, bytemuck::Pod, bytemuck::Zeroable)]
 pub(crate) struct RasterPush {
-    pub(crate) model: [f32; 16],
+    /// Object → world, its linear part (a GLSL `mat3`: three columns padded to 16 bytes).
+    pub(crate) model: [f32; 12],
     pub(crate) material: u32,
     pub(crate) slots: u32,
     pub(crate) flags: u32,
@@ -130,10 +131,13 @@ pub(crate) struct RasterPush {
     /// The character's share of the transition band drawn by its volume ([`crate::volume`]).
     pub(crate) volume_fraction: f32,
     pub(crate) pad: u32,
-    /// Device addresses of the visibility + coverage words and of the occlusion tiles: the
-    /// kernel's plain loads read through them (0: through the bindings).
+    /// Device addresses of the visibility + coverage words, of the occlusion tiles and of the
+    /// occluders' depth: the kernel's plain loads read through them (0: through the bindings).
     pub(crate) words_address: u64,
     pub(crate) tiles_address: u64,
+    pub(crate) scene_depth_address: u64,
+    /// Stored strands: the bound chunk's vertices (0: through the binding).
+    pub(crate) vertices_address: u64,
 }
 
 /// 64-bit words per pixel with `k` visibility slots (`pixel_stride` in `raster_common.glsl`):
@@ -333,10 +337,12 @@ impl ComputeRaster {
                 &extra,
                 stored_group_size(),
                 SlotSubset::All,
-                |rec, slots| {
-                    let mut push = raster_push(model, material, slots, false, SlotSubset::All, 1, k, 1.0);
+                |rec, chunk| {
+                    let mut push =
+                        raster_push(model, material, chunk.slots, false, SlotSubset::All, 1, k, 1.0);
                     if through_references {
                         push.words_address = words.device_address();
+                        push.vertices_address = chunk.vertices_address;
                     }
                     rec.push_constants(pipeline, &push);
                 },
@@ -535,7 +541,10 @@ pub(crate) fn raster_push(
     opacity: f32,
 ) -> RasterPush {
     RasterPush {
-        model: transform.to_cols_array(),
+        model: {
+            let [x, y, z, _] = transform.to_cols_array_2d();
+            [x[0], x[1], x[2], 0.0, y[0], y[1], y[2], 0.0, z[0], z[1], z[2], 0.0]
+        },
         material,
         slots,
         flags: if occluders { FLAG_SCENE_DEPTH } else { 0 },
@@ -548,6 +557,8 @@ pub(crate) fn raster_push(
         pad: 0,
         words_address: 0,
         tiles_address: 0,
+        scene_depth_address: 0,
+        vertices_address: 0,
     }
 }
 

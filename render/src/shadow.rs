@@ -283,10 +283,10 @@ impl ComputeShadow {
                 &extra,
                 Self::stored_group_size(),
                 gen_gpu::SlotSubset::All,
-                |rec, slots| {
+                |rec, chunk| {
                     rec.push_constants(
                         &self.stored,
-                        &ShadowRasterPush::new(shadow, size, Mat4::IDENTITY, mode, slots),
+                        &ShadowRasterPush::new(shadow, size, Mat4::IDENTITY, mode, chunk.slots),
                     );
                 },
             );

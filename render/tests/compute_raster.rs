@@ -742,7 +742,8 @@ fn main() -> ExitCode {
                         "{transparency}: stored strands drawn without the occlusion tiles change the image"
                     );
                     // With shadows, the shade pass reads the shadow maps through buffer
-                    // references too (and the OIT slots before sorting them): again only how.
+                    // references too (and the OIT slots before sorting them), and the raster
+                    // kernel the groom's stored vertices and the bust's depth: again only how.
                     let effects = serde_json::json!({
                         "transparency": transparency, "oit_k": 4, "raster": "compute", "shadows": true
                     });

@@ -146,7 +146,7 @@ pub(crate) fn record_raster(
     ];
     let tiles_x = tile_grid(state.plan.view.width, state.plan.view.height).0;
     // Where the kernels' plain loads read through (0: the bindings).
-    let addresses = (r.load_address(&b.pixel_words), r.load_address(&b.tiles));
+    let addresses = (r.load_address(&b.pixel_words), r.load_address(&b.tiles), r.load_address(depth));
     if !state.frames.is_empty() {
         rec.bind_pipeline(&cr.raster);
     }
@@ -156,7 +156,7 @@ pub(crate) fn record_raster(
         let material = state.materials[*i];
         let opacity = r.raster_opacity(material);
         let mut push = raster_push(c.transform, material, 0, occluders, phase, tiles_x, b.k, opacity);
-        (push.words_address, push.tiles_address) = addresses;
+        (push.words_address, push.tiles_address, push.scene_depth_address) = addresses;
         push.volume_fraction = state.plan.volume_fraction(*i);
         rec.push_constants(&cr.raster, &push);
         Generator::record_fused_subset_dispatch(rec, frame, phase);
@@ -172,9 +172,11 @@ pub(crate) fn record_raster(
         let pipeline = &cr.raster_stored;
         let opacity = r.raster_opacity(material);
         let stored = &r.stored[c.hair];
-        stored.record_compute(rec, pipeline, params, &extra, stored_group_size(), phase, |rec, slots| {
-            let mut push = raster_push(c.transform, material, slots, occluders, phase, tiles_x, b.k, opacity);
-            (push.words_address, push.tiles_address) = addresses;
+        stored.record_compute(rec, pipeline, params, &extra, stored_group_size(), phase, |rec, chunk| {
+            let mut push =
+                raster_push(c.transform, material, chunk.slots, occluders, phase, tiles_x, b.k, opacity);
+            (push.words_address, push.tiles_address, push.scene_depth_address) = addresses;
+            push.vertices_address = if r.buffer_references { chunk.vertices_address } else { 0 };
             push.volume_fraction = volume_fraction;
             rec.push_constants(pipeline, &push);
         });

@@ -585,10 +585,10 @@ fn record_compute_maps(
             &extra,
             group,
             gen_gpu::SlotSubset::All,
-            |rec, slots| {
+            |rec, chunk| {
                 rec.push_constants(
                     pipeline,
-                    &ShadowRasterPush::new(&light.shadow, s.size, c.transform, mode, slots),
+                    &ShadowRasterPush::new(&light.shadow, s.size, c.transform, mode, chunk.slots),
                 );
             },
         );

@@ -161,10 +161,10 @@ pub(crate) fn record_hair(
                 &sums,
                 group,
                 gen_gpu::SlotSubset::All,
-                |rec, slots| {
+                |rec, chunk| {
                     rec.push_constants(
                         pipeline,
-                        &VoxelizePush { object_to_voxel, dims: [nx, ny, nz, slots] },
+                        &VoxelizePush { object_to_voxel, dims: [nx, ny, nz, chunk.slots] },
                     );
                 },
             );
