@@ -39,8 +39,10 @@ void main() {
         }
         return;
     }
-    oit_nodes[index].depth = floatBitsToUint(gl_FragCoord.z);
-    oit_nodes[index].color_rg = packHalf2x16(color.rg);
-    oit_nodes[index].color_ba = packHalf2x16(color.ba);
-    oit_nodes[index].next = atomicExchange(oit_heads[base], index);
+    OitNode n;
+    n.depth = floatBitsToUint(gl_FragCoord.z);
+    n.color_rg = packHalf2x16(color.rg);
+    n.color_ba = packHalf2x16(color.ba);
+    n.next = atomicExchange(oit_heads[base], index);
+    oit_store_node(index, n);
 }

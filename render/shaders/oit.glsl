@@ -3,6 +3,8 @@
 // rest order-independently. Fragments that find the node pool full go to their pixel's overflow
 // tail instead, blended with the rest.
 
+#extension GL_EXT_buffer_reference : require
+#extension GL_EXT_buffer_reference_uvec2 : require
 #include "hk_render_contract.glsl"
 
 const uint OIT_END = 0xffffffffu;
@@ -32,12 +34,56 @@ const uint OIT_TAIL_ALPHA_LIMIT = 1u << 30;
 const uint OIT_TAIL_DEPTH_LIMIT = 32u * 4096u;
 layout(std430, set = 0, binding = HK_BINDING_OIT_HEADS) coherent buffer OitHeads { uint oit_heads[]; };
 layout(std430, set = 0, binding = HK_BINDING_OIT_NODES) buffer OitNodes { OitNode oit_nodes[]; };
+// The node pool through its device address, where it is larger than a storage-buffer binding
+// may be (lavapipe's 128 MiB: 8 M nodes, where a close-up of 100k strands makes 50 M fragments).
+layout(buffer_reference, std430, buffer_reference_align = 16) buffer OitNodesRef { OitNode nodes[]; };
 // x: next free node; y: pool size; z: fragments that found the pool full; w: width. Then words per
-// pixel of oit_heads: OIT_PIXEL_WORDS, or 1 (no overflow tail: the output is too large for it).
+// pixel of oit_heads: OIT_PIXEL_WORDS, or 1 (no overflow tail: the output is too large for it);
+// then the pool's device address (0: the pool is the binding).
 layout(std430, set = 0, binding = HK_BINDING_OIT_COUNTERS) coherent buffer OitCounters {
     uvec4 oit_counters;
     uint oit_pixel_words;
+    uint oit_pad;
+    uvec2 oit_nodes_address;
 };
+
+bool oit_nodes_referenced() {
+    return oit_nodes_address != uvec2(0u);
+}
+
+// Field by field: glslang writes a whole-struct store into a buffer reference with mismatched
+// types (invalid SPIR-V).
+void oit_store_node(uint i, OitNode n) {
+    if (oit_nodes_referenced()) {
+        OitNodesRef nodes = OitNodesRef(oit_nodes_address);
+        nodes.nodes[i].next = n.next;
+        nodes.nodes[i].depth = n.depth;
+        nodes.nodes[i].color_rg = n.color_rg;
+        nodes.nodes[i].color_ba = n.color_ba;
+    } else {
+        oit_nodes[i].next = n.next;
+        oit_nodes[i].depth = n.depth;
+        oit_nodes[i].color_rg = n.color_rg;
+        oit_nodes[i].color_ba = n.color_ba;
+    }
+}
+
+OitNode oit_load_node(uint i) {
+    OitNode n;
+    if (oit_nodes_referenced()) {
+        OitNodesRef nodes = OitNodesRef(oit_nodes_address);
+        n.next = nodes.nodes[i].next;
+        n.depth = nodes.nodes[i].depth;
+        n.color_rg = nodes.nodes[i].color_rg;
+        n.color_ba = nodes.nodes[i].color_ba;
+    } else {
+        n.next = oit_nodes[i].next;
+        n.depth = oit_nodes[i].depth;
+        n.color_rg = oit_nodes[i].color_rg;
+        n.color_ba = oit_nodes[i].color_ba;
+    }
+    return n;
+}
 
 // The sum held in tail word `w` (the complement of the word).
 uint oit_tail_sum(uint w) {

@@ -24,9 +24,10 @@ void main() {
     uint base = pixel * oit_pixel_words;
     uint node = oit_heads[base];
     for (uint walked = 0u; node != OIT_END && walked < OIT_MAX_WALK && node < oit_counters.y; ++walked) {
-        float depth = uintBitsToFloat(oit_nodes[node].depth);
-        vec4 color = vec4(unpackHalf2x16(oit_nodes[node].color_rg), unpackHalf2x16(oit_nodes[node].color_ba));
-        node = oit_nodes[node].next;
+        OitNode n = oit_load_node(node);
+        float depth = uintBitsToFloat(n.depth);
+        vec4 color = vec4(unpackHalf2x16(n.color_rg), unpackHalf2x16(n.color_ba));
+        node = n.next;
         if (count == k) {
             if (depth >= depths[k - 1u]) {
                 tail_sum += color;

@@ -65,6 +65,9 @@ struct GpuLight {
 }
 
 pub(crate) const OIT_NODE_BYTES: u64 = 16;
+/// The most bytes an OIT node pool takes where the shaders reach it through its device address
+/// (67 M nodes; elsewhere the storage-buffer range bounds it: 8 M nodes on lavapipe).
+pub const OIT_POOL_BYTES: u64 = 1 << 30;
 /// Words per pixel of the OIT heads buffer: the list's head and the overflow tail's six sums
 /// (`oit.glsl`; 1, the head alone, when the output is too large for them).
 pub(crate) const OIT_PIXEL_WORDS: u64 = 7;
@@ -412,6 +415,9 @@ pub(crate) struct OitBuffers {
     pub(crate) pool: u64,
     /// Words per pixel of `heads`: [`OIT_PIXEL_WORDS`] with the overflow tail, 1 without.
     pub(crate) pixel_words: u32,
+    /// The shaders reach `nodes` through its device address (it may exceed the storage-buffer
+    /// range), not through its binding.
+    pub(crate) referenced: bool,
 }
 
 impl SceneRenderer {
@@ -1384,14 +1390,21 @@ impl SceneRenderer {
             self.scene.scene.effects.msaa
         };
         let scene_target = SceneTarget::new(ctx, &mut pool, view.width, view.height, samples)?;
-        // The OIT node pool is bounded by the output size and the storage-buffer range.
+        // The OIT node pool is bounded by the output size (`oit_nodes_per_pixel`) and by the
+        // storage-buffer range, or where the device has buffer device addresses (the kernels
+        // then reach the pool through one) by OIT_POOL_BYTES.
         // (The compute rasterizer keeps its own K nearest fragments per pixel.)
         let oit_buffers = match (&self.oit, &self.compute_raster) {
             (Some(oit), None) => {
                 let pixels = u64::from(view.width) * u64::from(view.height);
-                let range = u64::from(ctx.capabilities().max_storage_buffer_range) / OIT_NODE_BYTES;
+                let referenced = self.buffer_references && ctx.capabilities().buffer_device_address;
+                let pool_bytes = if referenced {
+                    OIT_POOL_BYTES
+                } else {
+                    u64::from(ctx.capabilities().max_storage_buffer_range)
+                };
                 let nodes = ((pixels as f64 * f64::from(oit.nodes_per_pixel)) as u64)
-                    .clamp(1, range.min(u64::from(u32::MAX - 1)));
+                    .clamp(1, (pool_bytes / OIT_NODE_BYTES).min(u64::from(u32::MAX - 1)));
                 // The overflow tail when its words fit one storage buffer (not at 4K on lavapipe's
                 // 128 MiB: there a full pool drops fragments, counted).
                 let fits =
@@ -1403,6 +1416,7 @@ impl SceneRenderer {
                     counters: pool.buffer(ctx, "OIT counters", BufferDesc::storage(32))?,
                     pool: nodes,
                     pixel_words: pixel_words as u32,
+                    referenced,
                 })
             }
             _ => None,

@@ -436,7 +436,8 @@ pub struct Effects {
     pub transparency: Transparency,
     /// OIT: fragments kept sorted per pixel (the rest blend order-independently), 1..=16.
     pub oit_k: u32,
-    /// OIT: average list nodes per pixel the pool holds (it is capped by the storage range).
+    /// OIT: average list nodes per pixel the pool holds (capped at `frame::OIT_POOL_BYTES` where
+    /// the shaders reach the pool through its device address, else by the storage-buffer range).
     pub oit_nodes_per_pixel: f32,
     /// Opaque mode: samples per pixel (1 = coverage AA only; 2, 4 or 8 add MSAA).
     pub msaa: u32,

@@ -127,6 +127,42 @@ fn main() -> ExitCode {
             ensure!(differing > 1000, "OIT should change the image ({differing} pixels differ)");
             Ok(())
         }),
+        GpuTest::new(
+            "the_oit_pool_reaches_past_a_binding_through_its_address",
+            Requirements::BUFFER_DEVICE_ADDRESS,
+            |ctx| {
+                // 256 nodes per pixel at 256×192: 12.6 M nodes, 201 MB, past a storage-buffer
+                // binding's range on lavapipe (128 MiB: 8.4 M nodes). Through its device address the
+                // pool holds them all; through the binding it is cut to the range. Neither overflows
+                // here, and both give the same image.
+                let dir = tempfile::tempdir()?;
+                let effects =
+                    serde_json::json!({ "transparency": "oit", "oit_k": 8, "oit_nodes_per_pixel": 256 });
+                let scene = load_scene(&scene_with(dir.path(), "one_character", 256, 192, effects)?)?;
+                let wanted = 256 * 192 * 256u64;
+                let range_nodes = u64::from(ctx.capabilities().max_storage_buffer_range) / 16;
+                let referenced = SceneRenderer::new(ctx, &scene, GenerationPath::Compute)?.render(ctx)?;
+                let bound = SceneRenderer::new(ctx, &scene, GenerationPath::Compute)?
+                    .with_buffer_references(false)
+                    .render(ctx)?;
+                eprintln!(
+                    "  pool through the address {:?} nodes, through the binding {:?} (range {range_nodes})",
+                    referenced.oit_pool, bound.oit_pool
+                );
+                ensure!(
+                    referenced.oit_pool == Some(wanted.min(render::frame::OIT_POOL_BYTES / 16)),
+                    "{:?}",
+                    referenced.oit_pool
+                );
+                ensure!(bound.oit_pool == Some(wanted.min(range_nodes)), "{:?}", bound.oit_pool);
+                ensure!(referenced.oit_overflow == Some(0) && bound.oit_overflow == Some(0));
+                ensure!(
+                    referenced.linear == bound.linear,
+                    "the pool's address and its binding give different images"
+                );
+                Ok(())
+            },
+        ),
         GpuTest::new("a_tiny_oit_pool_overflows_gracefully", Requirements::NONE, |ctx| {
             // Fragments beyond the pool go to their pixels' overflow tails: no hair is lost, only
             // its layering there becomes order-independent; the image stays near the one of a pool

@@ -13,10 +13,14 @@ pub struct Requirements {
     pub int64_atomics: bool,
     /// GPU timestamps (per-pass timings).
     pub timestamps: bool,
+    /// Buffer device addresses (storage reached beyond a binding's range).
+    pub buffer_device_address: bool,
 }
 
 impl Requirements {
-    pub const NONE: Self = Self { mesh_shader: false, int64_atomics: false, timestamps: false };
+    pub const NONE: Self =
+        Self { mesh_shader: false, int64_atomics: false, timestamps: false, buffer_device_address: false };
+    pub const BUFFER_DEVICE_ADDRESS: Self = Self { buffer_device_address: true, ..Self::NONE };
     pub const MESH_SHADER: Self = Self { mesh_shader: true, ..Self::NONE };
     pub const INT64_ATOMICS: Self = Self { int64_atomics: true, ..Self::NONE };
     /// The compute rasterizer's per-pass timings.
@@ -135,6 +139,10 @@ pub fn run_gpu_tests(tests: Vec<GpuTest>) -> ExitCode {
                 }
                 if requires.timestamps && ctx.capabilities().timestamp_period_ns.is_none() {
                     let reason = format!("{} has no GPU timestamps", ctx.capabilities().device_name);
+                    return Ok(Completion::ignored_with(reason));
+                }
+                if requires.buffer_device_address && !ctx.capabilities().buffer_device_address {
+                    let reason = format!("{} lacks buffer device addresses", ctx.capabilities().device_name);
                     return Ok(Completion::ignored_with(reason));
                 }
                 run_checked(ctx, body).map(|()| Completion::Completed)

@@ -46,7 +46,17 @@ pub(crate) fn plan_resolve(g: &mut FrameGraph<ScenePass>, ids: &FrameIds, submis
 pub(crate) fn record_clear(rec: &mut Recorder<'_>, state: &FrameState<'_>) -> gen_gpu::Result<()> {
     let Some(oit) = state.oit else { return Ok(()) };
     rec.fill_buffer(&oit.heads, u32::MAX);
-    let init = [0u32, oit.pool as u32, 0, state.plan.view.width, oit.pixel_words, 0, 0, 0];
+    let address = if oit.referenced { oit.nodes.device_address() } else { 0 };
+    let init = [
+        0u32,
+        oit.pool as u32,
+        0,
+        state.plan.view.width,
+        oit.pixel_words,
+        0,
+        address as u32,
+        (address >> 32) as u32,
+    ];
     rec.update_buffer(&oit.counters, 0, bytemuck::cast_slice(&init))
 }
 
@@ -54,9 +64,12 @@ pub(crate) fn record_clear(rec: &mut Recorder<'_>, state: &FrameState<'_>) -> ge
 fn fill_buffers<'a>(state: &FrameState<'a>) -> Option<[(u32, &'a gen_gpu::Buffer); 10]> {
     let oit = state.oit?;
     let (l, v) = (state.lighting, state.volume_buffers);
+    // A pool reached through its device address may exceed what a binding may span: the
+    // (unread) binding then gets the counters as a stand-in.
+    let nodes = if oit.referenced { &oit.counters } else { &oit.nodes };
     Some([
         (binding::OIT_HEADS, &oit.heads),
-        (binding::OIT_NODES, &oit.nodes),
+        (binding::OIT_NODES, nodes),
         (binding::OIT_COUNTERS, &oit.counters),
         l[0],
         l[1],

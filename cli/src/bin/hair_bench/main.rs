@@ -821,6 +821,10 @@ fn heads_crowd(setup: &Setup<'_>, dir: &Path) -> Result<(String, render::scene::
     Ok((name, scene))
 }
 
+/// OIT nodes per pixel of the raster table's close-ups: enough for the triangle OIT to keep every
+/// fragment of the 100k-strand close-up at 1280×720.
+const OIT_REFERENCE_NODES_PER_PIXEL: f32 = 64.0;
+
 /// The triangle raster against the compute rasterizer on the same scenes, in one run: one
 /// character near (a close-up) and far (about 1 % of the screen), the artist's Sintel groom with
 /// shadows, the heads crowd with LOD; per scene the hair passes, the whole frame, the speed-up
@@ -847,12 +851,20 @@ fn raster_table(setup: &Setup<'_>, progress: &indicatif::ProgressBar) -> Result<
             ("close-up", &near, "oit"),
             ("far, ~1 % of the screen", &far, "opaque"),
         ] {
+            // The triangle OIT's pool holds every fragment of the close-up (about 52 M at 100k
+            // strands; 64 nodes per pixel is 59 M at 1280×720, through the pool's device
+            // address): the exact reference the compute OIT's FLIP is measured against.
+            let effects = if transparency == "oit" {
+                serde_json::json!({ "transparency": transparency, "oit_nodes_per_pixel": OIT_REFERENCE_NODES_PER_PIXEL })
+            } else {
+                serde_json::json!({ "transparency": transparency })
+            };
             let scene = serde_json::json!({
                 "output": { "width": width, "height": height },
                 "camera": camera,
                 "lights": lights,
                 "characters": [ { "hair": asset_dir, "color": [0.0835, 0.0272, 0.00719] } ],
-                "effects": { "transparency": transparency }
+                "effects": effects
             });
             let path = dir.join(format!("scene_{strands}_{}.json", scenes.len()));
             std::fs::write(&path, serde_json::to_vec_pretty(&scene)?)?;
@@ -878,7 +890,8 @@ fn raster_table(setup: &Setup<'_>, progress: &indicatif::ProgressBar) -> Result<
     let _ = writeln!(md, "\n### Triangle raster vs compute rasterizer\n");
     let _ = writeln!(
         md,
-        "{width}×{height}, LOD on, GPU timestamps, median of {frames} frames after a warm-up, both rasterizers in one run. *hair passes*: generation (LOD + cull, and the compute path's generation pass for triangles) plus the raster passes (triangles: the strip draw, or the OIT clear, fill and resolve; compute: clear, both fused raster phases, occlusion tiles, shade, resolve); *frame*: every submission of the frame (shadow maps are cached after the first frame). FLIP: mean, compute image against the triangle image.\n"
+        "{width}×{height}, LOD on, GPU timestamps, median of {frames} frames after a warm-up, both rasterizers in one run. *hair passes*: generation (LOD + cull, and the compute path's generation pass for triangles) plus the raster passes (triangles: the strip draw, or the OIT clear, fill and resolve; compute: clear, both fused raster phases, occlusion tiles, shade, resolve); *frame*: every submission of the frame (shadow maps are cached after the first frame). FLIP: mean, compute image against the triangle image. The close-ups' triangle OIT holds {OIT_REFERENCE_NODES_PER_PIXEL} nodes per pixel (`oit_nodes_per_pixel`; the pool reached through its device address, up to {} MiB), so that every fragment enters its pixel's list: the exact reference.\n",
+        render::frame::OIT_POOL_BYTES >> 20
     );
     let _ = writeln!(
         md,
@@ -951,7 +964,7 @@ fn raster_table(setup: &Setup<'_>, progress: &indicatif::ProgressBar) -> Result<
     if !overflows.is_empty() {
         let _ = writeln!(
             md,
-            "\nWhere the triangle OIT's node pool (capped by the storage-buffer size) overflowed, the fragments beyond it were blended order-independently behind the sorted ones, so that reference's layering is approximate there: {}.",
+            "\nWhere the triangle OIT's node pool (`oit_nodes_per_pixel`, capped by the storage-buffer range or the pool budget) overflowed, the fragments beyond it were blended order-independently behind the sorted ones, so that reference's layering is approximate there: {}.",
             overflows.join("; ")
         );
     }
