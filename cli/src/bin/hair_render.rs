@@ -340,8 +340,10 @@ fn budget_warning(frame: &render::frame::RenderedFrame) -> Option<String> {
     (overflow > 0).then(|| {
         format!(
             "{overflow} hair fragments found the OIT node pool ({pool} nodes) full and were blended \
-             order-independently; raise effects.oit_nodes_per_pixel (the pool is also capped by \
-             the device's storage-buffer size) or use \"raster\": \"compute\""
+             order-independently; raise effects.oit_nodes_per_pixel (the pool is also capped at \
+             {} MiB, or by the device's storage-buffer range where it has no buffer device \
+             addresses) or use \"raster\": \"compute\"",
+            render::frame::OIT_POOL_BYTES >> 20
         )
     })
 }
