@@ -29,6 +29,8 @@ layout(push_constant) uniform Rect {
 } area;
 
 layout(buffer_reference, std430, buffer_reference_align = 8) readonly buffer PixelWordsRef { uint64_t words[]; };
+// With K = 1 a pixel's two words (the slot, then the coverage word) as one 16-byte element.
+layout(buffer_reference, std430, buffer_reference_align = 16) readonly buffer PixelPairsRef { u64vec2 pairs[]; };
 layout(buffer_reference, std430, buffer_reference_align = 4) readonly buffer FloatsRef { float values[]; };
 layout(buffer_reference, std430, buffer_reference_align = 16) readonly buffer Vec4sRef { vec4 values[]; };
 
@@ -163,7 +165,11 @@ void main() {
     uint first = pixel_word(pixel, k, 0u);
     // Slots fill in order (the first empty one is the farthest an insertion replaces), so an
     // empty first slot is an empty pixel.
-    uint64_t nearest = pixel_words[first];
+    // With K = 1 nothing is sorted or written: both words come through the reference in one
+    // 16-byte load (one gather on CPU devices, where each binding load is a loop over the lanes).
+    bool paired = k == 1u && area.words_address != 0UL;
+    u64vec2 pair = paired ? PixelPairsRef(area.words_address).pairs[pixel] : u64vec2(0UL);
+    uint64_t nearest = paired ? pair.x : pixel_words[first];
     if (nearest == VISIBILITY_EMPTY) {
         shaded[pixel] = vec4(0.0, 0.0, 0.0, -1.0);
         return;
@@ -181,7 +187,7 @@ void main() {
         sort_slots(first, k);
     }
     for (uint i = 0u; i < k; ++i) {
-        uint64_t word = pixel_words[first + i];
+        uint64_t word = paired ? pair.x : pixel_words[first + i];
         if (word == VISIBILITY_EMPTY) {
             break;
         }
@@ -199,10 +205,10 @@ void main() {
         transmittance *= 1.0 - alpha;
     }
     // Everything behind the slots: the pixel's whole transmittance over the slots'.
-    float total = 1.0 - coverage_alpha(pixel_words[first + k]);
+    float total = 1.0 - coverage_alpha(paired ? pair.y : pixel_words[first + k]);
     float tail = clamp(1.0 - total / max(transmittance, 1e-6), 0.0, 1.0);
     // (Slots fill in order: the last holds a fragment when all do.)
-    if (pixel_words[first + k - 1u] != VISIBILITY_EMPTY && tail > 1.0 / 255.0) {
+    if ((paired ? pair.x : pixel_words[first + k - 1u]) != VISIBILITY_EMPTY && tail > 1.0 / 255.0) {
         atomicAdd(counters[0], 1u);
     }
     color += transmittance * tail * last;
