@@ -51,36 +51,25 @@ bool oit_nodes_referenced() {
     return oit_nodes_address != uvec2(0u);
 }
 
-// Field by field: glslang writes a whole-struct store into a buffer reference with mismatched
-// types (invalid SPIR-V).
+// Copies a node field by field: glslang writes a whole-struct store into a buffer reference with
+// mismatched types (invalid SPIR-V).
+#define OIT_COPY_NODE(to, from) \
+    { to.next = from.next; to.depth = from.depth; to.color_rg = from.color_rg; to.color_ba = from.color_ba; }
+
 void oit_store_node(uint i, OitNode n) {
     if (oit_nodes_referenced()) {
-        OitNodesRef nodes = OitNodesRef(oit_nodes_address);
-        nodes.nodes[i].next = n.next;
-        nodes.nodes[i].depth = n.depth;
-        nodes.nodes[i].color_rg = n.color_rg;
-        nodes.nodes[i].color_ba = n.color_ba;
+        OIT_COPY_NODE(OitNodesRef(oit_nodes_address).nodes[i], n);
     } else {
-        oit_nodes[i].next = n.next;
-        oit_nodes[i].depth = n.depth;
-        oit_nodes[i].color_rg = n.color_rg;
-        oit_nodes[i].color_ba = n.color_ba;
+        OIT_COPY_NODE(oit_nodes[i], n);
     }
 }
 
 OitNode oit_load_node(uint i) {
     OitNode n;
     if (oit_nodes_referenced()) {
-        OitNodesRef nodes = OitNodesRef(oit_nodes_address);
-        n.next = nodes.nodes[i].next;
-        n.depth = nodes.nodes[i].depth;
-        n.color_rg = nodes.nodes[i].color_rg;
-        n.color_ba = nodes.nodes[i].color_ba;
+        OIT_COPY_NODE(n, OitNodesRef(oit_nodes_address).nodes[i]);
     } else {
-        n.next = oit_nodes[i].next;
-        n.depth = oit_nodes[i].depth;
-        n.color_rg = oit_nodes[i].color_rg;
-        n.color_ba = oit_nodes[i].color_ba;
+        OIT_COPY_NODE(n, oit_nodes[i]);
     }
     return n;
 }

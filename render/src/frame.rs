@@ -415,9 +415,9 @@ pub(crate) struct OitBuffers {
     pub(crate) pool: u64,
     /// Words per pixel of `heads`: [`OIT_PIXEL_WORDS`] with the overflow tail, 1 without.
     pub(crate) pixel_words: u32,
-    /// The shaders reach `nodes` through its device address (it may exceed the storage-buffer
-    /// range), not through its binding.
-    pub(crate) referenced: bool,
+    /// The device address the shaders reach `nodes` through (it may exceed the storage-buffer
+    /// range); 0: through its binding.
+    pub(crate) nodes_address: u64,
 }
 
 impl SceneRenderer {
@@ -807,7 +807,13 @@ impl SceneRenderer {
     /// The address a compute-raster kernel's plain loads of `buffer` read through: its device
     /// address with buffer references on (0 where the device has none), else 0 (the binding).
     pub(crate) fn load_address(&self, buffer: &Buffer) -> u64 {
-        if self.buffer_references { buffer.device_address() } else { 0 }
+        self.reference_address(buffer.device_address())
+    }
+
+    /// `address` (a device address, 0 for none) if the kernels read through buffer references,
+    /// else 0 (the binding).
+    pub(crate) fn reference_address(&self, address: u64) -> u64 {
+        if self.buffer_references { address } else { 0 }
     }
 
     /// With `"volume_lod"`: `true` raymarches every character, whatever its projected size (the
@@ -1403,20 +1409,22 @@ impl SceneRenderer {
                 } else {
                     u64::from(ctx.capabilities().max_storage_buffer_range)
                 };
-                let nodes = ((pixels as f64 * f64::from(oit.nodes_per_pixel)) as u64)
+                let pool_nodes = ((pixels as f64 * f64::from(oit.nodes_per_pixel)) as u64)
                     .clamp(1, (pool_bytes / OIT_NODE_BYTES).min(u64::from(u32::MAX - 1)));
                 // The overflow tail when its words fit one storage buffer (not at 4K on lavapipe's
                 // 128 MiB: there a full pool drops fragments, counted).
                 let fits =
                     pixels * 4 * OIT_PIXEL_WORDS <= u64::from(ctx.capabilities().max_storage_buffer_range);
                 let pixel_words = if fits { OIT_PIXEL_WORDS } else { 1 };
+                let nodes =
+                    pool.buffer(ctx, "OIT nodes", BufferDesc::storage(pool_nodes * OIT_NODE_BYTES))?;
                 Some(OitBuffers {
                     heads: pool.buffer(ctx, "OIT heads", BufferDesc::storage(pixels * 4 * pixel_words))?,
-                    nodes: pool.buffer(ctx, "OIT nodes", BufferDesc::storage(nodes * OIT_NODE_BYTES))?,
+                    nodes_address: self.load_address(&nodes),
+                    nodes,
                     counters: pool.buffer(ctx, "OIT counters", BufferDesc::storage(32))?,
-                    pool: nodes,
+                    pool: pool_nodes,
                     pixel_words: pixel_words as u32,
-                    referenced,
                 })
             }
             _ => None,

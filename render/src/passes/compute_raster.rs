@@ -176,7 +176,7 @@ pub(crate) fn record_raster(
             let mut push =
                 raster_push(c.transform, material, chunk.slots, occluders, phase, tiles_x, b.k, opacity);
             (push.words_address, push.tiles_address, push.scene_depth_address) = addresses;
-            push.vertices_address = if r.buffer_references { chunk.vertices_address } else { 0 };
+            push.vertices_address = r.reference_address(chunk.vertices_address);
             push.volume_fraction = volume_fraction;
             rec.push_constants(pipeline, &push);
         });

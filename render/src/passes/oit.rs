@@ -46,7 +46,7 @@ pub(crate) fn plan_resolve(g: &mut FrameGraph<ScenePass>, ids: &FrameIds, submis
 pub(crate) fn record_clear(rec: &mut Recorder<'_>, state: &FrameState<'_>) -> gen_gpu::Result<()> {
     let Some(oit) = state.oit else { return Ok(()) };
     rec.fill_buffer(&oit.heads, u32::MAX);
-    let address = if oit.referenced { oit.nodes.device_address() } else { 0 };
+    let address = oit.nodes_address;
     let init = [
         0u32,
         oit.pool as u32,
@@ -66,7 +66,7 @@ fn fill_buffers<'a>(state: &FrameState<'a>) -> Option<[(u32, &'a gen_gpu::Buffer
     let (l, v) = (state.lighting, state.volume_buffers);
     // A pool reached through its device address may exceed what a binding may span: the
     // (unread) binding then gets the counters as a stand-in.
-    let nodes = if oit.referenced { &oit.counters } else { &oit.nodes };
+    let nodes = if oit.nodes_address != 0 { &oit.counters } else { &oit.nodes };
     Some([
         (binding::OIT_HEADS, &oit.heads),
         (binding::OIT_NODES, nodes),

@@ -854,11 +854,10 @@ fn raster_table(setup: &Setup<'_>, progress: &indicatif::ProgressBar) -> Result<
             // The triangle OIT's pool holds every fragment of the close-up (about 52 M at 100k
             // strands; 64 nodes per pixel is 59 M at 1280×720, through the pool's device
             // address): the exact reference the compute OIT's FLIP is measured against.
-            let effects = if transparency == "oit" {
-                serde_json::json!({ "transparency": transparency, "oit_nodes_per_pixel": OIT_REFERENCE_NODES_PER_PIXEL })
-            } else {
-                serde_json::json!({ "transparency": transparency })
-            };
+            let mut effects = serde_json::json!({ "transparency": transparency });
+            if transparency == "oit" {
+                effects["oit_nodes_per_pixel"] = serde_json::json!(OIT_REFERENCE_NODES_PER_PIXEL);
+            }
             let scene = serde_json::json!({
                 "output": { "width": width, "height": height },
                 "camera": camera,
