@@ -32,7 +32,8 @@ void generate_per_invocation() {
 
 // Per-vertex variants: one workgroup of 32 invocations per strand slot.
 void generate_per_workgroup() {
-    uint local_slot = gl_WorkGroupID.y * DISPATCH_ROW + gl_WorkGroupID.x;
+    uvec3 group = ordered_workgroup_id();
+    uint local_slot = group.y * DISPATCH_ROW + group.x;
     if (local_slot >= chunk_size(chunk_params.chunk)) {
         return;
     }

@@ -92,10 +92,14 @@ uint subset_size(uint subset, uint slots) {
 }
 
 #ifndef HAIR_GEN_NO_WORKGROUP
+#include "dispatch_order.glsl"
+
 // This invocation's index in a one-strand-per-invocation dispatch (rows of DISPATCH_ROW
-// workgroups of STRANDS_PER_GROUP).
+// workgroups of STRANDS_PER_GROUP), in the dispatch order (dispatch_order.glsl: on CPU devices
+// each worker thread then draws strands from all over the hair, not one region of it).
 uint invocation_index() {
-    return (gl_WorkGroupID.y * DISPATCH_ROW + gl_WorkGroupID.x) * STRANDS_PER_GROUP + gl_LocalInvocationID.x;
+    uvec3 group = ordered_workgroup_id();
+    return (group.y * DISPATCH_ROW + group.x) * STRANDS_PER_GROUP + gl_LocalInvocationID.x;
 }
 
 // The slot of chunk 0 this invocation of a dispatch over subset `subset`

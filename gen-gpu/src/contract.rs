@@ -112,6 +112,10 @@ pub const VERTEX_BYTES: u64 = 32;
 /// for a first pass whose results let the second skip work), then the others.
 pub const SPARSE_SLOT_STRIDE: u32 = 8;
 
+/// The specialization constant `DISPATCH_WORKERS` of `dispatch_order.glsl`, which the backend
+/// sets on every compute pipeline ([`crate::Context::dispatch_workers`]).
+pub const DISPATCH_WORKERS_CONSTANT_ID: u32 = 16;
+
 /// Every constant of the header, as `(GLSL macro, value)`.
 pub const GLSL_DEFINES: &[(&str, u64)] = &[
     ("HK_BINDING_GEN_PARAMS", binding::GEN_PARAMS as u64),
@@ -135,6 +139,7 @@ pub const GLSL_DEFINES: &[(&str, u64)] = &[
     ("HK_MAX_VERTICES", MAX_VERTICES),
     ("HK_MAX_LAYERS", MAX_LAYERS as u64),
     ("HK_SPARSE_SLOT_STRIDE", SPARSE_SLOT_STRIDE as u64),
+    ("HK_DISPATCH_WORKERS_CONSTANT_ID", DISPATCH_WORKERS_CONSTANT_ID as u64),
 ];
 
 /// Every binding number a gen-gpu shader may use.

@@ -12,6 +12,7 @@ pub mod accuracy;
 pub mod backend;
 pub mod contract;
 pub mod diagnostics;
+mod dispatch_order;
 mod error;
 mod generator;
 mod hair;
@@ -28,6 +29,7 @@ pub use backend::pipeline::{
 };
 pub use backend::resource::{Buffer, BufferDesc, Image, ImageDesc, Sampler, sample_count};
 pub use backend::target::{RenderTarget, RgbaImage};
+pub use dispatch_order::dispatch_order;
 pub use error::{GpuError, Result};
 pub use generator::{
     COLOR_FORMAT, Capture, CapturedStrand, DEPTH_FORMAT, DrawExtras, FRAGMENT_PUSH_OFFSET, Filtering,

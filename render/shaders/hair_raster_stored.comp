@@ -6,6 +6,7 @@
 #define HAIR_GEN_NO_WORKGROUP
 #include "hair_gen.glsl"
 #include "hair_outputs.glsl"
+#include "dispatch_order.glsl"
 #include "strand_raster.glsl"
 
 layout(local_size_x = 32) in;
@@ -32,7 +33,8 @@ StrandVertex stored_vertex(uint slot, uint k) {
 
 void main() {
     // The phase's slots, one per invocation (StoredStrands::record_compute).
-    uint slot = subset_slot(raster.phase, gl_GlobalInvocationID.x);
+    // In the dispatch order (dispatch_order.glsl).
+    uint slot = subset_slot(raster.phase, ordered_workgroup_id().x * gl_WorkGroupSize.x + gl_LocalInvocationID.x);
     if (slot >= raster.slots) {
         return;
     }

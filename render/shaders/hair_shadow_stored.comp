@@ -6,6 +6,7 @@
 #define HAIR_GEN_NO_WORKGROUP
 #include "hair_gen.glsl"
 #include "hair_outputs.glsl"
+#include "dispatch_order.glsl"
 #include "shadow_raster.glsl"
 #include "strand_raster.glsl"
 
@@ -22,7 +23,8 @@ StrandVertex stored_vertex(uint slot, uint k) {
 }
 
 void main() {
-    uint slot = gl_GlobalInvocationID.x;
+    // In the dispatch order (dispatch_order.glsl).
+    uint slot = ordered_workgroup_id().x * gl_WorkGroupSize.x + gl_LocalInvocationID.x;
     if (slot >= raster.slots) {
         return;
     }

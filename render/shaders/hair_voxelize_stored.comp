@@ -8,6 +8,7 @@
 #define HAIR_GEN_NO_WORKGROUP
 #include "hair_gen.glsl"
 #include "hair_outputs.glsl"
+#include "dispatch_order.glsl"
 #include "hk_render_contract.glsl"
 
 layout(local_size_x = 32) in;
@@ -15,7 +16,8 @@ layout(local_size_x = 32) in;
 #include "voxelize_common.glsl"
 
 void main() {
-    uint slot = gl_GlobalInvocationID.x;
+    // In the dispatch order (dispatch_order.glsl).
+    uint slot = ordered_workgroup_id().x * gl_WorkGroupSize.x + gl_LocalInvocationID.x;
     if (slot >= vox.dims.w) {
         return;
     }

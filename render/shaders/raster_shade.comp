@@ -11,6 +11,7 @@
 #extension GL_EXT_control_flow_attributes : require
 #extension GL_EXT_buffer_reference : require
 #include "raster_common.glsl"
+#include "dispatch_order.glsl"
 
 layout(local_size_x = 8, local_size_y = 8) in;
 
@@ -156,7 +157,9 @@ vec3 shade_fragment(VisibleFragment f, vec2 ndc, RasterMaterial m) {
 }
 
 void main() {
-    uvec2 xy = gl_GlobalInvocationID.xy + area.rect.xy;
+    // Tiles in the dispatch order (dispatch_order.glsl): on CPU devices each worker thread
+    // shades tiles from all over the frame, not the top or the bottom of it.
+    uvec2 xy = ordered_workgroup_id().xy * gl_WorkGroupSize.xy + gl_LocalInvocationID.xy + area.rect.xy;
     if (xy.x >= area.rect.z || xy.y >= area.rect.w) {
         return;
     }

@@ -8,6 +8,7 @@
 // cpu::ambient_occlusion.
 #extension GL_GOOGLE_include_directive : require
 #include "hk_render_contract.glsl"
+#include "dispatch_order.glsl"
 
 layout(local_size_x = 64) in;
 
@@ -29,7 +30,10 @@ ivec3 step_offset(ivec3 d, int s) {
 }
 
 void main() {
-    uint voxel = gl_GlobalInvocationID.y * gl_NumWorkGroups.x * gl_WorkGroupSize.x + gl_GlobalInvocationID.x;
+    // In the dispatch order (dispatch_order.glsl): empty voxels leave at once, so on CPU devices
+    // a worker thread given the region's empty half would sit idle.
+    uvec3 group = ordered_workgroup_id();
+    uint voxel = (group.y * gl_NumWorkGroups.x + group.x) * gl_WorkGroupSize.x + gl_LocalInvocationID.x;
     uvec3 dims = region.dims.xyz;
     if (voxel >= dims.x * dims.y * dims.z) {
         return;

@@ -29,6 +29,7 @@ layout(push_constant) uniform MarchParams {
 } march;
 
 #include "volume_sample.glsl"
+#include "dispatch_order.glsl"
 
 // One sample per voxel travelled: trilinear samples of a grid whose voxels are about a pixel.
 const uint MAX_STEPS = 2048u;
@@ -49,7 +50,9 @@ vec3 world_at(vec2 ndc, float z) {
 }
 
 void main() {
-    uvec2 xy = gl_GlobalInvocationID.xy + march.rect.xy;
+    // Tiles in the dispatch order (dispatch_order.glsl): on CPU devices each worker thread
+    // marches tiles from all over the character's rectangle.
+    uvec2 xy = ordered_workgroup_id().xy * gl_WorkGroupSize.xy + gl_LocalInvocationID.xy + march.rect.xy;
     if (xy.x >= march.rect.z || xy.y >= march.rect.w) {
         return;
     }

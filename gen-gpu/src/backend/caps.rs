@@ -40,6 +40,11 @@ pub struct Capabilities {
     /// CPU devices (llvmpipe) gather with vector instructions, where a storage-buffer load of a
     /// divergent address is a loop over the SIMD lanes.
     pub buffer_device_address: bool,
+    /// How many threads run a dispatch's workgroups, each a contiguous run of them in index
+    /// order: llvmpipe's worker threads (`LP_NUM_THREADS`, else the CPUs this process may run
+    /// on, as llvmpipe counts them), 1 on other devices (GPUs schedule workgroups dynamically).
+    /// Kernels order their work by it (`dispatch_order.glsl`, [`crate::dispatch_order`]).
+    pub dispatch_workers: u32,
 }
 
 /// Limits of VK_EXT_mesh_shader that generation must respect (queried, never assumed).
@@ -150,8 +155,23 @@ impl Capabilities {
             sub_texel_precision_bits: props.limits.sub_texel_precision_bits,
             buffer_int64_atomics,
             buffer_device_address,
+            dispatch_workers: dispatch_workers(props.device_type, &cstr_field(&driver_props.driver_name)),
         }
     }
+}
+
+/// llvmpipe runs compute (and task) dispatches on a pool of `LP_NUM_THREADS` threads, by default
+/// one per CPU the process may run on (none with one CPU: the dispatch runs inline), splitting
+/// each dispatch's workgroups into one contiguous run per thread (Mesa's `lp_cs_tpool`). Capped
+/// at llvmpipe's 32 threads.
+fn dispatch_workers(device_type: vk::PhysicalDeviceType, driver_name: &str) -> u32 {
+    if device_type != vk::PhysicalDeviceType::CPU || !driver_name.contains("llvmpipe") {
+        return 1;
+    }
+    let cpus = std::thread::available_parallelism().map_or(1, |n| n.get());
+    let threads =
+        std::env::var("LP_NUM_THREADS").ok().and_then(|v| v.trim().parse::<usize>().ok()).unwrap_or(cpus);
+    threads.clamp(1, 32) as u32
 }
 
 pub(crate) fn cstr_field(chars: &[std::ffi::c_char]) -> String {
@@ -230,6 +250,7 @@ impl fmt::Display for Capabilities {
         writeln!(f, "sub-texel precision:    {} bits", self.sub_texel_precision_bits)?;
         writeln!(f, "64-bit buffer atomics:  {}", yes_no(self.buffer_int64_atomics))?;
         writeln!(f, "buffer device address:  {}", yes_no(self.buffer_device_address))?;
+        writeln!(f, "dispatch workers:       {}", self.dispatch_workers)?;
         write!(f, "pipeline statistics:    {}", yes_no(self.pipeline_statistics_query))
     }
 }

@@ -52,6 +52,9 @@ struct ValidationLog {
 #[derive(Clone)]
 pub struct Context {
     pub(crate) shared: Arc<DeviceShared>,
+    /// The `DISPATCH_WORKERS` compute pipelines created through this handle get
+    /// ([`Context::dispatch_workers`]).
+    dispatch_workers: u32,
 }
 
 impl std::fmt::Debug for Context {
@@ -396,7 +399,9 @@ impl Context {
         let debug_utils = has_debug_utils.then(|| ash::ext::debug_utils::Device::new(&instance, &device));
         let mesh_shader = use_mesh.then(|| ash::ext::mesh_shader::Device::new(&instance, &device));
         let push_descriptor = ash::khr::push_descriptor::Device::new(&instance, &device);
+        let dispatch_workers = caps.dispatch_workers;
         let ctx = Context {
+            dispatch_workers,
             shared: Arc::new(DeviceShared {
                 _entry: entry,
                 instance,
@@ -423,6 +428,21 @@ impl Context {
 
     pub fn capabilities(&self) -> &Capabilities {
         &self.shared.caps
+    }
+
+    /// The worker count compute pipelines created through this handle order their workgroups'
+    /// work by (`dispatch_order.glsl`): the device's [`Capabilities::dispatch_workers`] unless
+    /// overridden with [`Context::with_dispatch_workers`].
+    pub fn dispatch_workers(&self) -> u32 {
+        self.dispatch_workers
+    }
+
+    /// A handle to the same device whose compute pipelines order their work for `workers`
+    /// threads (at least 1). Only the speed depends on it: the order is a permutation of the
+    /// workgroups, and every kernel's result is independent of the order workgroups run in
+    /// (tests render with several counts and compare).
+    pub fn with_dispatch_workers(&self, workers: u32) -> Context {
+        Context { shared: self.shared.clone(), dispatch_workers: workers.max(1) }
     }
 
     pub fn validation_enabled(&self) -> bool {

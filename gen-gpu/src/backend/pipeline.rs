@@ -249,7 +249,13 @@ impl Pipeline {
             name: desc.name.into(),
         };
         let module = ShaderModule::new(ctx, desc.shader)?;
-        let spec = Specialization::new(desc.specialization);
+        // Every compute pipeline gets the dispatch order's worker count (a map entry for a
+        // constant the shader does not declare is ignored).
+        let mut constants = desc.specialization.to_vec();
+        if !constants.iter().any(|(id, _)| *id == crate::contract::DISPATCH_WORKERS_CONSTANT_ID) {
+            constants.push((crate::contract::DISPATCH_WORKERS_CONSTANT_ID, ctx.dispatch_workers()));
+        }
+        let spec = Specialization::new(&constants);
         let spec_info = spec.info();
         let stage = vk::PipelineShaderStageCreateInfo::default()
             .stage(vk::ShaderStageFlags::COMPUTE)
