@@ -24,6 +24,8 @@ fn main() -> ExitCode {
             {
                 ensure!(stdout.contains(field), "`{field}` missing from:\n{stdout}");
             }
+            let workers = format!("dispatch workers:       {}", ctx.capabilities().dispatch_workers);
+            ensure!(stdout.contains(&workers), "`{workers}` missing from:\n{stdout}");
             Ok(())
         }),
         GpuTest::new("crowd_scenes_are_written_reproducibly_and_render", Requirements::NONE, |ctx| {

@@ -165,12 +165,23 @@ impl Capabilities {
 /// each dispatch's workgroups into one contiguous run per thread (Mesa's `lp_cs_tpool`). Capped
 /// at llvmpipe's 32 threads.
 fn dispatch_workers(device_type: vk::PhysicalDeviceType, driver_name: &str) -> u32 {
+    let cpus = std::thread::available_parallelism().map_or(1, |n| n.get());
+    llvmpipe_workers(device_type, driver_name, std::env::var("LP_NUM_THREADS").ok().as_deref(), cpus)
+}
+
+/// [`dispatch_workers`] with the environment and the CPU count given.
+fn llvmpipe_workers(
+    device_type: vk::PhysicalDeviceType,
+    driver_name: &str,
+    lp_num_threads: Option<&str>,
+    cpus: usize,
+) -> u32 {
     if device_type != vk::PhysicalDeviceType::CPU || !driver_name.contains("llvmpipe") {
         return 1;
     }
-    let cpus = std::thread::available_parallelism().map_or(1, |n| n.get());
-    let threads =
-        std::env::var("LP_NUM_THREADS").ok().and_then(|v| v.trim().parse::<usize>().ok()).unwrap_or(cpus);
+    // Mesa reads LP_NUM_THREADS as a number (anything else: its default); 0 runs dispatches
+    // inline, one run.
+    let threads = lp_num_threads.and_then(|v| v.trim().parse::<usize>().ok()).unwrap_or(cpus);
     threads.clamp(1, 32) as u32
 }
 
@@ -252,5 +263,22 @@ impl fmt::Display for Capabilities {
         writeln!(f, "buffer device address:  {}", yes_no(self.buffer_device_address))?;
         writeln!(f, "dispatch workers:       {}", self.dispatch_workers)?;
         write!(f, "pipeline statistics:    {}", yes_no(self.pipeline_statistics_query))
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn dispatch_workers_follow_llvmpipe_threads_and_are_one_elsewhere() {
+        let cpu = vk::PhysicalDeviceType::CPU;
+        assert_eq!(llvmpipe_workers(cpu, "llvmpipe", None, 2), 2);
+        assert_eq!(llvmpipe_workers(cpu, "llvmpipe", Some("6"), 2), 6);
+        assert_eq!(llvmpipe_workers(cpu, "llvmpipe", Some("0"), 2), 1);
+        assert_eq!(llvmpipe_workers(cpu, "llvmpipe", Some("lots"), 3), 3);
+        assert_eq!(llvmpipe_workers(cpu, "llvmpipe", None, 128), 32);
+        assert_eq!(llvmpipe_workers(cpu, "SwiftShader", None, 8), 1);
+        assert_eq!(llvmpipe_workers(vk::PhysicalDeviceType::DISCRETE_GPU, "NVIDIA", None, 16), 1);
     }
 }
