@@ -38,13 +38,16 @@ uint dispatch_order(uint w, uint n) {
     return j * workers + t;
 }
 
-// gl_WorkGroupID in the dispatch order: the workgroup whose work this one does (its global
-// invocation IDs: ordered_workgroup_id() * gl_WorkGroupSize + gl_LocalInvocationID).
+// gl_WorkGroupID in the dispatch order: the workgroup whose work this one does.
 uvec3 ordered_workgroup_id() {
     uvec3 g = gl_NumWorkGroups;
     uint w = (gl_WorkGroupID.z * g.y + gl_WorkGroupID.y) * g.x + gl_WorkGroupID.x;
     uint o = dispatch_order(w, g.x * g.y * g.z);
     return uvec3(o % g.x, (o / g.x) % g.y, o / (g.x * g.y));
 }
+
+// gl_GlobalInvocationID in the dispatch order. A macro: gl_WorkGroupSize may be read only after
+// the includer declares its workgroup size, which comes after its includes.
+#define ORDERED_GLOBAL_INVOCATION_ID (ordered_workgroup_id() * gl_WorkGroupSize + gl_LocalInvocationID)
 
 #endif

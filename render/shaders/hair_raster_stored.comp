@@ -34,7 +34,7 @@ StrandVertex stored_vertex(uint slot, uint k) {
 void main() {
     // The phase's slots, one per invocation (StoredStrands::record_compute).
     // In the dispatch order (dispatch_order.glsl).
-    uint slot = subset_slot(raster.phase, ordered_workgroup_id().x * gl_WorkGroupSize.x + gl_LocalInvocationID.x);
+    uint slot = subset_slot(raster.phase, ORDERED_GLOBAL_INVOCATION_ID.x);
     if (slot >= raster.slots) {
         return;
     }

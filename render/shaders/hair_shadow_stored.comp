@@ -24,7 +24,7 @@ StrandVertex stored_vertex(uint slot, uint k) {
 
 void main() {
     // In the dispatch order (dispatch_order.glsl).
-    uint slot = ordered_workgroup_id().x * gl_WorkGroupSize.x + gl_LocalInvocationID.x;
+    uint slot = ORDERED_GLOBAL_INVOCATION_ID.x;
     if (slot >= raster.slots) {
         return;
     }

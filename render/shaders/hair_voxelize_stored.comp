@@ -17,7 +17,7 @@ layout(local_size_x = 32) in;
 
 void main() {
     // In the dispatch order (dispatch_order.glsl).
-    uint slot = ordered_workgroup_id().x * gl_WorkGroupSize.x + gl_LocalInvocationID.x;
+    uint slot = ORDERED_GLOBAL_INVOCATION_ID.x;
     if (slot >= vox.dims.w) {
         return;
     }

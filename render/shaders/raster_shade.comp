@@ -159,7 +159,7 @@ vec3 shade_fragment(VisibleFragment f, vec2 ndc, RasterMaterial m) {
 void main() {
     // Tiles in the dispatch order (dispatch_order.glsl): on CPU devices each worker thread
     // shades tiles from all over the frame, not the top or the bottom of it.
-    uvec2 xy = ordered_workgroup_id().xy * gl_WorkGroupSize.xy + gl_LocalInvocationID.xy + area.rect.xy;
+    uvec2 xy = ORDERED_GLOBAL_INVOCATION_ID.xy + area.rect.xy;
     if (xy.x >= area.rect.z || xy.y >= area.rect.w) {
         return;
     }

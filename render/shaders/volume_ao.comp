@@ -32,8 +32,8 @@ ivec3 step_offset(ivec3 d, int s) {
 void main() {
     // In the dispatch order (dispatch_order.glsl): empty voxels leave at once, so on CPU devices
     // a worker thread given the region's empty half would sit idle.
-    uvec3 group = ordered_workgroup_id();
-    uint voxel = (group.y * gl_NumWorkGroups.x + group.x) * gl_WorkGroupSize.x + gl_LocalInvocationID.x;
+    uvec3 id = ORDERED_GLOBAL_INVOCATION_ID;
+    uint voxel = id.y * gl_NumWorkGroups.x * gl_WorkGroupSize.x + id.x;
     uvec3 dims = region.dims.xyz;
     if (voxel >= dims.x * dims.y * dims.z) {
         return;

@@ -52,7 +52,7 @@ vec3 world_at(vec2 ndc, float z) {
 void main() {
     // Tiles in the dispatch order (dispatch_order.glsl): on CPU devices each worker thread
     // marches tiles from all over the character's rectangle.
-    uvec2 xy = ordered_workgroup_id().xy * gl_WorkGroupSize.xy + gl_LocalInvocationID.xy + march.rect.xy;
+    uvec2 xy = ORDERED_GLOBAL_INVOCATION_ID.xy + march.rect.xy;
     if (xy.x >= march.rect.z || xy.y >= march.rect.w) {
         return;
     }

@@ -128,12 +128,14 @@ impl Capabilities {
                     .max_preferred_task_work_group_invocations,
                 max_task_payload_size: mesh_props.max_task_payload_size,
             });
+        let driver_name = cstr_field(&driver_props.driver_name);
         Capabilities {
             device_name: cstr_field(&props.device_name),
             device_type: props.device_type,
             vendor_id: props.vendor_id,
             device_id: props.device_id,
-            driver_name: cstr_field(&driver_props.driver_name),
+            dispatch_workers: dispatch_workers(props.device_type, &driver_name),
+            driver_name,
             driver_info: cstr_field(&driver_props.driver_info),
             api_version: (
                 vk::api_version_major(props.api_version),
@@ -155,7 +157,6 @@ impl Capabilities {
             sub_texel_precision_bits: props.limits.sub_texel_precision_bits,
             buffer_int64_atomics,
             buffer_device_address,
-            dispatch_workers: dispatch_workers(props.device_type, &cstr_field(&driver_props.driver_name)),
         }
     }
 }
