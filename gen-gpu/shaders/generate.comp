@@ -24,8 +24,11 @@ void generate_per_invocation() {
     uint segments = 1u << l.level;
     // The mesh path's rule for short strands, so both paths generate the same strands.
     StrandStream s = strand_stream(bundle, strand, l, strand_coherent(strands_per_mesh_group(l.level)));
-    for (uint k = 0u; k <= segments; ++k) {
-        store_vertex(local_slot, k, strand_stream_next(s));
+    for (uint step = 0u; step < strand_stream_steps(s); ++step) {
+        StrandVertex v;
+        if (strand_stream_step(s, v)) {
+            store_vertex(local_slot, step - 4u, v);
+        }
     }
     strand_info[local_slot] = uvec4(bundle, strand, segments + 1u, floatBitsToUint(l.width_scale));
 }

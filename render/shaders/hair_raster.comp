@@ -19,19 +19,22 @@ void main() {
     uint bundle = slot_bundle(slot);
     uint strand = slot - offsets[bundle];
     BundleLod l = lods[bundle];
-    uint segments = 1u << l.level;
     // Every strand from its control data, short ones too: the generator samples strands of
     // fewer than 17 vertices per vertex (so its compute and mesh paths agree), which equals this
     // to f32 rounding and costs more (measured: the LOD'd crowd 15 % faster this way).
     StrandStream s = strand_stream(bundle, strand, l, PER_VERTEX_FETCH == 0u);
     float random = seeded_random(s.seed, 7u);
     RasterVertex previous;
-    // One call site of strand_stream_next: each is a whole inlined copy of generation.
-    for (uint k = 0u; k <= segments; ++k) {
-        RasterVertex next = raster_vertex(strand_stream_next(s));
-        if (k > 0u) {
-            raster_segment(previous, next, raster.material, random);
+    // One loop with one call site of strand_stream_step: each is a whole inlined copy of
+    // generation. Vertex k comes at step k + 4.
+    for (uint step = 0u; step < strand_stream_steps(s); ++step) {
+        StrandVertex v;
+        if (strand_stream_step(s, v)) {
+            RasterVertex next = raster_vertex(v);
+            if (step > 4u) {
+                raster_segment(previous, next, raster.material, random);
+            }
+            previous = next;
         }
-        previous = next;
     }
 }
