@@ -1260,11 +1260,19 @@ impl SceneRenderer {
             .collect()
     }
 
-    /// `raster hair (compute, opaque)` / `(…, blended)` on the triangle raster, `raster hair
-    /// (compute raster, fused generation)` on the compute rasterizer.
+    /// `raster hair (compute, opaque)` / `(…, blended)` on the triangle raster; on the compute
+    /// rasterizer `raster hair (compute raster, …)` with what its kernels draw: `fused
+    /// generation`, `stored strands` or both.
     pub(crate) fn raster_pass_name(&self) -> String {
         if self.compute_raster.is_some() {
-            return "raster hair (compute raster, fused generation)".into();
+            let generated = self.slots.iter().any(|s| !s.stored);
+            let stored = self.slots.iter().any(|s| s.stored);
+            let drawn = match (generated, stored) {
+                (true, true) => "fused generation + stored strands",
+                (false, true) => "stored strands",
+                _ => "fused generation",
+            };
+            return format!("raster hair (compute raster, {drawn})");
         }
         let mode = if self.depth_prepass.is_some() { "blended" } else { "opaque" };
         format!("raster hair ({}, {mode})", self.path)

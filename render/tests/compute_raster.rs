@@ -732,8 +732,13 @@ fn main() -> ExitCode {
                     let single = SceneRenderer::new(ctx, &stored, GenerationPath::Compute)?
                         .with_occlusion_tiles(false)
                         .render(ctx)?;
+                    // The raster passes name what they draw: here stored strands only.
                     ensure!(
-                        tiled.passes.iter().any(|p| p.contains("occlusion tiles")),
+                        tiled.passes.iter().any(|p| p.contains("occlusion tiles"))
+                            && tiled
+                                .passes
+                                .iter()
+                                .any(|p| p == "raster hair (compute raster, stored strands): front strands"),
                         "stored strands: {:?}",
                         tiled.passes
                     );
