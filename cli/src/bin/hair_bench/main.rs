@@ -821,6 +821,10 @@ fn heads_crowd(setup: &Setup<'_>, dir: &Path) -> Result<(String, render::scene::
     Ok((name, scene))
 }
 
+/// Frames whose median the raster table gives for the compute rasterizer (at least; the
+/// triangle raster's frames, seconds each, use the run's `frames`).
+const COMPUTE_RASTER_FRAMES: usize = 9;
+
 /// OIT nodes per pixel of the raster table's close-ups: enough for the triangle OIT to keep every
 /// fragment of the 100k-strand close-up at 1280×720.
 const OIT_REFERENCE_NODES_PER_PIXEL: f32 = 64.0;
@@ -885,11 +889,14 @@ fn raster_table(setup: &Setup<'_>, progress: &indicatif::ProgressBar) -> Result<
     }
     progress.set_message("raster: writing the heads crowd");
     let (crowd_name, crowd_scene) = heads_crowd(setup, &dir)?;
+    // The compute rasterizer's frames take a fraction of the triangle raster's: more of them
+    // for a steadier median on a machine whose frames vary by a fifth.
+    let compute_frames = if setup.quick { frames } else { frames.max(COMPUTE_RASTER_FRAMES) };
     let mut md = String::new();
     let _ = writeln!(md, "\n### Triangle raster vs compute rasterizer\n");
     let _ = writeln!(
         md,
-        "{width}×{height}, LOD on, GPU timestamps, median of {frames} frames after a warm-up, both rasterizers in one run. *hair passes*: generation (LOD + cull, and the compute path's generation pass for triangles) plus the raster passes (triangles: the strip draw, or the OIT clear, fill and resolve; compute: clear, both fused raster phases, occlusion tiles, shade, resolve); *frame*: every submission of the frame (shadow maps are cached after the first frame). FLIP: mean, compute image against the triangle image. The close-ups' triangle OIT holds {OIT_REFERENCE_NODES_PER_PIXEL} nodes per pixel (`oit_nodes_per_pixel`; the pool reached through its device address, up to {} MiB), so that every fragment enters its pixel's list: the exact reference.\n",
+        "{width}×{height}, LOD on, GPU timestamps, median of {frames} frames (the triangle raster) and of {compute_frames} frames (the compute rasterizer) after a warm-up, both rasterizers in one run. *hair passes*: generation (LOD + cull, and the compute path's generation pass for triangles) plus the raster passes (triangles: the strip draw, or the OIT clear, fill and resolve; compute: clear, both fused raster phases, occlusion tiles, shade, resolve); *frame*: every submission of the frame (shadow maps are cached after the first frame). FLIP: mean, compute image against the triangle image. The close-ups' triangle OIT holds {OIT_REFERENCE_NODES_PER_PIXEL} nodes per pixel (`oit_nodes_per_pixel`; the pool reached through its device address, up to {} MiB), so that every fragment enters its pixel's list: the exact reference.\n",
         render::frame::OIT_POOL_BYTES >> 20
     );
     let _ = writeln!(
@@ -930,6 +937,7 @@ fn raster_table(setup: &Setup<'_>, progress: &indicatif::ProgressBar) -> Result<
             let mut hair = Vec::new();
             let mut total = Vec::new();
             let mut last = None;
+            let frames = if raster == render::scene::Raster::Compute { compute_frames } else { frames };
             for _ in 0..frames {
                 let f = renderer.render(ctx)?;
                 hair.push(passes_ms(&f, &hair_prefixes));
