@@ -26,8 +26,9 @@ void generate_per_invocation() {
     StrandStream s = strand_stream(bundle, strand, l, strand_coherent(strands_per_mesh_group(l.level)));
     for (uint step = 0u; step < strand_stream_steps(s); ++step) {
         StrandVertex v;
-        if (strand_stream_step(s, v)) {
-            store_vertex(local_slot, step - 4u, v);
+        uint k;
+        if (strand_stream_step(s, v, k)) {
+            store_vertex(local_slot, k, v);
         }
     }
     strand_info[local_slot] = uvec4(bundle, strand, segments + 1u, floatBitsToUint(l.width_scale));

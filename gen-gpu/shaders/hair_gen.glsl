@@ -960,21 +960,23 @@ uint strand_stream_steps(StrandStream s) {
 
 // One step of the strand's walk: pushes its next point and, once the window holds vertex
 // k = pushes - 5 amid its neighbours, returns true with that vertex (0, 1, ... 2^level, in
-// order), morphed, with tangent and width: what strand_vertex_of_group gives for the same strand.
+// order) and its index k, morphed, with tangent and width: what strand_vertex_of_group gives for
+// the same strand.
 // A walk is one loop of strand_stream_steps(s) steps: a loop per vertex with a loop of pushes
 // inside it costs more on CPU devices, where every loop writes back the state it carries under
 // the SIMD lanes' mask at each turn (the 100k-strand generate pass about 5 % faster).
-bool strand_stream_step(inout StrandStream s, out StrandVertex v) {
+bool strand_stream_step(inout StrandStream s, out StrandVertex v, out uint k) {
     strand_stream_push(s);
     v.position = vec3(0.0);
     v.width = 0.0;
     v.tangent = vec3(0.0);
     v.tau = 0.0;
+    k = 0u;
     if (s.pushed < 5u || s.pushed > s.segments + 5u) {
         return false;
     }
     // window[4 + d] is point k + d.
-    uint k = s.pushed - 5u;
+    k = s.pushed - 5u;
     vec3 full_tangent =
         window_tangent(k, s.segments + 1u, s.first_seg, s.window[2], s.window[3], s.window[4], s.window[5], s.window[6]);
     vec3 coarse = vec3(0.0);

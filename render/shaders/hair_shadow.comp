@@ -20,12 +20,13 @@ void main() {
     StrandStream s = strand_stream(bundle, strand, l, PER_VERTEX_FETCH == 0u);
     RasterVertex previous;
     // One loop with one call site of strand_stream_step: each is a whole inlined copy of
-    // generation. Vertex k comes at step k + 4.
+    // generation.
     for (uint step = 0u; step < strand_stream_steps(s); ++step) {
         StrandVertex v;
-        if (strand_stream_step(s, v)) {
+        uint k;
+        if (strand_stream_step(s, v, k)) {
             RasterVertex next = raster_vertex(v);
-            if (step > 4u) {
+            if (k > 0u) {
                 raster_segment(previous, next, 0u, 0.0);
             }
             previous = next;
