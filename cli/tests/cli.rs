@@ -133,6 +133,21 @@ fn main() -> ExitCode {
                     }
                 }
             }
+            // The raster table: both rasterizers' times and the compute rasterizer's parts.
+            let raster = dir.path().join("bench-raster.csv");
+            if raster.is_file() {
+                let csv = std::fs::read_to_string(&raster)?;
+                let rows: Vec<&str> = csv.lines().skip(1).collect();
+                ensure!(rows.len() >= 4, "bench-raster.csv: {csv}");
+                for row in rows {
+                    let values: Vec<f64> =
+                        row.split(',').skip(1).map(str::parse).collect::<Result<_, _>>()?;
+                    ensure!(values.len() == 11, "bench-raster.csv: {row}");
+                    ensure!(values.iter().all(|v| v.is_finite() && *v >= 0.0), "bench-raster.csv: {row}");
+                    // The rest phase draws every strand the front phase leaves: never nothing.
+                    ensure!(values[8] > 0.0, "bench-raster.csv: {row}");
+                }
+            }
             // The compute path's rows time generation alone too.
             for row in std::fs::read_to_string(dir.path().join("bench-generation.csv"))?.lines().skip(1) {
                 if row.split(',').nth(1) == Some("compute") {

@@ -783,6 +783,27 @@ fn submissions_ms(frame: &render::frame::RenderedFrame, names: &[&str]) -> f64 {
         .fold(0.0, |sum, ms| sum + ms)
 }
 
+/// The compute rasterizer's frame in parts (ms): the front raster phase, the rest phase (the
+/// only one where tiles are off), shade, resolve — summed over a crowd's batches; zeros on the
+/// triangle raster.
+fn compute_raster_parts(frame: &render::frame::RenderedFrame) -> [f64; 4] {
+    let mut parts = [0.0; 4];
+    for p in frame.timings.passes.iter().filter(|p| p.depth == 1) {
+        let Some(ms) = p.gpu_ms else { continue };
+        let part = if p.name.starts_with("raster hair (compute raster") {
+            if p.name.ends_with(": front strands") { 0 } else { 1 }
+        } else if p.name.starts_with("shade hair (compute raster") {
+            2
+        } else if p.name.starts_with("resolve hair (compute raster") {
+            3
+        } else {
+            continue;
+        };
+        parts[part] += ms;
+    }
+    parts
+}
+
 /// GPU time of a frame's passes whose names start with one of `prefixes` (top-level passes of
 /// every submission).
 fn passes_ms(frame: &render::frame::RenderedFrame, prefixes: &[&str]) -> f64 {
@@ -905,7 +926,11 @@ fn raster_table(setup: &Setup<'_>, progress: &indicatif::ProgressBar) -> Result<
     );
     let mut rows = Vec::new();
     let mut csv = String::from(
-        "scene,strands,triangles_hair_ms,triangles_frame_ms,compute_hair_ms,compute_frame_ms,speedup,flip\n",
+        "scene,strands,triangles_hair_ms,triangles_frame_ms,compute_hair_ms,compute_frame_ms,speedup,flip,compute_front_ms,compute_rest_ms,compute_shade_ms,compute_resolve_ms\n",
+    );
+    // Where the compute rasterizer's frame goes, per scene (its rows numbered as above).
+    let mut breakdown = String::from(
+        "| # | front phase (ms) | rest phase (ms) | shade (ms) | resolve (ms) | the rest of the frame (ms) | frame (ms) |\n|---|---|---|---|---|---|---|\n",
     );
     let mut all: Vec<(String, render::scene::LoadedScene)> = Vec::new();
     for (name, path) in &scenes {
@@ -936,13 +961,21 @@ fn raster_table(setup: &Setup<'_>, progress: &indicatif::ProgressBar) -> Result<
             renderer.render(ctx)?;
             let mut hair = Vec::new();
             let mut total = Vec::new();
+            // The compute rasterizer's front phase, rest phase, shade, resolve, other passes.
+            let mut parts: [Vec<f64>; 5] = Default::default();
             let mut last = None;
             let frames = if raster == render::scene::Raster::Compute { compute_frames } else { frames };
             for _ in 0..frames {
                 let f = renderer.render(ctx)?;
                 hair.push(passes_ms(&f, &hair_prefixes));
                 // Every submission of the frame (crowds are drawn in batches).
-                total.push(submissions_ms(&f, &["scene frame"]));
+                let frame_ms = submissions_ms(&f, &["scene frame"]);
+                total.push(frame_ms);
+                let raster_parts = compute_raster_parts(&f);
+                let others = frame_ms - raster_parts.iter().sum::<f64>();
+                for (part, ms) in parts.iter_mut().zip(raster_parts.into_iter().chain([others])) {
+                    part.push(ms);
+                }
                 last = Some(f);
             }
             let f = last.context("no frame rendered")?;
@@ -951,10 +984,14 @@ fn raster_table(setup: &Setup<'_>, progress: &indicatif::ProgressBar) -> Result<
                     "row {number}: {overflow} fragments beyond the triangle OIT's pool of {pool} nodes"
                 ));
             }
-            results.push((median(hair), median(total), f.image, f.stats.strands));
+            results.push((median(hair), median(total), f.image, f.stats.strands, parts.map(median)));
         }
-        let [(th, tf, ti, strands), (ch, cf, ci, _)] =
+        let [(th, tf, ti, strands, _), (ch, cf, ci, _, [front, rest, shade, resolve, others])] =
             <[_; 2]>::try_from(results).map_err(|_| anyhow::anyhow!("two rasterizers, two results"))?;
+        let _ = writeln!(
+            breakdown,
+            "| {number} | {front:.1} | {rest:.1} | {shade:.1} | {resolve:.1} | {others:.1} | {cf:.1} |"
+        );
         let flip = flip_mean(&ti, &ci);
         let speedup = tf / cf;
         let _ = writeln!(
@@ -964,10 +1001,15 @@ fn raster_table(setup: &Setup<'_>, progress: &indicatif::ProgressBar) -> Result<
         rows.push((tf, cf));
         let _ = writeln!(
             csv,
-            "{},{strands},{th:.3},{tf:.3},{ch:.3},{cf:.3},{speedup:.3},{flip:.5}",
+            "{},{strands},{th:.3},{tf:.3},{ch:.3},{cf:.3},{speedup:.3},{flip:.5},{front:.3},{rest:.3},{shade:.3},{resolve:.3}",
             name.replace(',', ";")
         );
     }
+    let _ = writeln!(
+        md,
+        "\nWhere the compute rasterizer's frame goes (the same frames; medians per column, so the parts need not add up to the frame's median exactly): the *front phase* generates and draws the first subset of strands (every {}th slot), the *rest phase* the others against the occlusion tiles made between them (one phase where tiles are off); *shade* composites each pixel's nearest fragments, *resolve* filters and writes them; *the rest*: every other pass (LOD, clears, occluders, shadow maps, tiles, copies).\n\n{breakdown}",
+        gen_gpu::contract::SPARSE_SLOT_STRIDE
+    );
     if !overflows.is_empty() {
         let _ = writeln!(
             md,
