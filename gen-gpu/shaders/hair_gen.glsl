@@ -260,9 +260,19 @@ vec3 rotate_about(vec3 v, vec3 axis, float angle) {
     return v * c + cross(axis, v) * s + axis * dot(axis, v) * (1.0 - c);
 }
 
+// v / |v|, or `fallback` where that is not finite. One reciprocal and three products rather
+// than four divisions: a division is the dearest arithmetic of a vertex on CPU devices, and
+// the two differ by at most an ulp (the CPU ports do the same).
 vec3 try_normalize(vec3 v, vec3 fallback) {
     float l = length(v);
-    return (l > 0.0 && !isinf(1.0 / l)) ? v / l : fallback;
+    float inv = 1.0 / l;
+    return (l > 0.0 && !isinf(inv)) ? v * inv : fallback;
+}
+
+// 1 / x for x a power of two, exactly and without a division (its exponent negated): a
+// vertex's tau is k / 2^level, and a division per vertex is dear on CPU devices.
+float power_of_two_reciprocal(float x) {
+    return uintBitsToFloat(0x7f000000u - floatBitsToUint(x));
 }
 
 vec3 any_orthonormal(vec3 v) {
@@ -271,6 +281,19 @@ vec3 any_orthonormal(vec3 v) {
     float a = -1.0 / (s + v.z);
     float b = v.x * v.y * a;
     return vec3(b, s + v.y * v.y * a, -v.y);
+}
+
+// try_normalize(v, any_orthonormal(axis)), the fallback made only where it is taken: as an
+// argument it would cost every vertex a division (on CPU devices a branch that no SIMD lane
+// takes is skipped).
+vec3 normalize_or_orthonormal(vec3 v, vec3 axis) {
+    float l = length(v);
+    float inv = 1.0 / l;
+    vec3 r = v * inv;
+    if (!(l > 0.0 && !isinf(inv))) {
+        r = any_orthonormal(axis);
+    }
+    return r;
 }
 
 // The strand index whose random numbers are a bundle's own (style.rs BUNDLE_RANDOM).
@@ -291,6 +314,13 @@ float wave_random(uint bundle, uint seed) {
 // without them the centre is not evaluated (a third of a vertex's curve fetches and lerps).
 bool style_uses_centre() {
     return params.frizz_clump.w != 0.0 || params.frizz_clump.y != 0.0;
+}
+
+// Whether style_apply reads the styling frame's fv and fw (and so v): curl (fv), frizz and
+// the strays' frizz (fv, fw) and twist (fw). Wave alone moves a point along fu: without the
+// others the frame is fu alone, and fv, fw are zero (what they would add is exactly zero).
+bool style_uses_full_frame() {
+    return params.curl.x != 0.0 || params.wave_frizz.z != 0.0 || params.stray.y != 0.0 || params.frizz_clump.w != 0.0;
 }
 
 // A strand's own random style values (style.rs): what style_apply needs of the strand rather
@@ -356,8 +386,12 @@ vec3 style_apply(StrandStyle st, float tau, vec3 position, vec3 centre, vec3 fu,
 // fv = fw x fu (style.rs).
 void styling_frame(vec3 u, vec3 v, out vec3 fu, out vec3 fv, out vec3 fw) {
     fu = try_normalize(u, vec3(1.0, 0.0, 0.0));
-    fw = try_normalize(cross(fu, v), any_orthonormal(fu));
-    fv = cross(fw, fu);
+    fv = vec3(0.0);
+    fw = vec3(0.0);
+    if (style_uses_full_frame()) {
+        fw = normalize_or_orthonormal(cross(fu, v), fu);
+        fv = cross(fw, fu);
+    }
 }
 
 // One styled strand point (HairAsset::strand_point), every value sampled from the textures.
@@ -714,7 +748,7 @@ StrandVertex assemble_vertex(BundleLod l, uint k, uint segments, vec3 here, vec3
         }
         v.tangent = try_normalize((1.0 - g) * full_tangent + g * coarse, full_tangent);
     }
-    v.tau = float(k) / float(segments);
+    v.tau = float(k) * power_of_two_reciprocal(float(segments)); // k / segments, exactly
     v.width = width_at(v.tau) * l.width_scale;
     return v;
 }
@@ -914,7 +948,7 @@ StrandStream strand_stream(uint bundle, uint strand, BundleLod l, bool from_cont
 
 // Full-detail point j of the strand (unmorphed); j must not decrease from call to call.
 vec3 strand_stream_point(inout StrandStream s, uint j) {
-    float tau = float(j) / float(s.segments);
+    float tau = float(j) * power_of_two_reciprocal(float(s.segments)); // j / segments, exactly
     return s.from_control ? thread_strand_point(s.style, s.scale, s.cell, tau, s.control)
                           : strand_point(s.bundle, s.strand, s.root, tau);
 }
@@ -1009,7 +1043,7 @@ uint strands_per_mesh_group(uint level) {
 void strip_corners(StrandVertex v, float width_scale, out vec4 left, out vec4 right, out float coverage,
                    out float strand_coverage) {
     vec3 to_eye = params.projection.z > 0.5 ? params.eye.xyz : params.eye.xyz - v.position;
-    vec3 side = try_normalize(cross(v.tangent, to_eye), any_orthonormal(v.tangent)) * (0.5 * v.width);
+    vec3 side = normalize_or_orthonormal(cross(v.tangent, to_eye), v.tangent) * (0.5 * v.width);
     vec4 centre = params.view_proj * vec4(v.position, 1.0);
     left = params.view_proj * vec4(v.position - side, 1.0);
     right = params.view_proj * vec4(v.position + side, 1.0);

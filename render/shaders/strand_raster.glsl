@@ -97,16 +97,19 @@ struct RasterVertex {
     float z;
 };
 
-// Half the strand's width in pixels at a clip-space point (first-order projection of `side`).
-float half_width_pixels(vec4 clip, vec4 side) {
-    vec2 d = (side.xy - clip.xy * (side.w / clip.w)) / clip.w;
+// Half the strand's width in pixels at a clip-space point (first-order projection of `side`;
+// inv_w = 1 / clip.w).
+float half_width_pixels(vec4 clip, vec4 side, float inv_w) {
+    vec2 d = (side.xy - clip.xy * (side.w * inv_w)) * inv_w;
     return length(d * 0.5 * params.viewport.xy);
 }
 
+// One reciprocal of w for the whole projection: on CPU devices a division is the dearest
+// arithmetic of the walk (the CPU port multiplies in the same order).
 RasterVertex project_vertex(RasterVertex r) {
-    r.screen = (r.clip.xy / r.clip.w * 0.5 + 0.5) * params.viewport.xy;
-    r.half_width = min(half_width_pixels(r.clip, r.side), raster.max_half_width);
     r.inv_w = 1.0 / r.clip.w;
+    r.screen = (r.clip.xy * r.inv_w * 0.5 + 0.5) * params.viewport.xy;
+    r.half_width = min(half_width_pixels(r.clip, r.side, r.inv_w), raster.max_half_width);
     r.z = r.clip.z * r.inv_w;
     return r;
 }
@@ -115,7 +118,7 @@ RasterVertex raster_vertex(StrandVertex v) {
     RasterVertex r;
     // The strip's side direction (strip_corners): across the strand, facing the eye.
     vec3 to_eye = params.projection.z > 0.5 ? params.eye.xyz : params.eye.xyz - v.position;
-    vec3 side = try_normalize(cross(v.tangent, to_eye), any_orthonormal(v.tangent)) * (0.5 * v.width);
+    vec3 side = normalize_or_orthonormal(cross(v.tangent, to_eye), v.tangent) * (0.5 * v.width);
     r.clip = params.view_proj * vec4(v.position, 1.0);
     r.side = params.view_proj * vec4(side, 0.0);
     r.tangent = mat3(raster.model) * v.tangent;
@@ -180,12 +183,18 @@ void raster_fragment(uint pixel, float coverage, float ndc_z, inout ColumnAttrib
     // by side and come through the reference in one 16-byte load (on CPU devices one gather
     // instead of two: the 100k-strand close-up's raster phases about 3 %, the far character's
     // about 6 % faster).
+    // With an even K > 1 the coverage and threshold words (K and K + 1) sit side by side at an
+    // even word, 16-byte aligned (pixel_stride K + 2 is even too): one load as well.
     uint64_t cover;
     uint64_t threshold;
     if (k == 1u && raster.words_address != 0UL) {
         u64vec2 pair = PixelPairsRef(raster.words_address).pairs[pixel];
         threshold = pair.x;
         cover = pair.y;
+    } else if ((k & 1u) == 0u && raster.words_address != 0UL) {
+        u64vec2 pair = PixelPairsRef(raster.words_address).pairs[(first + k) >> 1u];
+        cover = pair.x;
+        threshold = pair.y;
     } else {
         cover = load_pixel_word(first + k);
         threshold = load_pixel_word(threshold_word(first, k));
@@ -259,21 +268,24 @@ void raster_segment(RasterVertex a, RasterVertex b, uint material, float random)
     int first = max(floor_int(ceil(lo - 0.5)), 0);
     int last = min(floor_int(ceil(hi - 0.5)) - 1, size_major - 1);
     // A footprint of perpendicular width 2h spans 2h * len / |d_major| along the minor axis.
-    float stretch = len / abs(d_major);
+    // Products by reciprocals made once per segment, not divisions per column.
+    float inv_d_major = 1.0 / d_major;
+    float stretch = len * abs(inv_d_major);
     float inv_wp = p.inv_w;
     float inv_wq = q.inv_w;
     float zp = p.z;
     float zq = q.z;
     for (int i = first; i <= last; ++i) {
-        float t = (float(i) + 0.5 - a_major) / d_major;
+        float t = (float(i) + 0.5 - a_major) * inv_d_major;
         float m = a_minor + t * d_minor;
         float h = mix(hp, hq, t) * stretch;
         float inv_w = mix(inv_wp, inv_wq, t);
         float z = mix(zp, zq, t);
-        // Perspective-correct weight of q for the attributes.
-        float tq = t * inv_wq / inv_w;
+        // The view depth, and the perspective-correct weight of q for the attributes.
+        float w = 1.0 / inv_w;
+        float tq = t * inv_wq * w;
         ColumnAttributes column;
-        column.depth_bits = visibility_depth_bits(1.0 / inv_w);
+        column.depth_bits = visibility_depth_bits(w);
         column.encoded = false;
         column.tangent = mix(p.tangent, q.tangent, tq);
         column.tau = mix(p.tau, q.tau, tq);

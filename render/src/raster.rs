@@ -644,7 +644,8 @@ pub mod cpu {
 
     fn try_normalize(v: Vec3, fallback: Vec3) -> Vec3 {
         let l = v.length();
-        if l > 0.0 && (1.0 / l).is_finite() { v / l } else { fallback }
+        let inv = 1.0 / l;
+        if l > 0.0 && inv.is_finite() { v * inv } else { fallback }
     }
 
     fn any_orthonormal(v: Vec3) -> Vec3 {
@@ -681,8 +682,8 @@ pub mod cpu {
         let size = Vec2::new(view.width as f32, view.height as f32);
         let inv_w = 1.0 / r.clip.w;
         RasterVertex {
-            screen: (Vec2::new(r.clip.x, r.clip.y) / r.clip.w * 0.5 + 0.5) * size,
-            half_width: half_width_pixels(view, r.clip, r.side).min(view.max_half_width),
+            screen: (Vec2::new(r.clip.x, r.clip.y) * inv_w * 0.5 + 0.5) * size,
+            half_width: half_width_pixels(view, r.clip, r.side, inv_w).min(view.max_half_width),
             inv_w,
             z: r.clip.z * inv_w,
             ..r
@@ -710,8 +711,8 @@ pub mod cpu {
         }
     }
 
-    fn half_width_pixels(view: &RasterView, clip: Vec4, side: Vec4) -> f32 {
-        let d = (Vec2::new(side.x, side.y) - Vec2::new(clip.x, clip.y) * (side.w / clip.w)) / clip.w;
+    fn half_width_pixels(view: &RasterView, clip: Vec4, side: Vec4, inv_w: f32) -> f32 {
+        let d = (Vec2::new(side.x, side.y) - Vec2::new(clip.x, clip.y) * (side.w * inv_w)) * inv_w;
         (d * 0.5 * Vec2::new(view.width as f32, view.height as f32)).length()
     }
 
@@ -832,17 +833,19 @@ pub mod cpu {
         let hi = a_major.max(a_major + d_major);
         let first = ((lo - 0.5).ceil() as i32).max(0);
         let last = (((hi - 0.5).ceil() as i32) - 1).min(size_major - 1);
-        let stretch = len / d_major.abs();
+        let inv_d_major = 1.0 / d_major;
+        let stretch = len * inv_d_major.abs();
         let (inv_wp, inv_wq) = (p.inv_w, q.inv_w);
         let (zp, zq) = (p.z, q.z);
         for i in first..=last {
-            let t = (i as f32 + 0.5 - a_major) / d_major;
+            let t = (i as f32 + 0.5 - a_major) * inv_d_major;
             let m = a_minor + t * d_minor;
             let h = (hp + (hq - hp) * t) * stretch;
             let inv_w = inv_wp + (inv_wq - inv_wp) * t;
-            let tq = t * inv_wq / inv_w;
+            let w = 1.0 / inv_w;
+            let tq = t * inv_wq * w;
             let column = Column {
-                w: 1.0 / inv_w,
+                w,
                 z: zp + (zq - zp) * t,
                 tangent: p.tangent.lerp(q.tangent, tq),
                 tau: p.tau + (q.tau - p.tau) * tq,
