@@ -78,19 +78,8 @@ uint64_t load_pixel_word(uint i) {
 // the words stay in registers on CPU devices.
 void sort_slots(uint first, uint k) {
     uint64_t s[MAX_SLOTS];
-    if ((k & 1u) == 0u && area.words_address != 0UL) {
-        // An even K starts each pixel's words at an even word (pixel_stride K + 2): the slots
-        // come in 16-byte pairs, one gather per pair on CPU devices instead of one per word.
-        [[unroll]] for (uint i = 0u; i < MAX_SLOTS; i += 2u) {
-            u64vec2 pair = i < k ? PixelPairsRef(area.words_address).pairs[(first + i) >> 1u]
-                                 : u64vec2(VISIBILITY_EMPTY);
-            s[i] = pair.x;
-            s[i + 1u] = pair.y;
-        }
-    } else {
-        [[unroll]] for (uint i = 0u; i < MAX_SLOTS; ++i) {
-            s[i] = i < k ? load_pixel_word(first + i) : VISIBILITY_EMPTY;
-        }
+    [[unroll]] for (uint i = 0u; i < MAX_SLOTS; ++i) {
+        s[i] = i < k ? load_pixel_word(first + i) : VISIBILITY_EMPTY;
     }
     if (k <= 4u) {
         ORDER_SLOTS(0, 1); ORDER_SLOTS(2, 3); ORDER_SLOTS(0, 2); ORDER_SLOTS(1, 3);
@@ -180,7 +169,8 @@ void main() {
     // Slots fill in order (the first empty one is the farthest an insertion replaces), so an
     // empty first slot is an empty pixel.
     // With K = 1 nothing is sorted or written: both words come through the reference in one
-    // 16-byte load (one gather on CPU devices, where each binding load is a loop over the lanes).
+    // 16-byte load (one address for both words on CPU devices, where each binding load is a loop
+    // over the lanes).
     bool paired = k == 1u && area.words_address != 0UL;
     u64vec2 pair = paired ? PixelPairsRef(area.words_address).pairs[pixel] : u64vec2(0UL);
     uint64_t nearest = paired ? pair.x : pixel_words[first];

@@ -180,21 +180,16 @@ void raster_fragment(uint pixel, float coverage, float ndc_z, inout ColumnAttrib
     uint k = raster.k;
     uint first = pixel_word(pixel, k, 0u);
     // The test reads the pixel's coverage word and its threshold word; with K = 1 they sit side
-    // by side and come through the reference in one 16-byte load (on CPU devices one gather
-    // instead of two: the 100k-strand close-up's raster phases about 3 %, the far character's
-    // about 6 % faster).
-    // With an even K > 1 the coverage and threshold words (K and K + 1) sit side by side at an
-    // even word, 16-byte aligned (pixel_stride K + 2 is even too): one load as well.
+    // by side and come through the reference in one 16-byte load (on CPU devices one address and
+    // bounds check for both words, which llvmpipe still gathers one 64-bit word at a time: the
+    // 100k-strand close-up's raster phases about 3 %, the far character's about 6 % faster;
+    // with an even K the same pairing of words K and K + 1 measured no gain, twice).
     uint64_t cover;
     uint64_t threshold;
     if (k == 1u && raster.words_address != 0UL) {
         u64vec2 pair = PixelPairsRef(raster.words_address).pairs[pixel];
         threshold = pair.x;
         cover = pair.y;
-    } else if ((k & 1u) == 0u && raster.words_address != 0UL) {
-        u64vec2 pair = PixelPairsRef(raster.words_address).pairs[(first + k) >> 1u];
-        cover = pair.x;
-        threshold = pair.y;
     } else {
         cover = load_pixel_word(first + k);
         threshold = load_pixel_word(threshold_word(first, k));
