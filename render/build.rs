@@ -23,7 +23,11 @@ fn main() {
     let header = shader_build::GlslHeader {
         file_name: contract::HEADER_FILE.into(),
         title: "render's consumer contract (render/src/contract.rs)".into(),
-        defines: contract::GLSL_DEFINES.iter().map(|(name, value)| ((*name).to_owned(), *value)).collect(),
+        defines: contract::GLSL_DEFINES
+            .iter()
+            .chain(contract::GLSL_CONSTANTS)
+            .map(|(name, value)| ((*name).to_owned(), *value))
+            .collect(),
     };
     let spec = shader_build::Contract {
         headers: vec![header],

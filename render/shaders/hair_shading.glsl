@@ -10,6 +10,10 @@
 
 // The light reaching a hair sample: the maps' (lighting.glsl), unless the includer defines
 // HAIR_LIGHT_TRANSMITTANCE(i, p) (the compute rasterizer's shade pass adds volume shadows).
+// An includer that declares SCENE_LIGHTS (the scene's light count, a specialization constant)
+// defines HAIR_SHADING_SCENE_LIGHTS: shade_hair then visits the lights by constant index
+// (FOR_EACH_SCENE_LIGHT in lighting.glsl).
+
 #ifndef HAIR_LIGHT_TRANSMITTANCE
 #define HAIR_LIGHT_TRANSMITTANCE(i, p) light_transmittance(i, p)
 #endif
@@ -47,6 +51,20 @@ float strand_specular(vec3 tangent, vec3 h, float exponent) {
     return dir_atten * pow(sin_th, exponent);
 }
 
+// Light i's part of a hair sample's colour at world point p (tangent t, strip normal n, view
+// direction v, shifted tangents t1, t2).
+vec3 hair_light(uint i, vec3 p, vec3 t, vec3 n, vec3 v, vec3 t1, vec3 t2, vec3 base, float sparkle, HairMaterial m) {
+    vec3 l = light_direction(i, p);
+    vec3 h = normalize(l + v);
+    float t_dot_l = dot(t, l);
+    float kajiya = sqrt(max(0.0, 1.0 - t_dot_l * t_dot_l));
+    float lambert = clamp(mix(0.25, 1.0, dot(n, l)), 0.0, 1.0);
+    vec3 diffuse = base * mix(lambert, kajiya, 0.5);
+    vec3 primary = vec3(m.specular_strength.x * strand_specular(t1, h, m.specular_shift.z));
+    vec3 secondary = base * m.specular_strength.y * sparkle * strand_specular(t2, h, m.specular_shift.w);
+    return lights[i].color.rgb * HAIR_LIGHT_TRANSMITTANCE(i, p) * (diffuse + primary + secondary);
+}
+
 // Premultiplied colour of one hair sample; alpha is its coverage times the strand opacity.
 vec4 shade_hair(HairSample s, HairMaterial m) {
     vec3 p = (m.model * vec4(s.position, 1.0)).xyz;
@@ -61,17 +79,16 @@ vec4 shade_hair(HairSample s, HairMaterial m) {
     float sparkle = mix(1.0, hash(s.strand_random * 97.0 + floor(s.tau * 40.0)), m.specular_strength.w);
 
     vec3 color = base * m.specular_strength.z;
+#ifdef HAIR_SHADING_SCENE_LIGHTS
+    // Light by light with constant indices (lighting.glsl).
+#define HAIR_LIGHT_TURN(I) { color += hair_light(I, p, t, n, v, t1, t2, base, sparkle, m); }
+    FOR_EACH_SCENE_LIGHT(m.light_count, HAIR_LIGHT_TURN)
+#undef HAIR_LIGHT_TURN
+#else
     for (uint i = 0u; i < m.light_count; ++i) {
-        vec3 l = light_direction(i, p);
-        vec3 h = normalize(l + v);
-        float t_dot_l = dot(t, l);
-        float kajiya = sqrt(max(0.0, 1.0 - t_dot_l * t_dot_l));
-        float lambert = clamp(mix(0.25, 1.0, dot(n, l)), 0.0, 1.0);
-        vec3 diffuse = base * mix(lambert, kajiya, 0.5);
-        vec3 primary = vec3(m.specular_strength.x * strand_specular(t1, h, m.specular_shift.z));
-        vec3 secondary = base * m.specular_strength.y * sparkle * strand_specular(t2, h, m.specular_shift.w);
-        color += lights[i].color.rgb * HAIR_LIGHT_TRANSMITTANCE(i, p) * (diffuse + primary + secondary);
+        color += hair_light(i, p, t, n, v, t1, t2, base, sparkle, m);
     }
+#endif
     // Ambient occlusion darkens every term, as vkhr's volume AO does: the hair around a point
     // blocks its light from most directions, not only the ambient light's.
     color *= clamp(s.occlusion, 0.0, 1.0);

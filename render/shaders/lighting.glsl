@@ -28,6 +28,26 @@ layout(std430, set = 0, binding = HK_BINDING_OCCLUDER_DEPTH) readonly buffer Occ
 #define OCCLUDER_DEPTH_LOAD(i) occluder_depth[i]
 #endif
 
+// Loops over the scene's lights written out, one turn per light: FOR_EACH_SCENE_LIGHT(count,
+// TURN) expands to TURN(0u) ... TURN(7u), each turn to run only where its index is below both
+// SCENE_LIGHTS (a constant: the includer's specialization constant of the scene's light count,
+// so the turns past it are dead code, removed before the device compiles the shader) and
+// `count` (the frame's). lavapipe unrolls no loop as large as a light's shading, even of a
+// constant count, and with a loop counter for index CPU devices (llvmpipe) load each light
+// lane by lane (a bounds check per lane and component; a shadow lookup reads most of a
+// 144-byte SceneLight), where a constant index loads once for all SIMD lanes; a loop inside a
+// shader's loop also carries its values under the lanes' mask through every turn. Eight turns:
+// render::contract::MAX_LIGHTS (asserted there).
+#define FOR_EACH_SCENE_LIGHT(count, TURN) \
+    if (0u < SCENE_LIGHTS && 0u < (count)) TURN(0u) \
+    if (1u < SCENE_LIGHTS && 1u < (count)) TURN(1u) \
+    if (2u < SCENE_LIGHTS && 2u < (count)) TURN(2u) \
+    if (3u < SCENE_LIGHTS && 3u < (count)) TURN(3u) \
+    if (4u < SCENE_LIGHTS && 4u < (count)) TURN(4u) \
+    if (5u < SCENE_LIGHTS && 5u < (count)) TURN(5u) \
+    if (6u < SCENE_LIGHTS && 6u < (count)) TURN(6u) \
+    if (7u < SCENE_LIGHTS && 7u < (count)) TURN(7u)
+
 // Direction toward light `i` from the world point p.
 vec3 light_direction(uint i, vec3 p) {
     vec4 lv = lights[i].vector;

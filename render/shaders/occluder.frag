@@ -16,6 +16,9 @@ layout(push_constant) uniform Occluder {
 #include "lighting.glsl"
 #include "volume_ao.glsl"
 
+// The scene's light count (FOR_EACH_SCENE_LIGHT; unspecialized: every light a scene may have).
+layout(constant_id = HK_SCENE_LIGHTS_CONSTANT_ID) const uint SCENE_LIGHTS = 8u;
+
 layout(location = 0) in vec3 v_position;
 layout(location = 1) in vec3 v_normal;
 layout(location = 0) out vec4 out_color;
@@ -29,13 +32,17 @@ void main() {
     vec3 albedo = occluder.color.rgb;
     vec3 color = albedo * occluder.color.w;
     uint light_count = uint(occluder.eye.w);
-    for (uint i = 0u; i < light_count; ++i) {
-        vec3 l = light_direction(i, v_position);
-        float lambert = max(dot(n, l), 0.0);
-        if (lambert > 0.0) {
-            color += albedo * lights[i].color.rgb * lambert * light_transmittance(i, v_position);
-        }
+    // Light by light with constant indices (lighting.glsl).
+#define OCCLUDER_LIGHT_TURN(I) \
+    { \
+        vec3 l = light_direction(I, v_position); \
+        float lambert = max(dot(n, l), 0.0); \
+        if (lambert > 0.0) { \
+            color += albedo * lights[I].color.rgb * lambert * light_transmittance(I, v_position); \
+        } \
     }
+    FOR_EACH_SCENE_LIGHT(light_count, OCCLUDER_LIGHT_TURN)
+#undef OCCLUDER_LIGHT_TURN
     // The hair's AO darkens the scalp and skin under and beside it.
     if (occluder.volume.x > 0u) {
         color *= volume_ao_sample(occluder.volume, (occluder.world_to_voxel * vec4(v_position, 1.0)).xyz);

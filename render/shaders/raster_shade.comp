@@ -22,7 +22,7 @@ layout(local_size_x = 8, local_size_y = 8) in;
 layout(push_constant) uniform Rect {
     uvec4 rect;
     uint k;
-    uint pad0;
+    uint only_material;              // the frame's only material, or SEVERAL_MATERIALS
     uint64_t words_address;          // the pixel words (read before the sort writes them)
     uint64_t shadow_depth_address;
     uint64_t shadow_opacity_address;
@@ -45,6 +45,10 @@ layout(buffer_reference, std430, buffer_reference_align = 16) readonly buffer Ve
 // Hair shading with volume shadows: the light through the character's own hair volume.
 float shade_light_transmittance(uint i, vec3 p);
 #define HAIR_LIGHT_TRANSMITTANCE(i, p) shade_light_transmittance(i, p)
+// The scene's light count: shade_hair visits the lights by constant index (lighting.glsl).
+// Unspecialized: every light a scene may have.
+layout(constant_id = HK_SCENE_LIGHTS_CONSTANT_ID) const uint SCENE_LIGHTS = 8u;
+#define HAIR_SHADING_SCENE_LIGHTS
 #include "hair_shading.glsl"
 #include "raster_frame.glsl"
 
@@ -58,6 +62,9 @@ layout(std430, set = 0, binding = HK_BINDING_RASTER_COUNTERS) buffer Counters { 
 layout(std430, set = 0, binding = HK_BINDING_VOLUME) readonly buffer VolumeBuffer { vec4 volume[]; };
 layout(std430, set = 0, binding = HK_BINDING_VOLUME_BRICKS) readonly buffer BrickBuffer { uint bricks[]; };
 #include "volume_sample.glsl"
+
+// Area.only_material of a frame with more than one material.
+const uint SEVERAL_MATERIALS = 0xffffffffu;
 
 // scene.rs caps effects.oit_k at this.
 const uint MAX_SLOTS = 16u;
@@ -184,9 +191,13 @@ void main() {
     vec3 last = vec3(0.0);
     float w = 0.0;
     // A pixel's fragments mostly share one material: it is read again only when it changes
-    // (144 bytes, which CPU devices read lane by lane).
-    uint material = 0xffffffffu;
+    // (160 bytes, which CPU devices read lane by lane at a fragment's index). A frame's only
+    // material is read at the push constants' index, once for all lanes there.
+    uint material = area.only_material;
     RasterMaterial m;
+    if (material != SEVERAL_MATERIALS) {
+        m = frame.materials[area.only_material];
+    }
     if (k > 1u) {
         sort_slots(first, k);
     }

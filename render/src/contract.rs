@@ -151,6 +151,20 @@ pub const GLSL_DEFINES: &[(&str, u64)] = &[
     ("HK_BINDING_OCCLUDER_INDICES", binding::OCCLUDER_INDICES as u64),
 ];
 
+/// Specialization constant of the shading that loops over a scene's lights (the compute
+/// rasterizer's shade kernel, the occluders): the scene's light count, so that the loop is
+/// written out light by light with constant indices (`lighting.glsl`).
+pub const SCENE_LIGHTS_CONSTANT_ID: u32 = 0;
+
+/// Lights a scene may have (`scene::MAX_LIGHTS`). `lighting.glsl` writes loops over the lights
+/// out to eight turns (`FOR_EACH_SCENE_LIGHT`): change both together.
+pub const MAX_LIGHTS: u32 = 8;
+const _: () = assert!(MAX_LIGHTS == 8, "lighting.glsl writes out eight lights (FOR_EACH_SCENE_LIGHT)");
+
+/// The header's constants that are not bindings, as `(GLSL macro, value)`.
+pub const GLSL_CONSTANTS: &[(&str, u64)] =
+    &[("HK_SCENE_LIGHTS_CONSTANT_ID", SCENE_LIGHTS_CONSTANT_ID as u64)];
+
 /// Every binding a render shader may use: the values of [`GLSL_DEFINES`] (all of which are
 /// bindings).
 pub const BINDINGS: [u32; GLSL_DEFINES.len()] = {

@@ -598,7 +598,7 @@ impl SceneRenderer {
         let occluder_pipes = if meshes.is_empty() {
             None
         } else {
-            Some(OccluderPipelines::new(ctx, SCENE_COLOR_FORMAT, effects.msaa)?)
+            Some(OccluderPipelines::new(ctx, SCENE_COLOR_FORMAT, effects.msaa, scene.lights().len())?)
         };
         let mut renderer = Self {
             generator,
@@ -692,7 +692,7 @@ impl SceneRenderer {
             raster = RasterPath::Triangles;
         }
         if raster == RasterPath::Compute {
-            self.compute_raster = Some(ComputeRaster::new(ctx)?);
+            self.compute_raster = Some(ComputeRaster::new(ctx, self.scene.lights().len())?);
             self.raster_materials = table;
             self.character_materials = indices;
             // The deep opacity maps go through the same segment walker.

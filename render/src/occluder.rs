@@ -164,7 +164,14 @@ impl std::fmt::Debug for OccluderPipelines {
 }
 
 impl OccluderPipelines {
-    pub fn new(ctx: &Context, color_format: vk::Format, samples: u32) -> gen_gpu::Result<Self> {
+    /// The pipelines for a scene of `lights` lights (at most [`crate::scene::MAX_LIGHTS`]; the
+    /// shading is specialized for the count).
+    pub fn new(
+        ctx: &Context,
+        color_format: vk::Format,
+        samples: u32,
+        lights: usize,
+    ) -> gen_gpu::Result<Self> {
         let stages = vk::ShaderStageFlags::VERTEX | vk::ShaderStageFlags::FRAGMENT;
         use crate::contract::binding as b;
         let bindings: Vec<Binding> = [b::OCCLUDER_POSITIONS, b::OCCLUDER_NORMALS, b::OCCLUDER_INDICES]
@@ -173,13 +180,15 @@ impl OccluderPipelines {
             .chain([b::VOLUME_AO])
             .map(|b| Binding::storage_buffer(b, stages))
             .collect();
+        let light_count =
+            [(crate::contract::SCENE_LIGHTS_CONSTANT_ID, lights.min(crate::scene::MAX_LIGHTS) as u32)];
         let desc = |name, fragment, color_format, samples, color_write, depth_compare| GraphicsPipelineDesc {
             name,
             stages: GraphicsStages::Vertex(&shaders::OCCLUDER_VERT),
             fragment,
             bindings: &bindings,
             push_constant_size: size_of::<OccluderPush>() as u32,
-            specialization: &[],
+            specialization: &light_count,
             color_format,
             depth_format: Some(gen_gpu::DEPTH_FORMAT),
             blend: gen_gpu::Blend::Replace,

@@ -50,7 +50,7 @@ pub const MAX_OUTPUT_SIDE: u32 = 8192;
 /// Most characters in one scene.
 pub const MAX_CHARACTERS: usize = 4096;
 /// Most lights in one scene.
-pub const MAX_LIGHTS: usize = 8;
+pub const MAX_LIGHTS: usize = crate::contract::MAX_LIGHTS as usize;
 
 #[derive(Debug, thiserror::Error)]
 pub enum SceneError {

@@ -740,6 +740,51 @@ fn main() -> ExitCode {
             ensure!(ratio < 0.5, "an occluder casts shadows on the hair ({ratio})");
             Ok(())
         }),
+        GpuTest::new("every_light_slot_shades_hair_and_occluders", Requirements::NONE, |ctx| {
+            // The shading visits a scene's lights written out one by one (lighting.glsl
+            // FOR_EACH_SCENE_LIGHT, specialized for the light count): with eight lights, all
+            // black but one, the frame must be the same whichever slot holds the lit one (it
+            // differs when a slot is missing or shades another light's data) and brighter than
+            // with all eight black.
+            let dir = tempfile::tempdir()?;
+            let max = render::scene::MAX_LIGHTS;
+            for raster in ["compute", "triangles"] {
+                let effects = serde_json::json!({
+                    "raster": raster, "transparency": "opaque", "shadows": true, "shadow_map_size": 64
+                });
+                let mut frames = Vec::new();
+                for lit in 0..=max {
+                    let scene = edited_scene(
+                        dir.path(),
+                        "eight_lights.json",
+                        (96, 72),
+                        effects.clone(),
+                        |v| {
+                            let lights: Vec<serde_json::Value> = (0..max)
+                            .map(|i| {
+                                let on = if i == lit { 1.0 } else { 0.0 };
+                                serde_json::json!({ "directional": {
+                                    "direction": [0.4, 0.9, 0.7], "color": [on, on, on], "cast_shadows": i == lit
+                                } })
+                            })
+                            .collect();
+                            v["lights"] = lights.into();
+                        },
+                    )?;
+                    frames.push(SceneRenderer::new(ctx, &scene, GenerationPath::Compute)?.render(ctx)?);
+                }
+                let dark = frames.pop().context("the all-black frame")?;
+                for (lit, frame) in frames.iter().enumerate() {
+                    ensure!(
+                        frame.image == frames[0].image,
+                        "{raster}: light {lit} of {max} shades differently from light 0"
+                    );
+                }
+                let (lit, unlit) = (linear_energy(&frames[0].linear), linear_energy(&dark.linear));
+                ensure!(lit > 1.5 * unlit, "{raster}: the lit slot adds light ({lit} against {unlit})");
+            }
+            Ok(())
+        }),
         GpuTest::new("every_shadow_casting_light_gets_its_maps", Requirements::NONE, |ctx| {
             let dir = tempfile::tempdir()?;
             let effects =
