@@ -22,7 +22,7 @@ layout(local_size_x = 8, local_size_y = 8) in;
 layout(push_constant) uniform Rect {
     uvec4 rect;
     uint k;
-    uint only_material;              // the frame's only material, or SEVERAL_MATERIALS
+    uint pad0;
     uint64_t words_address;          // the pixel words (read before the sort writes them)
     uint64_t shadow_depth_address;
     uint64_t shadow_opacity_address;
@@ -63,8 +63,11 @@ layout(std430, set = 0, binding = HK_BINDING_VOLUME) readonly buffer VolumeBuffe
 layout(std430, set = 0, binding = HK_BINDING_VOLUME_BRICKS) readonly buffer BrickBuffer { uint bricks[]; };
 #include "volume_sample.glsl"
 
-// Area.only_material of a frame with more than one material.
+// ONLY_MATERIAL of a scene with more than one material.
 const uint SEVERAL_MATERIALS = 0xffffffffu;
+// The scene's only hair material (0), or SEVERAL_MATERIALS: with one, the per-fragment reload
+// below is dead code, and the material's loads have a constant index.
+layout(constant_id = HK_ONLY_MATERIAL_CONSTANT_ID) const uint ONLY_MATERIAL = SEVERAL_MATERIALS;
 
 // scene.rs caps effects.oit_k at this.
 const uint MAX_SLOTS = 16u;
@@ -191,12 +194,12 @@ void main() {
     vec3 last = vec3(0.0);
     float w = 0.0;
     // A pixel's fragments mostly share one material: it is read again only when it changes
-    // (160 bytes, which CPU devices read lane by lane at a fragment's index). A frame's only
-    // material is read at the push constants' index, once for all lanes there.
-    uint material = area.only_material;
+    // (160 bytes, which CPU devices read lane by lane at a fragment's index). A scene's only
+    // material is read at a constant index, once for all lanes there, and never again.
+    uint material = ONLY_MATERIAL;
     RasterMaterial m;
-    if (material != SEVERAL_MATERIALS) {
-        m = frame.materials[area.only_material];
+    if (ONLY_MATERIAL != SEVERAL_MATERIALS) {
+        m = frame.materials[ONLY_MATERIAL];
     }
     if (k > 1u) {
         sort_slots(first, k);
@@ -210,7 +213,7 @@ void main() {
         if (i == 0u) {
             w = f.w;
         }
-        if (f.material != material) {
+        if (ONLY_MATERIAL == SEVERAL_MATERIALS && f.material != material) {
             material = f.material;
             m = frame.materials[min(material, MAX_MATERIALS - 1u)];
         }

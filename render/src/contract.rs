@@ -161,9 +161,15 @@ pub const SCENE_LIGHTS_CONSTANT_ID: u32 = 0;
 pub const MAX_LIGHTS: u32 = 8;
 const _: () = assert!(MAX_LIGHTS == 8, "lighting.glsl writes out eight lights (FOR_EACH_SCENE_LIGHT)");
 
+/// Specialization constant of the compute rasterizer's shade kernel: the scene's only hair
+/// material (0), or `u32::MAX` when it has several (`raster_shade.comp`).
+pub const ONLY_MATERIAL_CONSTANT_ID: u32 = 1;
+
 /// The header's constants that are not bindings, as `(GLSL macro, value)`.
-pub const GLSL_CONSTANTS: &[(&str, u64)] =
-    &[("HK_SCENE_LIGHTS_CONSTANT_ID", SCENE_LIGHTS_CONSTANT_ID as u64)];
+pub const GLSL_CONSTANTS: &[(&str, u64)] = &[
+    ("HK_SCENE_LIGHTS_CONSTANT_ID", SCENE_LIGHTS_CONSTANT_ID as u64),
+    ("HK_ONLY_MATERIAL_CONSTANT_ID", ONLY_MATERIAL_CONSTANT_ID as u64),
+];
 
 /// Every binding a render shader may use: the values of [`GLSL_DEFINES`] (all of which are
 /// bindings).

@@ -692,7 +692,7 @@ impl SceneRenderer {
             raster = RasterPath::Triangles;
         }
         if raster == RasterPath::Compute {
-            self.compute_raster = Some(ComputeRaster::new(ctx, self.scene.lights().len())?);
+            self.compute_raster = Some(ComputeRaster::new(ctx, self.scene.lights().len(), table.len())?);
             self.raster_materials = table;
             self.character_materials = indices;
             // The deep opacity maps go through the same segment walker.

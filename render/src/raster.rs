@@ -40,7 +40,8 @@ use gen_gpu::{
 use glam::{Mat4, Vec3};
 
 use crate::contract::{
-    RASTER_BINDINGS, RASTER_SHADE_BINDINGS, RASTER_TILE_BINDINGS, RESOLVE_BINDINGS, SCENE_LIGHTS_CONSTANT_ID,
+    ONLY_MATERIAL_CONSTANT_ID, RASTER_BINDINGS, RASTER_SHADE_BINDINGS, RASTER_TILE_BINDINGS,
+    RESOLVE_BINDINGS, SCENE_LIGHTS_CONSTANT_ID,
 };
 use crate::graph::TransientPool;
 use crate::scene::{Effects, Raster};
@@ -221,9 +222,10 @@ pub struct ComputeRaster {
 }
 
 impl ComputeRaster {
-    /// The pipelines for a scene of `lights` lights (at most [`crate::scene::MAX_LIGHTS`]; the
-    /// shade kernel is specialized for the count).
-    pub fn new(ctx: &Context, lights: usize) -> gen_gpu::Result<Self> {
+    /// The pipelines for a scene of `lights` lights (at most [`crate::scene::MAX_LIGHTS`]) and
+    /// `materials` distinct hair materials: the shade kernel is specialized for the light count
+    /// and for a single material.
+    pub fn new(ctx: &Context, lights: usize, materials: usize) -> gen_gpu::Result<Self> {
         let compute = |name, shader, bindings: &[Binding], push| {
             Pipeline::compute(ctx, &ComputePipelineDesc::new(name, shader, bindings, push))
         };
@@ -234,11 +236,15 @@ impl ComputeRaster {
             compute("compute raster (stored strands)", &shaders::HAIR_RASTER_STORED_COMP, &strand, push)?;
         let stage = vk::ShaderStageFlags::COMPUTE;
         let shade_bindings = Binding::storage_buffers(&RASTER_SHADE_BINDINGS, stage);
-        let light_count = [(SCENE_LIGHTS_CONSTANT_ID, lights.min(crate::scene::MAX_LIGHTS) as u32)];
+        let only_material = if materials == 1 { 0 } else { u32::MAX };
+        let specialization = [
+            (SCENE_LIGHTS_CONSTANT_ID, lights.min(crate::scene::MAX_LIGHTS) as u32),
+            (ONLY_MATERIAL_CONSTANT_ID, only_material),
+        ];
         let shade = Pipeline::compute(
             ctx,
             &ComputePipelineDesc {
-                specialization: &light_count,
+                specialization: &specialization,
                 ..ComputePipelineDesc::new(
                     "compute raster shade",
                     &shaders::RASTER_SHADE_COMP,
@@ -410,8 +416,6 @@ pub(crate) struct RasterBuffers {
     pub(crate) counters: Buffer,
     /// The occluders' depth, copied from the depth attachment (when there are occluders).
     pub(crate) scene_depth: Option<Buffer>,
-    /// Materials written to `frame`.
-    pub(crate) materials: u32,
 }
 
 /// What sizes and fills one frame's [`RasterBuffers`].
@@ -484,8 +488,7 @@ impl RasterBuffers {
         let (tx, ty) = tile_grid(view.width, view.height);
         // Two words per tile: its own and its 2×2 square's (raster_tiles.comp).
         let tiles = pool.buffer(ctx, "occlusion tiles", BufferDesc::storage(u64::from(tx * ty) * 8))?;
-        let materials = materials.len().min(MAX_MATERIALS) as u32;
-        Ok(Self { pixel_words, frame, shaded, tiles, rect, k, counters, scene_depth, materials })
+        Ok(Self { pixel_words, frame, shaded, tiles, rect, k, counters, scene_depth })
     }
 
     pub(crate) fn give_back(self, pool: &mut TransientPool) {
@@ -530,17 +533,13 @@ pub fn screen_rect(
     [lo.x as u32, lo.y as u32, hi.x as u32, hi.y as u32]
 }
 
-/// [`ShadePush::only_material`] of a frame with more than one material.
-pub(crate) const SEVERAL_MATERIALS: u32 = u32::MAX;
-
 /// The shade kernel's push constants (raster_shade.comp `Rect`).
 #[repr(C)]
 #[derive(Clone, Copy, bytemuck::Pod, bytemuck::Zeroable)]
 pub(crate) struct ShadePush {
     pub(crate) rect: [u32; 4],
     pub(crate) k: u32,
-    /// The frame's only material, or [`SEVERAL_MATERIALS`].
-    pub(crate) only_material: u32,
+    pub(crate) pad: u32,
     pub(crate) words_address: u64,
     pub(crate) shadow_depth_address: u64,
     pub(crate) shadow_opacity_address: u64,

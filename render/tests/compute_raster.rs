@@ -517,7 +517,7 @@ fn main() -> ExitCode {
             compute_maps_against_triangle_maps(ctx, "sintel", &path, 0.05)
         }),
         GpuTest::new("the_raster_kernel_matches_its_cpu_port", Requirements::INT64_ATOMICS, |ctx| {
-            let raster = ComputeRaster::new(ctx, 1)?;
+            let raster = ComputeRaster::new(ctx, 1, 1)?;
             // An odd size (no multiple of any tile), the camera at z = 1 looking down -z.
             let (width, height) = (97, 61);
             let mut inputs = camera_at_z1(width, height);
@@ -564,7 +564,7 @@ fn main() -> ExitCode {
             Ok(())
         }),
         GpuTest::new("the_k_nearest_slots_match_the_cpu_port", Requirements::INT64_ATOMICS, |ctx| {
-            let raster = ComputeRaster::new(ctx, 1)?;
+            let raster = ComputeRaster::new(ctx, 1, 1)?;
             let (width, height) = (61, 45);
             let inputs = camera_at_z1(width, height);
             // 160 strands crossing each other at many depths (a fan around the centre, each

@@ -9,7 +9,7 @@ use super::ScenePass;
 use crate::contract::binding;
 use crate::frame::{FrameIds, FrameState, SceneRenderer};
 use crate::graph::{Access, FrameGraph};
-use crate::raster::{SEVERAL_MATERIALS, ShadePush, raster_push, stored_group_size, tile_grid};
+use crate::raster::{ShadePush, raster_push, stored_group_size, tile_grid};
 use crate::shaders;
 
 pub(crate) fn plan_clear(g: &mut FrameGraph<ScenePass>, ids: &FrameIds, submission: usize) {
@@ -213,9 +213,7 @@ pub(crate) fn record_shade(
     let push = ShadePush {
         rect: b.rect,
         k: b.k,
-        // One material: the kernel reads it at an index from the push constants, which CPU
-        // devices load once for all SIMD lanes (at a fragment's index: lane by lane).
-        only_material: if b.materials == 1 { 0 } else { SEVERAL_MATERIALS },
+        pad: 0,
         words_address: r.load_address(&b.pixel_words),
         shadow_depth_address: map(binding::SHADOW_DEPTH),
         shadow_opacity_address: map(binding::SHADOW_OPACITY),
