@@ -116,6 +116,10 @@ pub const SPARSE_SLOT_STRIDE: u32 = 8;
 /// sets on every compute pipeline ([`crate::Context::dispatch_workers`]).
 pub const DISPATCH_WORKERS_CONSTANT_ID: u32 = 16;
 
+/// Specialization constant ids from this one on belong to a consumer's fragment stage
+/// ([`crate::FragmentStage::specialization`]); gen-gpu's own are below it.
+pub const FIRST_CONSUMER_CONSTANT_ID: u32 = 32;
+
 /// Every constant of the header, as `(GLSL macro, value)`.
 pub const GLSL_DEFINES: &[(&str, u64)] = &[
     ("HK_BINDING_GEN_PARAMS", binding::GEN_PARAMS as u64),

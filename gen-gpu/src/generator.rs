@@ -59,6 +59,10 @@ pub struct FragmentStage {
     pub color_write: bool,
     /// Storage buffers of its own, at bindings 12 and up of set 0.
     pub extra_bindings: &'static [u32],
+    /// A specialization constant of its own `(constant_id, value)`, the id at
+    /// [`crate::contract::FIRST_CONSUMER_CONSTANT_ID`] or above (render: the scene's light
+    /// count).
+    pub specialization: Option<(u32, u32)>,
 }
 
 /// What a renderer adds to a strand draw: its fragment stage's push constants and buffers.
@@ -368,8 +372,22 @@ impl Generator {
             depth_compare: vk::CompareOp::LESS,
             color_write: true,
             extra_bindings: &[],
+            specialization: None,
         });
+        if let Some((id, _)) = fragment.specialization
+            && id < crate::contract::FIRST_CONSUMER_CONSTANT_ID
+        {
+            return Err(GpuError::Mismatch(format!(
+                "fragment stage specialization constant {id} is below the consumer's first ({})",
+                crate::contract::FIRST_CONSUMER_CONSTANT_ID
+            )));
+        }
         let push_size = FRAGMENT_PUSH_OFFSET + fragment.push_constant_bytes;
+        let own_constants = |capture: u32| {
+            let mut constants = vec![(0, manual), (1, capture), (2, cubic), (3, per_vertex)];
+            constants.extend(fragment.specialization);
+            constants
+        };
         let graphics = |name, stages, capture: u32| {
             Pipeline::graphics(
                 ctx,
@@ -379,7 +397,7 @@ impl Generator {
                     fragment: fragment.shader,
                     bindings: &bindings,
                     push_constant_size: push_size,
-                    specialization: &[(0, manual), (1, capture), (2, cubic), (3, per_vertex)],
+                    specialization: &own_constants(capture),
                     color_format: options.color_format.unwrap_or(COLOR_FORMAT),
                     depth_format: Some(DEPTH_FORMAT),
                     blend: fragment.blend,

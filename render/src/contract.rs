@@ -154,7 +154,9 @@ pub const GLSL_DEFINES: &[(&str, u64)] = &[
 /// Specialization constant of the shading that loops over a scene's lights (the compute
 /// rasterizer's shade kernel, the occluders): the scene's light count, so that the loop is
 /// written out light by light with constant indices (`lighting.glsl`).
-pub const SCENE_LIGHTS_CONSTANT_ID: u32 = 0;
+/// 32 and up: the strand pipelines' fragment stages are gen-gpu's, whose own constants are below
+/// `gen_gpu::contract::FIRST_CONSUMER_CONSTANT_ID` (32; the generator checks).
+pub const SCENE_LIGHTS_CONSTANT_ID: u32 = 32;
 
 /// Lights a scene may have (`scene::MAX_LIGHTS`). `lighting.glsl` writes loops over the lights
 /// out to eight turns (`FOR_EACH_SCENE_LIGHT`): change both together.
@@ -163,7 +165,7 @@ const _: () = assert!(MAX_LIGHTS == 8, "lighting.glsl writes out eight lights (F
 
 /// Specialization constant of the compute rasterizer's shade kernel: the scene's only hair
 /// material (0), or `u32::MAX` when it has several (`raster_shade.comp`).
-pub const ONLY_MATERIAL_CONSTANT_ID: u32 = 1;
+pub const ONLY_MATERIAL_CONSTANT_ID: u32 = 33;
 
 /// The header's constants that are not bindings, as `(GLSL macro, value)`.
 pub const GLSL_CONSTANTS: &[(&str, u64)] = &[

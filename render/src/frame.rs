@@ -435,6 +435,11 @@ impl SceneRenderer {
     ) -> Result<Self, RenderError> {
         let scene = &instance.settings;
         let effects = scene.scene.effects;
+        // The fragment stages shade the scene's lights by constant index (lighting.glsl).
+        let scene_lights = (
+            crate::contract::SCENE_LIGHTS_CONSTANT_ID,
+            scene.lights().len().min(crate::scene::MAX_LIGHTS) as u32,
+        );
         let generator = Generator::with_options(
             ctx,
             GeneratorOptions {
@@ -452,6 +457,7 @@ impl SceneRenderer {
                     },
                     color_write: true,
                     extra_bindings: &crate::contract::HAIR_FRAGMENT_BINDINGS,
+                    specialization: Some(scene_lights),
                 }),
                 color_format: Some(SCENE_COLOR_FORMAT),
                 samples: effects.msaa,
@@ -474,6 +480,7 @@ impl SceneRenderer {
                         depth_compare: vk::CompareOp::LESS,
                         color_write: false,
                         extra_bindings: &[],
+                        specialization: None,
                     }),
                     color_format: Some(SCENE_COLOR_FORMAT),
                     samples: effects.msaa,
@@ -493,6 +500,7 @@ impl SceneRenderer {
                         depth_compare: vk::CompareOp::LESS,
                         color_write: false,
                         extra_bindings: &OIT_FILL_BINDINGS,
+                        specialization: Some(scene_lights),
                     }),
                     color_format: Some(SCENE_COLOR_FORMAT),
                     ..GeneratorOptions::default()

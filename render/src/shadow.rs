@@ -320,6 +320,7 @@ impl ShadowPipelines {
                     depth_compare: vk::CompareOp::LESS,
                     color_write: false,
                     extra_bindings: &[],
+                    specialization: None,
                 }),
                 ..GeneratorOptions::default()
             },
@@ -335,6 +336,7 @@ impl ShadowPipelines {
                     depth_compare: vk::CompareOp::LESS,
                     color_write: true,
                     extra_bindings: &[crate::contract::binding::SHADOW_DEPTH],
+                    specialization: None,
                 }),
                 color_format: Some(OPACITY_FORMAT),
                 ..GeneratorOptions::default()
