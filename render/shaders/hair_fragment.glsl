@@ -20,10 +20,6 @@ layout(std430, set = 0, binding = HK_BINDING_VOLUME_BRICKS) readonly buffer Bric
 // Hair shading with volume shadows: the light through the character's own hair volume.
 float fragment_light_transmittance(uint i, vec3 p);
 #define HAIR_LIGHT_TRANSMITTANCE(i, p) fragment_light_transmittance(i, p)
-// The scene's light count: shade_hair visits the lights by constant index (lighting.glsl).
-// Unspecialized: every light a scene may have.
-layout(constant_id = HK_SCENE_LIGHTS_CONSTANT_ID) const uint SCENE_LIGHTS = 8u;
-#define HAIR_SHADING_SCENE_LIGHTS
 #include "hair_shading.glsl"
 
 // Object-space point -> voxel coordinates of the character's volume.

@@ -10,10 +10,6 @@
 
 // The light reaching a hair sample: the maps' (lighting.glsl), unless the includer defines
 // HAIR_LIGHT_TRANSMITTANCE(i, p) (the compute rasterizer's shade pass adds volume shadows).
-// An includer that declares SCENE_LIGHTS (the scene's light count, a specialization constant)
-// defines HAIR_SHADING_SCENE_LIGHTS: shade_hair then visits the lights by constant index
-// (FOR_EACH_SCENE_LIGHT in lighting.glsl).
-
 #ifndef HAIR_LIGHT_TRANSMITTANCE
 #define HAIR_LIGHT_TRANSMITTANCE(i, p) light_transmittance(i, p)
 #endif
@@ -79,16 +75,10 @@ vec4 shade_hair(HairSample s, HairMaterial m) {
     float sparkle = mix(1.0, hash(s.strand_random * 97.0 + floor(s.tau * 40.0)), m.specular_strength.w);
 
     vec3 color = base * m.specular_strength.z;
-#ifdef HAIR_SHADING_SCENE_LIGHTS
     // Light by light with constant indices (lighting.glsl).
 #define HAIR_LIGHT_TURN(I) { color += hair_light(I, p, t, n, v, t1, t2, base, sparkle, m); }
     FOR_EACH_SCENE_LIGHT(m.light_count, HAIR_LIGHT_TURN)
 #undef HAIR_LIGHT_TURN
-#else
-    for (uint i = 0u; i < m.light_count; ++i) {
-        color += hair_light(i, p, t, n, v, t1, t2, base, sparkle, m);
-    }
-#endif
     // Ambient occlusion darkens every term, as vkhr's volume AO does: the hair around a point
     // blocks its light from most directions, not only the ambient light's.
     color *= clamp(s.occlusion, 0.0, 1.0);

@@ -28,10 +28,14 @@ layout(std430, set = 0, binding = HK_BINDING_OCCLUDER_DEPTH) readonly buffer Occ
 #define OCCLUDER_DEPTH_LOAD(i) occluder_depth[i]
 #endif
 
+// The scene's light count, a specialization constant of every pipeline that shades (render's
+// contract SCENE_LIGHTS_CONSTANT_ID; unspecialized: every light a scene may have).
+layout(constant_id = HK_SCENE_LIGHTS_CONSTANT_ID) const uint SCENE_LIGHTS = 8u;
+
 // Loops over the scene's lights written out, one turn per light: FOR_EACH_SCENE_LIGHT(count,
 // TURN) expands to TURN(0u) ... TURN(7u), each turn to run only where its index is below both
-// SCENE_LIGHTS (a constant: the includer's specialization constant of the scene's light count,
-// so the turns past it are dead code, removed before the device compiles the shader) and
+// SCENE_LIGHTS (so the turns past it are dead code, removed before the device compiles the
+// shader) and
 // `count` (the frame's). lavapipe unrolls no loop as large as a light's shading, even of a
 // constant count, and with a loop counter for index CPU devices (llvmpipe) load each light
 // lane by lane (a bounds check per lane and component; a shadow lookup reads most of a

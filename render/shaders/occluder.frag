@@ -16,9 +16,6 @@ layout(push_constant) uniform Occluder {
 #include "lighting.glsl"
 #include "volume_ao.glsl"
 
-// The scene's light count (FOR_EACH_SCENE_LIGHT; unspecialized: every light a scene may have).
-layout(constant_id = HK_SCENE_LIGHTS_CONSTANT_ID) const uint SCENE_LIGHTS = 8u;
-
 layout(location = 0) in vec3 v_position;
 layout(location = 1) in vec3 v_normal;
 layout(location = 0) out vec4 out_color;

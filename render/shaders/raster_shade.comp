@@ -45,10 +45,6 @@ layout(buffer_reference, std430, buffer_reference_align = 16) readonly buffer Ve
 // Hair shading with volume shadows: the light through the character's own hair volume.
 float shade_light_transmittance(uint i, vec3 p);
 #define HAIR_LIGHT_TRANSMITTANCE(i, p) shade_light_transmittance(i, p)
-// The scene's light count: shade_hair visits the lights by constant index (lighting.glsl).
-// Unspecialized: every light a scene may have.
-layout(constant_id = HK_SCENE_LIGHTS_CONSTANT_ID) const uint SCENE_LIGHTS = 8u;
-#define HAIR_SHADING_SCENE_LIGHTS
 #include "hair_shading.glsl"
 #include "raster_frame.glsl"
 

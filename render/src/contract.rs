@@ -163,6 +163,12 @@ pub const SCENE_LIGHTS_CONSTANT_ID: u32 = 32;
 pub const MAX_LIGHTS: u32 = 8;
 const _: () = assert!(MAX_LIGHTS == 8, "lighting.glsl writes out eight lights (FOR_EACH_SCENE_LIGHT)");
 
+/// The `(constant_id, value)` specialization of a pipeline that shades a scene of `lights`
+/// lights (the scene validates at most [`MAX_LIGHTS`]).
+pub fn scene_lights_constant(lights: usize) -> (u32, u32) {
+    (SCENE_LIGHTS_CONSTANT_ID, lights.min(MAX_LIGHTS as usize) as u32)
+}
+
 /// Specialization constant of the compute rasterizer's shade kernel: the scene's only hair
 /// material (0), or `u32::MAX` when it has several (`raster_shade.comp`).
 pub const ONLY_MATERIAL_CONSTANT_ID: u32 = 33;

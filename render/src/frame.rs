@@ -436,10 +436,7 @@ impl SceneRenderer {
         let scene = &instance.settings;
         let effects = scene.scene.effects;
         // The fragment stages shade the scene's lights by constant index (lighting.glsl).
-        let scene_lights = (
-            crate::contract::SCENE_LIGHTS_CONSTANT_ID,
-            scene.lights().len().min(crate::scene::MAX_LIGHTS) as u32,
-        );
+        let scene_lights = crate::contract::scene_lights_constant(scene.lights().len());
         let generator = Generator::with_options(
             ctx,
             GeneratorOptions {

@@ -180,8 +180,7 @@ impl OccluderPipelines {
             .chain([b::VOLUME_AO])
             .map(|b| Binding::storage_buffer(b, stages))
             .collect();
-        let light_count =
-            [(crate::contract::SCENE_LIGHTS_CONSTANT_ID, lights.min(crate::scene::MAX_LIGHTS) as u32)];
+        let light_count = [crate::contract::scene_lights_constant(lights)];
         let desc = |name, fragment, color_format, samples, color_write, depth_compare| GraphicsPipelineDesc {
             name,
             stages: GraphicsStages::Vertex(&shaders::OCCLUDER_VERT),

@@ -41,7 +41,7 @@ use glam::{Mat4, Vec3};
 
 use crate::contract::{
     ONLY_MATERIAL_CONSTANT_ID, RASTER_BINDINGS, RASTER_SHADE_BINDINGS, RASTER_TILE_BINDINGS,
-    RESOLVE_BINDINGS, SCENE_LIGHTS_CONSTANT_ID,
+    RESOLVE_BINDINGS, scene_lights_constant,
 };
 use crate::graph::TransientPool;
 use crate::scene::{Effects, Raster};
@@ -237,10 +237,7 @@ impl ComputeRaster {
         let stage = vk::ShaderStageFlags::COMPUTE;
         let shade_bindings = Binding::storage_buffers(&RASTER_SHADE_BINDINGS, stage);
         let only_material = if materials == 1 { 0 } else { u32::MAX };
-        let specialization = [
-            (SCENE_LIGHTS_CONSTANT_ID, lights.min(crate::scene::MAX_LIGHTS) as u32),
-            (ONLY_MATERIAL_CONSTANT_ID, only_material),
-        ];
+        let specialization = [scene_lights_constant(lights), (ONLY_MATERIAL_CONSTANT_ID, only_material)];
         let shade = Pipeline::compute(
             ctx,
             &ComputePipelineDesc {
