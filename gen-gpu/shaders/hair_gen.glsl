@@ -347,6 +347,12 @@ float pow_exponent(float x, float e) {
     return e == 1.0 ? x : pow(x, e);
 }
 
+// p pulled toward its bundle's centre curve, by the clump strength times `shape` (tau^exponent)
+// at the root fade (style.rs).
+vec3 clump_point(vec3 p, vec3 centre, float shape, float fade) {
+    return mix(p, centre, clamp(params.frizz_clump.y * shape * fade, 0.0, 1.0));
+}
+
 vec3 style_apply(StrandStyle st, float tau, vec3 position, vec3 centre, vec3 fu, vec3 fv, vec3 fw, float w) {
     float fade = smoothstep_safe(0.0, params.style0.z, tau);
     if (fade == 0.0) {
@@ -375,9 +381,18 @@ vec3 style_apply(StrandStyle st, float tau, vec3 position, vec3 centre, vec3 fu,
     if (params.frizz_clump.w != 0.0) {
         p = centre + rotate_about(p - centre, fw, TURN * params.frizz_clump.w * tau * fade);
     }
-    if (!stray && params.frizz_clump.y != 0.0) {
-        float amount = clamp(params.frizz_clump.y * pow_exponent(tau, max(params.frizz_clump.z, 0.0)) * fade, 0.0, 1.0);
-        p = mix(p, centre, amount);
+    if (params.frizz_clump.y != 0.0) {
+        // The common exponent 1 takes a branch of its own, not pow_exponent's select: the
+        // compiler flattens a conditional that small into a select, and llvmpipe then
+        // evaluates pow (a log2 and an exp2) at every vertex, a twentieth of the generate pass
+        // (measured). The stray test inside each side keeps both sides branches.
+        if (params.frizz_clump.z == 1.0) {
+            if (!stray) {
+                p = clump_point(p, centre, tau, fade);
+            }
+        } else if (!stray) {
+            p = clump_point(p, centre, pow(tau, max(params.frizz_clump.z, 0.0)), fade);
+        }
     }
     return p;
 }
