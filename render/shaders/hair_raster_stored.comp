@@ -13,10 +13,10 @@ layout(local_size_x = 32) in;
 
 layout(buffer_reference, std430, buffer_reference_align = 16) readonly buffer StrandVerticesRef { vec4 values[]; };
 
-// Through the reference when there is one: a gather on CPU devices, where the binding's load
+// Through the reference when LOAD_BY_ADDRESS: a gather on CPU devices, where the binding's load
 // at a per-invocation address is a loop over the SIMD lanes.
 vec4 load_stored(uint i) {
-    return raster.vertices_address != 0UL ? StrandVerticesRef(raster.vertices_address).values[i] : strand_vertices[i];
+    return LOAD_BY_ADDRESS != 0u ? StrandVerticesRef(raster.vertices_address).values[i] : strand_vertices[i];
 }
 
 StrandVertex stored_vertex(uint slot, uint k) {

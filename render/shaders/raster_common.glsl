@@ -38,6 +38,15 @@
 #include "hk_render_contract.glsl"
 #include "float_int.glsl"
 
+// How the compute rasterizer's raster and shade kernels read the buffers they only load from
+// (pixel words, occlusion tiles, scene depth, shadow maps, stored vertices): 1 through the
+// device addresses in their push constants (buffer references), 0 through their bindings
+// (render/src/raster.rs `LoadPath`). A specialization constant rather than a test of the
+// address: with the choice made at run time both loads stayed in the code, and llvmpipe ran
+// the binding's lane-by-lane loop (a bounds check per lane) under an empty mask besides the
+// reference's gather at every pixel test.
+layout(constant_id = HK_LOAD_BY_ADDRESS_CONSTANT_ID) const uint LOAD_BY_ADDRESS = 0u;
+
 const uint64_t VISIBILITY_EMPTY = 0xffffffffffffffffUL;
 const float COVERAGE_SCALE = 256.0;          // fixed-point units per unit of optical depth
 // Optical depth 12 (alpha 1 - 6e-6): dense hair reaches it after a few fragments, and the rest

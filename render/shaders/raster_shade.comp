@@ -16,9 +16,10 @@
 layout(local_size_x = 8, local_size_y = 8) in;
 
 // The pixel rectangle the frame's hair can cover (x0, y0, x1, y1; x1, y1 exclusive); slots K;
-// device addresses of the buffers whose loads dominate (0: none, read through the bindings):
-// CPU devices (llvmpipe) gather loads through a buffer reference with vector instructions,
-// where a storage-buffer load of a divergent address is a loop over the SIMD lanes.
+// device addresses of the buffers whose loads dominate, read through them when LOAD_BY_ADDRESS
+// (raster_common.glsl; else through the bindings): CPU devices (llvmpipe) gather loads through
+// a buffer reference with vector instructions, where a storage-buffer load of a divergent
+// address is a loop over the SIMD lanes.
 layout(push_constant) uniform Rect {
     uvec4 rect;
     uint k;
@@ -36,11 +37,11 @@ layout(buffer_reference, std430, buffer_reference_align = 4) readonly buffer Flo
 layout(buffer_reference, std430, buffer_reference_align = 16) readonly buffer Vec4sRef { vec4 values[]; };
 
 #define SHADOW_DEPTH_LOAD(i) \
-    (area.shadow_depth_address != 0UL ? FloatsRef(area.shadow_depth_address).values[i] : shadow_depth[i])
+    (LOAD_BY_ADDRESS != 0u ? FloatsRef(area.shadow_depth_address).values[i] : shadow_depth[i])
 #define SHADOW_OPACITY_LOAD(i) \
-    (area.shadow_opacity_address != 0UL ? Vec4sRef(area.shadow_opacity_address).values[i] : shadow_opacity[i])
+    (LOAD_BY_ADDRESS != 0u ? Vec4sRef(area.shadow_opacity_address).values[i] : shadow_opacity[i])
 #define OCCLUDER_DEPTH_LOAD(i) \
-    (area.occluder_depth_address != 0UL ? FloatsRef(area.occluder_depth_address).values[i] : occluder_depth[i])
+    (LOAD_BY_ADDRESS != 0u ? FloatsRef(area.occluder_depth_address).values[i] : occluder_depth[i])
 
 // Hair shading with volume shadows: the light through the character's own hair volume.
 float shade_light_transmittance(uint i, vec3 p);
@@ -75,7 +76,7 @@ const uint MAX_SLOTS = 16u;
 // A plain load of word i, before the sort writes the pixel's words (a load through the
 // read-only reference after a store through the binding could be reordered before it).
 uint64_t load_pixel_word(uint i) {
-    return area.words_address != 0UL ? PixelWordsRef(area.words_address).words[i] : pixel_words[i];
+    return LOAD_BY_ADDRESS != 0u ? PixelWordsRef(area.words_address).words[i] : pixel_words[i];
 }
 
 // Sorts the K > 1 slots of the pixel whose words start at `first` in place, nearest first (the
@@ -177,7 +178,7 @@ void main() {
     // With K = 1 nothing is sorted or written: both words come through the reference in one
     // 16-byte load (one address for both words on CPU devices, where each binding load is a loop
     // over the lanes).
-    bool paired = k == 1u && area.words_address != 0UL;
+    bool paired = k == 1u && LOAD_BY_ADDRESS != 0u;
     u64vec2 pair = paired ? PixelPairsRef(area.words_address).pairs[pixel] : u64vec2(0UL);
     uint64_t nearest = paired ? pair.x : pixel_words[first];
     if (nearest == VISIBILITY_EMPTY) {

@@ -38,15 +38,14 @@ layout(push_constant) uniform RasterParams {
     float opacity;        // of one strand (its material's)
     float volume_fraction; // transition band: pixels whose dither is below it are the volume's
     uint pad;             // (the addresses are 8-byte aligned)
-    // Device addresses of pixel_words, tile_depth and scene_depth (0: none), for the plain
-    // loads: CPU devices (llvmpipe) gather loads through a buffer reference with vector
-    // instructions, where a storage-buffer load of a divergent address is a loop over the SIMD
-    // lanes.
+    // Device addresses of pixel_words, tile_depth and scene_depth, for the plain loads when
+    // LOAD_BY_ADDRESS (raster_common.glsl; else unused): CPU devices (llvmpipe) gather loads
+    // through a buffer reference with vector instructions, where a storage-buffer load of a
+    // divergent address is a loop over the SIMD lanes.
     uint64_t words_address;
     uint64_t tiles_address;
     uint64_t scene_depth_address;
-    // Stored strands: the device address of the bound chunk's vertices (0: read through the
-    // binding).
+    // Stored strands: the device address of the bound chunk's vertices (likewise).
     uint64_t vertices_address;
 } raster;
 
@@ -56,9 +55,8 @@ layout(buffer_reference, std430, buffer_reference_align = 4) readonly buffer Til
 layout(buffer_reference, std430, buffer_reference_align = 16) readonly buffer PixelPairsRef { u64vec2 pairs[]; };
 layout(buffer_reference, std430, buffer_reference_align = 4) readonly buffer SceneDepthRef { float depth[]; };
 
-// visibility_write.glsl's plain loads, through the reference when there is one.
-#define PIXEL_WORD_LOAD(i) \
-    (raster.words_address != 0UL ? PixelWordsRef(raster.words_address).words[i] : pixel_words[i])
+// visibility_write.glsl's plain loads, through the reference when LOAD_BY_ADDRESS.
+#define PIXEL_WORD_LOAD(i) (LOAD_BY_ADDRESS != 0u ? PixelWordsRef(raster.words_address).words[i] : pixel_words[i])
 #include "visibility_write.glsl"
 
 uint64_t load_pixel_word(uint i) {
@@ -66,12 +64,11 @@ uint64_t load_pixel_word(uint i) {
 }
 
 uint load_tile_word(uint i) {
-    return raster.tiles_address != 0UL ? TileWordsRef(raster.tiles_address).words[i] : tile_depth[i];
+    return LOAD_BY_ADDRESS != 0u ? TileWordsRef(raster.tiles_address).words[i] : tile_depth[i];
 }
 
 float load_scene_depth(uint pixel) {
-    return raster.scene_depth_address != 0UL ? SceneDepthRef(raster.scene_depth_address).depth[pixel]
-                                             : scene_depth[pixel];
+    return LOAD_BY_ADDRESS != 0u ? SceneDepthRef(raster.scene_depth_address).depth[pixel] : scene_depth[pixel];
 }
 
 // Which strands a dispatch draws: all of them, or in two phases around the tile pass: first a
@@ -186,7 +183,7 @@ void raster_fragment(uint pixel, float coverage, float ndc_z, inout ColumnAttrib
     // with an even K the same pairing of words K and K + 1 measured no gain, twice).
     uint64_t cover;
     uint64_t threshold;
-    if (k == 1u && raster.words_address != 0UL) {
+    if (k == 1u && LOAD_BY_ADDRESS != 0u) {
         u64vec2 pair = PixelPairsRef(raster.words_address).pairs[pixel];
         threshold = pair.x;
         cover = pair.y;

@@ -173,10 +173,16 @@ pub fn scene_lights_constant(lights: usize) -> (u32, u32) {
 /// material (0), or `u32::MAX` when it has several (`raster_shade.comp`).
 pub const ONLY_MATERIAL_CONSTANT_ID: u32 = 33;
 
+/// Specialization constant of the compute rasterizer's raster and shade kernels: 1 when they
+/// read the buffers they only load from through the device addresses in their push constants,
+/// 0 through their bindings (`raster::LoadPath`, `raster_common.glsl`).
+pub const LOAD_BY_ADDRESS_CONSTANT_ID: u32 = 34;
+
 /// The header's constants that are not bindings, as `(GLSL macro, value)`.
 pub const GLSL_CONSTANTS: &[(&str, u64)] = &[
     ("HK_SCENE_LIGHTS_CONSTANT_ID", SCENE_LIGHTS_CONSTANT_ID as u64),
     ("HK_ONLY_MATERIAL_CONSTANT_ID", ONLY_MATERIAL_CONSTANT_ID as u64),
+    ("HK_LOAD_BY_ADDRESS_CONSTANT_ID", LOAD_BY_ADDRESS_CONSTANT_ID as u64),
 ];
 
 /// Every binding a render shader may use: the values of [`GLSL_DEFINES`] (all of which are

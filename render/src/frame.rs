@@ -24,7 +24,7 @@ use crate::instance::{CharacterHair, SceneInstance};
 use crate::occluder::{OccluderMesh, OccluderPipelines};
 use crate::passes::ScenePass;
 use crate::raster::{
-    ComputeRaster, MAX_MATERIALS, RasterBuffers, RasterMaterial, RasterPath, resolve_raster,
+    ComputeRaster, LoadPath, MAX_MATERIALS, RasterBuffers, RasterMaterial, RasterPath, resolve_raster,
 };
 use crate::scene::{Light, LoadedScene, Transparency};
 use crate::shadow::{ShadowAtlas, ShadowPipelines};
@@ -208,8 +208,8 @@ pub struct SceneRenderer {
     /// Compute rasterizer: draw in two phases around the occlusion tiles (the default) or every
     /// strand in one ([`Self::with_occlusion_tiles`]).
     pub(crate) occlusion_tiles: bool,
-    /// Compute rasterizer: its kernels' plain loads read through buffer references where the
-    /// device has them ([`Self::with_buffer_references`]).
+    /// The compute rasterizer's plain loads and the triangle OIT's node pool go through buffer
+    /// references where the device has them ([`Self::with_buffer_references`]).
     pub(crate) buffer_references: bool,
     /// Hair volumes (with `"ao"`, `"volume_shadows"` or `"volume_lod"`).
     pub(crate) volumes: Option<SceneVolumes>,
@@ -697,7 +697,12 @@ impl SceneRenderer {
             raster = RasterPath::Triangles;
         }
         if raster == RasterPath::Compute {
-            self.compute_raster = Some(ComputeRaster::new(ctx, self.scene.lights().len(), table.len())?);
+            self.compute_raster = Some(ComputeRaster::new(
+                ctx,
+                self.scene.lights().len(),
+                table.len(),
+                self.compute_raster_loads(),
+            )?);
             self.raster_materials = table;
             self.character_materials = indices;
             // The deep opacity maps go through the same segment walker.
@@ -804,21 +809,27 @@ impl SceneRenderer {
     /// occlusion tiles and shadow maps through their bindings instead of buffer references (the
     /// image is the same; tests compare them). References are the default where the device has
     /// buffer device addresses: CPU devices gather loads through them with vector instructions.
-    pub fn with_buffer_references(mut self, on: bool) -> Self {
+    /// The kernels are specialized for one or the other ([`crate::raster::LoadPath`]), so a
+    /// change makes the compute rasterizer's pipelines again.
+    pub fn with_buffer_references(mut self, ctx: &Context, on: bool) -> Result<Self, RenderError> {
         self.buffer_references = on;
-        self
+        if self.compute_raster.is_some() {
+            let (lights, materials) = (self.scene.lights().len(), self.raster_materials.len());
+            self.compute_raster =
+                Some(ComputeRaster::new(ctx, lights, materials, self.compute_raster_loads())?);
+        }
+        Ok(self)
     }
 
-    /// The address a compute-raster kernel's plain loads of `buffer` read through: its device
-    /// address with buffer references on (0 where the device has none), else 0 (the binding).
+    /// How the compute rasterizer's kernels are to read ([`Self::with_buffer_references`]).
+    fn compute_raster_loads(&self) -> LoadPath {
+        if self.buffer_references { LoadPath::BufferReferences } else { LoadPath::Bindings }
+    }
+
+    /// The address the triangle OIT's shaders reach `buffer` through: its device address with
+    /// buffer references on (0 where the device has none), else 0 (the binding).
     pub(crate) fn load_address(&self, buffer: &Buffer) -> u64 {
-        self.reference_address(buffer.device_address())
-    }
-
-    /// `address` (a device address, 0 for none) if the kernels read through buffer references,
-    /// else 0 (the binding).
-    pub(crate) fn reference_address(&self, address: u64) -> u64 {
-        if self.buffer_references { address } else { 0 }
+        if self.buffer_references { buffer.device_address() } else { 0 }
     }
 
     /// With `"volume_lod"`: `true` raymarches every character, whatever its projected size (the

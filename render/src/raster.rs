@@ -40,8 +40,8 @@ use gen_gpu::{
 use glam::{Mat4, Vec3};
 
 use crate::contract::{
-    ONLY_MATERIAL_CONSTANT_ID, RASTER_BINDINGS, RASTER_SHADE_BINDINGS, RASTER_TILE_BINDINGS,
-    RESOLVE_BINDINGS, scene_lights_constant,
+    LOAD_BY_ADDRESS_CONSTANT_ID, ONLY_MATERIAL_CONSTANT_ID, RASTER_BINDINGS, RASTER_SHADE_BINDINGS,
+    RASTER_TILE_BINDINGS, RESOLVE_BINDINGS, scene_lights_constant,
 };
 use crate::graph::TransientPool;
 use crate::scene::{Effects, Raster};
@@ -208,6 +208,20 @@ struct RasterFrameHeader {
     size: [u32; 4],
 }
 
+/// How the compute rasterizer's raster and shade kernels read the buffers they only load
+/// from (pixel words, occlusion tiles, scene depth, shadow maps, stored vertices): a
+/// specialization of their pipelines (`LOAD_BY_ADDRESS`, `raster_common.glsl`), so each
+/// compiles one of the two loads. The image is the same either way.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum LoadPath {
+    /// Through buffer references to the device addresses in the push constants, the default
+    /// where the device has buffer device addresses: CPU devices gather such loads with vector
+    /// instructions, where a binding's load at a per-lane index is a loop over the lanes.
+    BufferReferences,
+    /// Through the descriptor bindings.
+    Bindings,
+}
+
 /// The compute rasterizer's pipelines.
 #[derive(Debug)]
 pub struct ComputeRaster {
@@ -219,25 +233,47 @@ pub struct ComputeRaster {
     /// Bound at the scene-depth binding when there are no occluders, and at the tiles' in
     /// single-phase dispatches (never read then).
     pub(crate) no_scene_depth: Buffer,
+    loads: LoadPath,
 }
 
 impl ComputeRaster {
     /// The pipelines for a scene of `lights` lights (at most [`crate::scene::MAX_LIGHTS`]) and
-    /// `materials` distinct hair materials: the shade kernel is specialized for the light count
-    /// and for a single material.
-    pub fn new(ctx: &Context, lights: usize, materials: usize) -> gen_gpu::Result<Self> {
-        let compute = |name, shader, bindings: &[Binding], push| {
-            Pipeline::compute(ctx, &ComputePipelineDesc::new(name, shader, bindings, push))
+    /// `materials` distinct hair materials, reading as `loads` says (buffer references only
+    /// where the device has buffer device addresses: else through the bindings): the shade
+    /// kernel is specialized for the light count and for a single material.
+    pub fn new(ctx: &Context, lights: usize, materials: usize, loads: LoadPath) -> gen_gpu::Result<Self> {
+        let loads = if ctx.capabilities().buffer_device_address { loads } else { LoadPath::Bindings };
+        let by_address = (LOAD_BY_ADDRESS_CONSTANT_ID, u32::from(loads == LoadPath::BufferReferences));
+        let compute = |name, shader, bindings: &[Binding], push, specialization: &[(u32, u32)]| {
+            Pipeline::compute(
+                ctx,
+                &ComputePipelineDesc {
+                    specialization,
+                    ..ComputePipelineDesc::new(name, shader, bindings, push)
+                },
+            )
         };
         let strand = gen_gpu::strand_bindings(&RASTER_BINDINGS);
         let push = size_of::<RasterPush>() as u32;
-        let raster = compute("compute raster (fused generation)", &shaders::HAIR_RASTER_COMP, &strand, push)?;
-        let raster_stored =
-            compute("compute raster (stored strands)", &shaders::HAIR_RASTER_STORED_COMP, &strand, push)?;
+        let raster = compute(
+            "compute raster (fused generation)",
+            &shaders::HAIR_RASTER_COMP,
+            &strand,
+            push,
+            &[by_address],
+        )?;
+        let raster_stored = compute(
+            "compute raster (stored strands)",
+            &shaders::HAIR_RASTER_STORED_COMP,
+            &strand,
+            push,
+            &[by_address],
+        )?;
         let stage = vk::ShaderStageFlags::COMPUTE;
         let shade_bindings = Binding::storage_buffers(&RASTER_SHADE_BINDINGS, stage);
         let only_material = if materials == 1 { 0 } else { u32::MAX };
-        let specialization = [scene_lights_constant(lights), (ONLY_MATERIAL_CONSTANT_ID, only_material)];
+        let specialization =
+            [scene_lights_constant(lights), (ONLY_MATERIAL_CONSTANT_ID, only_material), by_address];
         let shade = Pipeline::compute(
             ctx,
             &ComputePipelineDesc {
@@ -255,6 +291,7 @@ impl ComputeRaster {
             &shaders::RASTER_TILES_COMP,
             &Binding::storage_buffers(&RASTER_TILE_BINDINGS, stage),
             32,
+            &[],
         )?;
         let resolve = crate::target::composite_pipeline(
             ctx,
@@ -265,7 +302,21 @@ impl ComputeRaster {
             32,
         )?;
         let no_scene_depth = Buffer::new(ctx, "no scene depth", BufferDesc::storage(16))?;
-        Ok(Self { raster, raster_stored, shade, tiles, resolve, no_scene_depth })
+        Ok(Self { raster, raster_stored, shade, tiles, resolve, no_scene_depth, loads })
+    }
+
+    /// How the kernels read: what [`Self::new`] was asked for where the device allows it.
+    pub fn load_path(&self) -> LoadPath {
+        self.loads
+    }
+
+    /// `address` (a device address) for a kernel's push constants when the kernels read
+    /// through buffer references, else 0 (unused: they read through the bindings).
+    pub(crate) fn load_address(&self, address: u64) -> u64 {
+        match self.loads {
+            LoadPath::BufferReferences => address,
+            LoadPath::Bindings => 0,
+        }
     }
 }
 
@@ -273,9 +324,8 @@ impl ComputeRaster {
     /// Rasterizes `stored` strands alone (no shading, no occluders) into fresh visibility and
     /// coverage buffers of `inputs.viewport`'s size and reads them back: the kernel as the
     /// tests compare it with its CPU port ([`cpu::raster_strand`]). `model` places the strands
-    /// in the world (tangents are stored in world space). With `through_references` (and a
-    /// device with buffer device addresses) the kernel's plain loads read through buffer
-    /// references, as in frames; else through the bindings.
+    /// in the world (tangents are stored in world space). The kernel reads as
+    /// [`Self::load_path`] says.
     pub fn rasterize_stored(
         &self,
         ctx: &Context,
@@ -283,11 +333,9 @@ impl ComputeRaster {
         inputs: &gen_gpu::FrameInputs,
         model: Mat4,
         material: u32,
-        through_references: bool,
     ) -> gen_gpu::Result<cpu::RasterBuffers> {
         let [width, height] = inputs.viewport;
-        let all =
-            self.rasterize_stored_words(ctx, stored, inputs, model, material, 1, through_references, None)?;
+        let all = self.rasterize_stored_words(ctx, stored, inputs, model, material, 1, None)?;
         Ok(cpu::RasterBuffers {
             width,
             height,
@@ -310,7 +358,6 @@ impl ComputeRaster {
         model: Mat4,
         material: u32,
         k: u32,
-        through_references: bool,
         initial: Option<&[u64]>,
     ) -> gen_gpu::Result<Vec<u64>> {
         let [width, height] = inputs.viewport;
@@ -355,10 +402,11 @@ impl ComputeRaster {
                 |rec, chunk| {
                     let mut push =
                         raster_push(model, material, chunk.slots, false, SlotSubset::All, 1, k, 1.0);
-                    if through_references {
-                        push.words_address = words.device_address();
-                        push.vertices_address = chunk.vertices_address;
-                    }
+                    push.words_address = self.load_address(words.device_address());
+                    push.vertices_address = self.load_address(chunk.vertices_address);
+                    // (Neither read with all slots in one phase and no occluders.)
+                    let unread = self.load_address(self.no_scene_depth.device_address());
+                    (push.tiles_address, push.scene_depth_address) = (unread, unread);
                     rec.push_constants(pipeline, &push);
                 },
             );

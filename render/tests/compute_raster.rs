@@ -14,7 +14,7 @@ use hairkit_tests::image_compare::{Tolerance, compare, output_dir};
 use hairkit_tests::scenes::{scene_with, sintel_scene};
 use render::frame::{RenderedFrame, SceneRenderer};
 use render::raster::cpu::{self, RasterView, StrandPoint};
-use render::raster::{ComputeRaster, RasterPath, claimed_slots, coverage_sum};
+use render::raster::{ComputeRaster, LoadPath, RasterPath, claimed_slots, coverage_sum};
 use render::scene::load_scene;
 
 /// Mean alpha (hair + occluder coverage) of a frame.
@@ -140,12 +140,39 @@ fn line(a: Vec3, b: Vec3, n: usize) -> Vec<Vec3> {
     (0..n).map(|k| a.lerp(b, k as f32 / (n - 1) as f32)).collect()
 }
 
+/// The raster kernel twice: reading through buffer references (where the device has them, as
+/// frames do) and through the bindings (`LoadPath`), whose outputs must be the same.
+struct KernelPair {
+    referenced: ComputeRaster,
+    bound: ComputeRaster,
+}
+
+impl KernelPair {
+    fn new(ctx: &gen_gpu::Context) -> anyhow::Result<Self> {
+        let pair = Self {
+            referenced: ComputeRaster::new(ctx, 1, 1, LoadPath::BufferReferences)?,
+            bound: ComputeRaster::new(ctx, 1, 1, LoadPath::Bindings)?,
+        };
+        let wanted = if ctx.capabilities().buffer_device_address {
+            LoadPath::BufferReferences
+        } else {
+            LoadPath::Bindings
+        };
+        ensure!(
+            pair.referenced.load_path() == wanted,
+            "references where the device has buffer device addresses"
+        );
+        ensure!(pair.bound.load_path() == LoadPath::Bindings, "bindings when asked for");
+        Ok(pair)
+    }
+}
+
 /// Rasterizes `strands` (each with its root width) on the GPU and with the CPU port; returns
 /// both, after checking they agree: the covered pixels, every pixel's coverage (fixed point,
 /// within 1 % + 2 units) and the visibility words' depth, tangent and τ bits.
 fn kernel_vs_port(
     ctx: &gen_gpu::Context,
-    raster: &ComputeRaster,
+    rasters: &KernelPair,
     inputs: &FrameInputs,
     strands: &[(Vec<Vec3>, f32)],
 ) -> anyhow::Result<(cpu::RasterBuffers, cpu::RasterBuffers)> {
@@ -163,9 +190,9 @@ fn kernel_vs_port(
     let mut gpu = cpu::RasterBuffers::new(width, height);
     for (points, w) in strands {
         let stored = StoredStrands::upload(ctx, points, &[points.len() as u32], *w, 0.5)?;
-        let one = raster.rasterize_stored(ctx, &stored, inputs, Mat4::IDENTITY, 3, true)?;
+        let one = rasters.referenced.rasterize_stored(ctx, &stored, inputs, Mat4::IDENTITY, 3)?;
         // The plain loads through buffer references or through the binding: the same words.
-        let bound = raster.rasterize_stored(ctx, &stored, inputs, Mat4::IDENTITY, 3, false)?;
+        let bound = rasters.bound.rasterize_stored(ctx, &stored, inputs, Mat4::IDENTITY, 3)?;
         ensure!(one == bound, "reading through buffer references changed the kernel's output");
         cpu::raster_strand(&view, &mut port, &stored_points(points, *w, 0.5), 3, 0.0);
         for i in 0..one.visibility.len() {
@@ -221,7 +248,7 @@ fn kernel_vs_port(
 /// differ, by fragments on pixel boundaries). Returns the pixels holding K fragments.
 fn k_nearest_vs_port(
     ctx: &gen_gpu::Context,
-    raster: &ComputeRaster,
+    rasters: &KernelPair,
     inputs: &FrameInputs,
     strands: &[(Vec<Vec3>, f32)],
     k: u32,
@@ -242,8 +269,8 @@ fn k_nearest_vs_port(
     let stored = StoredStrands::upload(ctx, &points, &counts, width_of_all, 0.5)?;
     let stride = render::raster::pixel_stride(k) as usize;
     let runs = [
-        raster.rasterize_stored_words(ctx, &stored, inputs, Mat4::IDENTITY, 3, k, true, None)?,
-        raster.rasterize_stored_words(ctx, &stored, inputs, Mat4::IDENTITY, 3, k, false, None)?,
+        rasters.referenced.rasterize_stored_words(ctx, &stored, inputs, Mat4::IDENTITY, 3, k, None)?,
+        rasters.bound.rasterize_stored_words(ctx, &stored, inputs, Mat4::IDENTITY, 3, k, None)?,
     ];
     // A third run over words where an earlier insertion (the volume march's, which claims no
     // slot) filled every pixel's first slot with the nearest word there can be: the strands'
@@ -253,8 +280,15 @@ fn k_nearest_vs_port(
     for pixel in initial.chunks_exact_mut(stride) {
         pixel[0] = earlier;
     }
-    let over_earlier =
-        raster.rasterize_stored_words(ctx, &stored, inputs, Mat4::IDENTITY, 3, k, true, Some(&initial))?;
+    let over_earlier = rasters.referenced.rasterize_stored_words(
+        ctx,
+        &stored,
+        inputs,
+        Mat4::IDENTITY,
+        3,
+        k,
+        Some(&initial),
+    )?;
     let mut port: Vec<Vec<u64>> = vec![Vec::new(); (width * height) as usize];
     for (p, w) in strands {
         cpu::strand_fragments(&view, &stored_points(p, *w, 0.5), 3, 0.0, |pixel, _, word| {
@@ -517,7 +551,7 @@ fn main() -> ExitCode {
             compute_maps_against_triangle_maps(ctx, "sintel", &path, 0.05)
         }),
         GpuTest::new("the_raster_kernel_matches_its_cpu_port", Requirements::INT64_ATOMICS, |ctx| {
-            let raster = ComputeRaster::new(ctx, 1, 1)?;
+            let rasters = KernelPair::new(ctx)?;
             // An odd size (no multiple of any tile), the camera at z = 1 looking down -z.
             let (width, height) = (97, 61);
             let mut inputs = camera_at_z1(width, height);
@@ -540,7 +574,7 @@ fn main() -> ExitCode {
                 // From in front of the camera through the near plane to behind it.
                 (line(Vec3::new(0.05, 0.02, 0.5), Vec3::new(0.08, 0.05, 1.5), 9), 0.003),
             ];
-            let (gpu, _) = kernel_vs_port(ctx, &raster, &inputs, &strands)?;
+            let (gpu, _) = kernel_vs_port(ctx, &rasters, &inputs, &strands)?;
             ensure!(gpu.coverage.iter().filter(|&&c| c > 0).count() > 800, "the strands cover too little");
             let widest = (0..gpu.coverage.len()).filter(|&i| gpu.alpha(i) > 0.99).count();
             ensure!(widest > 50, "the wide strand should cover solid pixels ({widest})");
@@ -550,7 +584,7 @@ fn main() -> ExitCode {
                 ("zero width", (line(Vec3::new(-0.3, 0.0, 0.0), Vec3::new(0.3, 0.1, 0.0), 9), 0.0)),
                 ("behind the camera", (line(Vec3::new(-0.3, 0.0, 1.5), Vec3::new(0.3, 0.1, 2.0), 9), 0.01)),
             ] {
-                let (gpu, port) = kernel_vs_port(ctx, &raster, &inputs, &[strand])?;
+                let (gpu, port) = kernel_vs_port(ctx, &rasters, &inputs, &[strand])?;
                 ensure!(
                     gpu.coverage.iter().all(|&c| c == 0) && port.coverage.iter().all(|&c| c == 0),
                     "{what}: nothing should be covered"
@@ -559,12 +593,12 @@ fn main() -> ExitCode {
             }
             // A 1×1 frame.
             inputs.viewport = [1, 1];
-            let (gpu, _) = kernel_vs_port(ctx, &raster, &inputs, &strands[..2])?;
+            let (gpu, _) = kernel_vs_port(ctx, &rasters, &inputs, &strands[..2])?;
             ensure!(gpu.coverage[0] > 0, "the diagonal crosses the only pixel");
             Ok(())
         }),
         GpuTest::new("the_k_nearest_slots_match_the_cpu_port", Requirements::INT64_ATOMICS, |ctx| {
-            let raster = ComputeRaster::new(ctx, 1, 1)?;
+            let rasters = KernelPair::new(ctx)?;
             let (width, height) = (61, 45);
             let inputs = camera_at_z1(width, height);
             // 160 strands crossing each other at many depths (a fan around the centre, each
@@ -579,7 +613,7 @@ fn main() -> ExitCode {
                 })
                 .collect();
             for k in [2, 4, 8, 16] {
-                let full = k_nearest_vs_port(ctx, &raster, &inputs, &strands, k)?;
+                let full = k_nearest_vs_port(ctx, &rasters, &inputs, &strands, k)?;
                 ensure!(full > 40, "K = {k}: too few pixels hold K fragments ({full})");
             }
             // 2,000 strands through one spot: the contention of a dense crown.
@@ -589,7 +623,7 @@ fn main() -> ExitCode {
                     (line(Vec3::new(-0.1, -0.02, z), Vec3::new(0.1, 0.02, z - 0.001), 3), 0.01)
                 })
                 .collect();
-            k_nearest_vs_port(ctx, &raster, &inputs, &spot, 8)?;
+            k_nearest_vs_port(ctx, &rasters, &inputs, &spot, 8)?;
             Ok(())
         }),
         GpuTest::new(
@@ -718,7 +752,7 @@ fn main() -> ExitCode {
                     // Buffer references only change how the kernels read (where the device has
                     // them: lavapipe does), never what.
                     let bound = SceneRenderer::new(ctx, &scene, GenerationPath::Compute)?
-                        .with_buffer_references(false);
+                        .with_buffer_references(ctx, false)?;
                     ensure!(
                         bound.render(ctx)?.linear == a.linear,
                         "{transparency}: reading through the bindings instead of buffer references changes the image"
@@ -756,7 +790,7 @@ fn main() -> ExitCode {
                     let referenced =
                         SceneRenderer::new(ctx, &shadowed, GenerationPath::Compute)?.render(ctx)?;
                     let bound = SceneRenderer::new(ctx, &shadowed, GenerationPath::Compute)?
-                        .with_buffer_references(false)
+                        .with_buffer_references(ctx, false)?
                         .render(ctx)?;
                     ensure!(
                         referenced.linear == bound.linear,

@@ -143,7 +143,7 @@ fn main() -> ExitCode {
                 let range_nodes = u64::from(ctx.capabilities().max_storage_buffer_range) / 16;
                 let referenced = SceneRenderer::new(ctx, &scene, GenerationPath::Compute)?.render(ctx)?;
                 let bound = SceneRenderer::new(ctx, &scene, GenerationPath::Compute)?
-                    .with_buffer_references(false)
+                    .with_buffer_references(ctx, false)?
                     .render(ctx)?;
                 eprintln!(
                     "  pool through the address {:?} nodes, through the binding {:?} (range {range_nodes})",

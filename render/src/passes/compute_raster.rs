@@ -145,8 +145,10 @@ pub(crate) fn record_raster(
         (binding::RASTER_TILES, &b.tiles),
     ];
     let tiles_x = tile_grid(state.plan.view.width, state.plan.view.height).0;
-    // Where the kernels' plain loads read through (0: the bindings).
-    let addresses = (r.load_address(&b.pixel_words), r.load_address(&b.tiles), r.load_address(depth));
+    // Where the kernels' plain loads read through (0 when they read through the bindings:
+    // unused, ComputeRaster::load_path).
+    let address = |buffer: &gen_gpu::Buffer| cr.load_address(buffer.device_address());
+    let addresses = (address(&b.pixel_words), address(&b.tiles), address(depth));
     if !state.frames.is_empty() {
         rec.bind_pipeline(&cr.raster);
     }
@@ -176,7 +178,7 @@ pub(crate) fn record_raster(
             let mut push =
                 raster_push(c.transform, material, chunk.slots, occluders, phase, tiles_x, b.k, opacity);
             (push.words_address, push.tiles_address, push.scene_depth_address) = addresses;
-            push.vertices_address = r.reference_address(chunk.vertices_address);
+            push.vertices_address = cr.load_address(chunk.vertices_address);
             push.volume_fraction = volume_fraction;
             rec.push_constants(pipeline, &push);
         });
@@ -207,14 +209,16 @@ pub(crate) fn record_shade(
     rec.bind_pipeline(&cr.shade);
     rec.push_storage_buffers(&cr.shade, &buffers);
     let [x0, y0, x1, y1] = b.rect;
-    // Where the kernel's plain loads read through (0: the bindings): the pixel words and the
-    // shadow maps, found by their bindings among the frame's lighting buffers.
-    let map = |binding| l.iter().find(|(b, _)| *b == binding).map_or(0, |(_, buffer)| r.load_address(buffer));
+    // Where the kernel's plain loads read through (0 when it reads through the bindings): the
+    // pixel words and the shadow maps, found by their bindings among the frame's lighting
+    // buffers (which always hold all four).
+    let address = |buffer: &gen_gpu::Buffer| cr.load_address(buffer.device_address());
+    let map = |binding| l.iter().find(|(b, _)| *b == binding).map_or(0, |(_, buffer)| address(buffer));
     let push = ShadePush {
         rect: b.rect,
         k: b.k,
         pad: 0,
-        words_address: r.load_address(&b.pixel_words),
+        words_address: address(&b.pixel_words),
         shadow_depth_address: map(binding::SHADOW_DEPTH),
         shadow_opacity_address: map(binding::SHADOW_OPACITY),
         occluder_depth_address: map(binding::OCCLUDER_DEPTH),
