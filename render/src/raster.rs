@@ -274,17 +274,12 @@ impl ComputeRaster {
         let only_material = if materials == 1 { 0 } else { u32::MAX };
         let specialization =
             [scene_lights_constant(lights), (ONLY_MATERIAL_CONSTANT_ID, only_material), by_address];
-        let shade = Pipeline::compute(
-            ctx,
-            &ComputePipelineDesc {
-                specialization: &specialization,
-                ..ComputePipelineDesc::new(
-                    "compute raster shade",
-                    &shaders::RASTER_SHADE_COMP,
-                    &shade_bindings,
-                    size_of::<ShadePush>() as u32,
-                )
-            },
+        let shade = compute(
+            "compute raster shade",
+            &shaders::RASTER_SHADE_COMP,
+            &shade_bindings,
+            size_of::<ShadePush>() as u32,
+            &specialization,
         )?;
         let tiles = compute(
             "compute raster tiles",
@@ -317,6 +312,11 @@ impl ComputeRaster {
             LoadPath::BufferReferences => address,
             LoadPath::Bindings => 0,
         }
+    }
+
+    /// [`Self::load_address`] of `buffer`'s device address.
+    pub(crate) fn buffer_address(&self, buffer: &Buffer) -> u64 {
+        self.load_address(buffer.device_address())
     }
 }
 
@@ -402,10 +402,10 @@ impl ComputeRaster {
                 |rec, chunk| {
                     let mut push =
                         raster_push(model, material, chunk.slots, false, SlotSubset::All, 1, k, 1.0);
-                    push.words_address = self.load_address(words.device_address());
+                    push.words_address = self.buffer_address(&words);
                     push.vertices_address = self.load_address(chunk.vertices_address);
                     // (Neither read with all slots in one phase and no occluders.)
-                    let unread = self.load_address(self.no_scene_depth.device_address());
+                    let unread = self.buffer_address(&self.no_scene_depth);
                     (push.tiles_address, push.scene_depth_address) = (unread, unread);
                     rec.push_constants(pipeline, &push);
                 },

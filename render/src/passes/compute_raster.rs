@@ -147,8 +147,8 @@ pub(crate) fn record_raster(
     let tiles_x = tile_grid(state.plan.view.width, state.plan.view.height).0;
     // Where the kernels' plain loads read through (0 when they read through the bindings:
     // unused, ComputeRaster::load_path).
-    let address = |buffer: &gen_gpu::Buffer| cr.load_address(buffer.device_address());
-    let addresses = (address(&b.pixel_words), address(&b.tiles), address(depth));
+    let addresses =
+        (cr.buffer_address(&b.pixel_words), cr.buffer_address(&b.tiles), cr.buffer_address(depth));
     if !state.frames.is_empty() {
         rec.bind_pipeline(&cr.raster);
     }
@@ -212,13 +212,13 @@ pub(crate) fn record_shade(
     // Where the kernel's plain loads read through (0 when it reads through the bindings): the
     // pixel words and the shadow maps, found by their bindings among the frame's lighting
     // buffers (which always hold all four).
-    let address = |buffer: &gen_gpu::Buffer| cr.load_address(buffer.device_address());
-    let map = |binding| l.iter().find(|(b, _)| *b == binding).map_or(0, |(_, buffer)| address(buffer));
+    let map =
+        |binding| l.iter().find(|(b, _)| *b == binding).map_or(0, |(_, buffer)| cr.buffer_address(buffer));
     let push = ShadePush {
         rect: b.rect,
         k: b.k,
         pad: 0,
-        words_address: address(&b.pixel_words),
+        words_address: cr.buffer_address(&b.pixel_words),
         shadow_depth_address: map(binding::SHADOW_DEPTH),
         shadow_opacity_address: map(binding::SHADOW_OPACITY),
         occluder_depth_address: map(binding::OCCLUDER_DEPTH),
