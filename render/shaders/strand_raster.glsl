@@ -80,6 +80,14 @@ float load_scene_depth(uint pixel) {
 
 const uint TILE_SIZE = 8u;
 
+// Whether segments are clipped to the view volume's depth (0 <= z <= w): 0 when the host found
+// the character's bounds wholly inside it with a margin for rounding (render/src/raster.rs
+// `DepthClipping`), as in nearly every frame; then the clipping that would keep every segment
+// whole is not compiled, and the strand loop carries no vertex's clip-space position and side
+// from one segment to the next (on CPU devices eight values per SIMD lane that it spilled).
+// The kernels' output is the same either way for such bounds.
+layout(constant_id = HK_DEPTH_CLIPPING_CONSTANT_ID) const uint DEPTH_CLIPPING = 1u;
+
 // A strand vertex ready for rasterization.
 struct RasterVertex {
     vec4 clip;         // clip-space position
@@ -214,24 +222,26 @@ void raster_fragment(uint pixel, float coverage, float ndc_z, inout ColumnAttrib
 #endif
 
 void raster_segment(RasterVertex a, RasterVertex b, uint material, float random) {
-    // Vulkan's view volume in depth: 0 <= z <= w (x and y are clipped per pixel below).
-    float t0 = 0.0;
-    float t1 = 1.0;
-    clip_range(a.clip.z, b.clip.z, t0, t1);
-    clip_range(a.clip.w - a.clip.z, b.clip.w - b.clip.z, t0, t1);
-    if (!(t0 < t1)) {
-        return;
-    }
     RasterVertex p = a;
     RasterVertex q = b;
-    // Nearly every segment lies within the view volume's depth and keeps its ends' projections
-    // (made once per vertex); a clipped one projects its clipped ends.
-    if (t0 > 0.0 || t1 < 1.0) {
-        p = project_vertex(mix_vertex(a, b, t0));
-        q = project_vertex(mix_vertex(a, b, t1));
-    }
-    if (!(p.clip.w > 1e-20) || !(q.clip.w > 1e-20)) {
-        return;
+    if (DEPTH_CLIPPING != 0u) {
+        // Vulkan's view volume in depth: 0 <= z <= w (x and y are clipped per pixel below).
+        float t0 = 0.0;
+        float t1 = 1.0;
+        clip_range(a.clip.z, b.clip.z, t0, t1);
+        clip_range(a.clip.w - a.clip.z, b.clip.w - b.clip.z, t0, t1);
+        if (!(t0 < t1)) {
+            return;
+        }
+        // Nearly every segment lies within the view volume's depth and keeps its ends'
+        // projections (made once per vertex); a clipped one projects its clipped ends.
+        if (t0 > 0.0 || t1 < 1.0) {
+            p = project_vertex(mix_vertex(a, b, t0));
+            q = project_vertex(mix_vertex(a, b, t1));
+        }
+        if (!(p.clip.w > 1e-20) || !(q.clip.w > 1e-20)) {
+            return;
+        }
     }
     vec2 size = params.viewport.xy;
     vec2 sp = p.screen;

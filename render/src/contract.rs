@@ -178,11 +178,17 @@ pub const ONLY_MATERIAL_CONSTANT_ID: u32 = 33;
 /// 0 through their bindings (`raster::LoadPath`, `raster_common.glsl`).
 pub const LOAD_BY_ADDRESS_CONSTANT_ID: u32 = 34;
 
+/// Specialization constant of the compute rasterizer's raster kernels: 1 when they clip each
+/// segment to the view volume's depth, 0 when the host found the character's bounds wholly
+/// inside it (`raster::DepthClipping`, `strand_raster.glsl`).
+pub const DEPTH_CLIPPING_CONSTANT_ID: u32 = 35;
+
 /// The header's constants that are not bindings, as `(GLSL macro, value)`.
 pub const GLSL_CONSTANTS: &[(&str, u64)] = &[
     ("HK_SCENE_LIGHTS_CONSTANT_ID", SCENE_LIGHTS_CONSTANT_ID as u64),
     ("HK_ONLY_MATERIAL_CONSTANT_ID", ONLY_MATERIAL_CONSTANT_ID as u64),
     ("HK_LOAD_BY_ADDRESS_CONSTANT_ID", LOAD_BY_ADDRESS_CONSTANT_ID as u64),
+    ("HK_DEPTH_CLIPPING_CONSTANT_ID", DEPTH_CLIPPING_CONSTANT_ID as u64),
 ];
 
 /// Every binding a render shader may use: the values of [`GLSL_DEFINES`] (all of which are

@@ -24,7 +24,8 @@ use crate::instance::{CharacterHair, SceneInstance};
 use crate::occluder::{OccluderMesh, OccluderPipelines};
 use crate::passes::ScenePass;
 use crate::raster::{
-    ComputeRaster, LoadPath, MAX_MATERIALS, RasterBuffers, RasterMaterial, RasterPath, resolve_raster,
+    ComputeRaster, DepthClipping, LoadPath, MAX_MATERIALS, RasterBuffers, RasterMaterial, RasterPath,
+    resolve_raster,
 };
 use crate::scene::{Light, LoadedScene, Transparency};
 use crate::shadow::{ShadowAtlas, ShadowPipelines};
@@ -208,6 +209,9 @@ pub struct SceneRenderer {
     /// Compute rasterizer: draw in two phases around the occlusion tiles (the default) or every
     /// strand in one ([`Self::with_occlusion_tiles`]).
     pub(crate) occlusion_tiles: bool,
+    /// Compute rasterizer: clip every character's segments to the view volume's depth, also
+    /// where its bounds lie wholly inside it ([`Self::with_depth_clipping_everywhere`]).
+    pub(crate) depth_clipping_everywhere: bool,
     /// The compute rasterizer's plain loads and the triangle OIT's node pool go through buffer
     /// references where the device has them ([`Self::with_buffer_references`]).
     pub(crate) buffer_references: bool,
@@ -629,6 +633,7 @@ impl SceneRenderer {
             raster_materials: Vec::new(),
             character_materials: Vec::new(),
             occlusion_tiles: true,
+            depth_clipping_everywhere: false,
             buffer_references: true,
             volumes: None,
             volumes_everywhere: false,
@@ -803,6 +808,25 @@ impl SceneRenderer {
     pub fn with_occlusion_tiles(mut self, on: bool) -> Self {
         self.occlusion_tiles = on;
         self
+    }
+
+    /// Compute rasterizer: `true` draws every character with the raster kernels' variant that
+    /// clips segments to the view volume's depth, where by default a character whose bounds lie
+    /// wholly inside it goes through the one without ([`crate::raster::DepthClipping`]; the
+    /// image is the same: tests compare them).
+    pub fn with_depth_clipping_everywhere(mut self, on: bool) -> Self {
+        self.depth_clipping_everywhere = on;
+        self
+    }
+
+    /// The raster kernels' variant for hair inside `bounds` (object space) that
+    /// `object_to_clip` takes to clip space.
+    pub(crate) fn depth_clipping(&self, object_to_clip: Mat4, bounds: (Vec3, Vec3)) -> DepthClipping {
+        if self.depth_clipping_everywhere {
+            DepthClipping::Clip
+        } else {
+            DepthClipping::for_bounds(object_to_clip, bounds)
+        }
     }
 
     /// Compute rasterizer: `false` has its raster and shade kernels read the pixel words,

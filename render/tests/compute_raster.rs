@@ -14,7 +14,7 @@ use hairkit_tests::image_compare::{Tolerance, compare, output_dir};
 use hairkit_tests::scenes::{scene_with, sintel_scene};
 use render::frame::{RenderedFrame, SceneRenderer};
 use render::raster::cpu::{self, RasterView, StrandPoint};
-use render::raster::{ComputeRaster, LoadPath, RasterPath, claimed_slots, coverage_sum};
+use render::raster::{ComputeRaster, DepthClipping, LoadPath, RasterPath, claimed_slots, coverage_sum};
 use render::scene::load_scene;
 
 /// Mean alpha (hair + occluder coverage) of a frame.
@@ -194,6 +194,26 @@ fn kernel_vs_port(
         // The plain loads through buffer references or through the binding: the same words.
         let bound = rasters.bound.rasterize_stored(ctx, &stored, inputs, Mat4::IDENTITY, 3)?;
         ensure!(one == bound, "reading through buffer references changed the kernel's output");
+        // A strand wholly inside the view volume's depth goes through the kernel without depth
+        // clipping (as in frames): the kernel with it leaves the same words.
+        if DepthClipping::for_bounds(inputs.view_proj, stored.bounds) == DepthClipping::Skip {
+            let words = |clipping| {
+                rasters.referenced.rasterize_stored_words(
+                    ctx,
+                    &stored,
+                    inputs,
+                    Mat4::IDENTITY,
+                    3,
+                    1,
+                    None,
+                    Some(clipping),
+                )
+            };
+            ensure!(
+                words(DepthClipping::Skip)? == words(DepthClipping::Clip)?,
+                "skipping the depth clipping changed the kernel's output"
+            );
+        }
         cpu::raster_strand(&view, &mut port, &stored_points(points, *w, 0.5), 3, 0.0);
         for i in 0..one.visibility.len() {
             gpu.visibility[i] = gpu.visibility[i].min(one.visibility[i]);
@@ -269,8 +289,8 @@ fn k_nearest_vs_port(
     let stored = StoredStrands::upload(ctx, &points, &counts, width_of_all, 0.5)?;
     let stride = render::raster::pixel_stride(k) as usize;
     let runs = [
-        rasters.referenced.rasterize_stored_words(ctx, &stored, inputs, Mat4::IDENTITY, 3, k, None)?,
-        rasters.bound.rasterize_stored_words(ctx, &stored, inputs, Mat4::IDENTITY, 3, k, None)?,
+        rasters.referenced.rasterize_stored_words(ctx, &stored, inputs, Mat4::IDENTITY, 3, k, None, None)?,
+        rasters.bound.rasterize_stored_words(ctx, &stored, inputs, Mat4::IDENTITY, 3, k, None, None)?,
     ];
     // A third run over words where an earlier insertion (the volume march's, which claims no
     // slot) filled every pixel's first slot with the nearest word there can be: the strands'
@@ -288,6 +308,7 @@ fn k_nearest_vs_port(
         3,
         k,
         Some(&initial),
+        None,
     )?;
     let mut port: Vec<Vec<u64>> = vec![Vec::new(); (width * height) as usize];
     for (p, w) in strands {
@@ -574,6 +595,20 @@ fn main() -> ExitCode {
                 // From in front of the camera through the near plane to behind it.
                 (line(Vec3::new(0.05, 0.02, 0.5), Vec3::new(0.08, 0.05, 1.5), 9), 0.003),
             ];
+            // Which kernel variant frames take: every strand but the last wholly inside the
+            // view volume's depth.
+            let clipping: Vec<DepthClipping> = strands
+                .iter()
+                .map(|(points, _)| {
+                    let lo = points.iter().copied().reduce(Vec3::min).unwrap_or(Vec3::ZERO);
+                    let hi = points.iter().copied().reduce(Vec3::max).unwrap_or(Vec3::ZERO);
+                    DepthClipping::for_bounds(inputs.view_proj, (lo, hi))
+                })
+                .collect();
+            ensure!(
+                clipping[..5].iter().all(|&c| c == DepthClipping::Skip) && clipping[5] == DepthClipping::Clip,
+                "{clipping:?}"
+            );
             let (gpu, _) = kernel_vs_port(ctx, &rasters, &inputs, &strands)?;
             ensure!(gpu.coverage.iter().filter(|&&c| c > 0).count() > 800, "the strands cover too little");
             let widest = (0..gpu.coverage.len()).filter(|&i| gpu.alpha(i) > 0.99).count();
@@ -749,6 +784,15 @@ fn main() -> ExitCode {
                         a.linear == d.linear,
                         "{transparency}: drawing without the occlusion tiles changes the image"
                     );
+                    // The characters lie wholly inside the view volume's depth: the raster
+                    // kernel's variant with depth clipping draws them alike.
+                    let clipped = SceneRenderer::new(ctx, &scene, GenerationPath::Compute)?
+                        .with_depth_clipping_everywhere(true)
+                        .render(ctx)?;
+                    ensure!(
+                        clipped.linear == a.linear,
+                        "{transparency}: the raster kernel with depth clipping changes the image"
+                    );
                     // Buffer references only change how the kernels read (where the device has
                     // them: lavapipe does), never what.
                     let bound = SceneRenderer::new(ctx, &scene, GenerationPath::Compute)?
@@ -779,6 +823,13 @@ fn main() -> ExitCode {
                     ensure!(
                         tiled.linear == single.linear,
                         "{transparency}: stored strands drawn without the occlusion tiles change the image"
+                    );
+                    let clipped = SceneRenderer::new(ctx, &stored, GenerationPath::Compute)?
+                        .with_depth_clipping_everywhere(true)
+                        .render(ctx)?;
+                    ensure!(
+                        tiled.linear == clipped.linear,
+                        "{transparency}: stored strands drawn with depth clipping change the image"
                     );
                     // With shadows, the shade pass reads the shadow maps through buffer
                     // references too (and the OIT slots before sorting them), and the raster
@@ -859,6 +910,42 @@ fn main() -> ExitCode {
                     );
                 }
             }
+            Ok(())
+        }),
+        GpuTest::new("the_near_plane_through_the_hair", Requirements::INT64_ATOMICS, |ctx| {
+            // The eye among the strands: the near plane cuts the character's bounds, so frames
+            // take the raster kernel with depth clipping (the one without would draw the strands
+            // behind the eye mirrored), and the image follows the triangle raster's.
+            let dir = tempfile::tempdir()?;
+            let mut frames = Vec::new();
+            for raster in ["compute", "triangles"] {
+                let effects = serde_json::json!({ "raster": raster, "transparency": "oit" });
+                let path = scene_with(dir.path(), "one_character", 128, 96, effects)?;
+                let mut json: serde_json::Value = serde_json::from_slice(&std::fs::read(&path)?)?;
+                json["camera"]["eye"] = serde_json::json!([0.0, 1.62, 0.08]);
+                json["camera"]["target"] = serde_json::json!([0.0, 1.55, -1.0]);
+                std::fs::write(&path, serde_json::to_vec_pretty(&json)?)?;
+                let scene = load_scene(&path)?;
+                let frame = SceneRenderer::new(ctx, &scene, GenerationPath::Compute)?.render(ctx)?;
+                render::output::write_png(
+                    &output_dir().join(format!("raster-near-plane-{raster}.png")),
+                    &frame.image,
+                )?;
+                if raster == "compute" {
+                    let clipped = SceneRenderer::new(ctx, &scene, GenerationPath::Compute)?
+                        .with_depth_clipping_everywhere(true)
+                        .render(ctx)?;
+                    ensure!(frame.linear == clipped.linear, "the near plane cuts the hair: frames must clip");
+                }
+                frames.push(frame);
+            }
+            ensure!(frames[0].linear.rgba.iter().all(|c| c.is_finite()), "finite colour");
+            let any = Tolerance { mean: 1.0, percentile: (0.99, 1.0) };
+            let flip = compare("raster_near_plane", &frames[0].image, &frames[1].image, any)
+                .map_err(anyhow::Error::msg)?;
+            let (c, t) = (mean_alpha(&frames[0]), mean_alpha(&frames[1]));
+            eprintln!("  FLIP mean {:.4} against the triangle raster; mean alpha {c:.4} / {t:.4}", flip.mean);
+            ensure!(flip.mean <= 0.1, "FLIP {:.4}", flip.mean);
             Ok(())
         }),
         GpuTest::new("compute_raster_handles_empty_and_tiny_frames", Requirements::INT64_ATOMICS, |ctx| {

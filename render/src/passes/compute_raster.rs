@@ -149,18 +149,26 @@ pub(crate) fn record_raster(
     // unused, ComputeRaster::load_path).
     let addresses =
         (cr.buffer_address(&b.pixel_words), cr.buffer_address(&b.tiles), cr.buffer_address(depth));
-    if !state.frames.is_empty() {
-        rec.bind_pipeline(&cr.raster);
-    }
+    // Characters wholly inside the view volume's depth (nearly all) go through the kernel
+    // without clipping; the pipeline is bound again only where that changes.
+    let mut bound = None;
     for (i, frame) in state.frames {
         let c = &r.characters[*i];
-        r.generator.bind_frame(rec, &cr.raster, &r.hairs[c.hair], frame, &extra);
+        let hair = &r.hairs[c.hair];
+        let (lo, hi) = hair.asset.bounds();
+        let clipping = r.depth_clipping(state.plan.inputs[*i].view_proj, (lo.as_vec3(), hi.as_vec3()));
+        let pipeline = cr.raster.get(clipping);
+        if bound != Some(clipping) {
+            rec.bind_pipeline(pipeline);
+            bound = Some(clipping);
+        }
+        r.generator.bind_frame(rec, pipeline, hair, frame, &extra);
         let material = state.materials[*i];
         let opacity = r.raster_opacity(material);
         let mut push = raster_push(c.transform, material, 0, occluders, phase, tiles_x, b.k, opacity);
         (push.words_address, push.tiles_address, push.scene_depth_address) = addresses;
         push.volume_fraction = state.plan.volume_fraction(*i);
-        rec.push_constants(&cr.raster, &push);
+        rec.push_constants(pipeline, &push);
         Generator::record_fused_subset_dispatch(rec, frame, phase);
     }
     let stored_materials = &state.materials[r.characters.len()..];
@@ -171,9 +179,12 @@ pub(crate) fn record_raster(
         if volume_fraction >= 1.0 {
             continue;
         }
-        let pipeline = &cr.raster_stored;
-        let opacity = r.raster_opacity(material);
         let stored = &r.stored[c.hair];
+        let view = &state.plan.view;
+        // The matrix the stored strands' frame parameters hold (camera::character_inputs).
+        let object_to_clip = crate::camera::view_proj(&view.camera, view.width, view.height) * c.transform;
+        let pipeline = cr.raster_stored.get(r.depth_clipping(object_to_clip, stored.bounds));
+        let opacity = r.raster_opacity(material);
         stored.record_compute(rec, pipeline, params, &extra, stored_group_size(), phase, |rec, chunk| {
             let mut push =
                 raster_push(c.transform, material, chunk.slots, occluders, phase, tiles_x, b.k, opacity);
