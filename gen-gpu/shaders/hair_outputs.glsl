@@ -32,7 +32,14 @@ layout(std430, set = 0, binding = HK_BINDING_STRAND_OFFSETS) buffer OffsetBuffer
 };
 // The current chunk's window. Per slot: MAX_VERTICES x (vec4(position, width),
 // vec4(tangent, tau)).
+#ifdef HK_VERTEX_STORES_INT64
+// The same bytes as 64-bit words, four per vertex (store_vertex).
+layout(std430, set = 0, binding = HK_BINDING_STRAND_VERTICES) writeonly buffer StrandVertexWords {
+    u64vec4 strand_vertex_words[];
+};
+#else
 layout(std430, set = 0, binding = HK_BINDING_STRAND_VERTICES) buffer StrandVertexBuffer { vec4 strand_vertices[]; };
+#endif
 // The current chunk's window. Per slot: (bundle, strand index, vertex count, LOD width scale as
 // float bits).
 layout(std430, set = 0, binding = HK_BINDING_STRAND_INFO) buffer StrandInfoBuffer { uvec4 strand_info[]; };
@@ -118,9 +125,27 @@ bool invocation_slot(uint chunk, out uint local_slot) {
 }
 #endif
 
-// `slot` is relative to the bound chunk window.
+#ifdef HK_VERTEX_STORES_INT64
+// Two floats' bits as one 64-bit word, the first in the low half (little-endian: where the
+// vec4 layout puts it).
+uint64_t float_pair_bits(float first, float second) {
+    return uint64_t(floatBitsToUint(first)) | (uint64_t(floatBitsToUint(second)) << 32);
+}
+#endif
+
+// `slot` is relative to the bound chunk window. With HK_VERTEX_STORES_INT64 the vertex's eight
+// floats go out as one store of four 64-bit words: on CPU devices (llvmpipe) a store at a
+// per-invocation address is a loop over the SIMD lanes with a bounds check per component, and
+// one loop of four components instead of two loops of four made the strand-coherent generate
+// pass about 5 % faster (10k strands; the same bytes).
 void store_vertex(uint slot, uint k, StrandVertex v) {
+#ifdef HK_VERTEX_STORES_INT64
+    strand_vertex_words[slot * MAX_VERTICES + k] =
+        u64vec4(float_pair_bits(v.position.x, v.position.y), float_pair_bits(v.position.z, v.width),
+                float_pair_bits(v.tangent.x, v.tangent.y), float_pair_bits(v.tangent.z, v.tau));
+#else
     uint base = (slot * MAX_VERTICES + k) * 2u;
     strand_vertices[base] = vec4(v.position, v.width);
     strand_vertices[base + 1u] = vec4(v.tangent, v.tau);
+#endif
 }

@@ -89,6 +89,10 @@ pub struct GeneratorOptions {
     pub color_format: Option<vk::Format>,
     /// Rasterization samples of the draws (0 or 1 = no MSAA).
     pub samples: u32,
+    /// The generate pass stores each vertex as two `vec4`s even where the device has
+    /// `shaderInt64`, where by default it stores the same bytes as one `u64vec4`
+    /// ([`Generator::int64_vertex_stores`]; tests compare the two).
+    pub vec4_vertex_stores: bool,
 }
 
 /// What one frame generates for.
@@ -274,6 +278,8 @@ pub struct Generator {
     lod: Pipeline,
     scan: Pipeline,
     generate: Pipeline,
+    /// Whether `generate` stores vertices as 64-bit words (`generate_int64.comp`).
+    int64_stores: bool,
     pull: Pipeline,
     mesh: Option<Pipeline>,
     mesh_capture: Option<Pipeline>,
@@ -426,10 +432,14 @@ impl Generator {
             Some(_) => None,
         };
         let has_mesh = mesh_unavailable.is_none();
+        let int64_stores = ctx.capabilities().shader_int64 && !options.vec4_vertex_stores;
+        let generate_shader =
+            if int64_stores { &shaders::GENERATE_INT64_COMP } else { &shaders::GENERATE_COMP };
         Ok(Self {
             lod: compute("strand LOD", &shaders::LOD_COMP)?,
             scan: compute("strand prefix sum", &shaders::SCAN_COMP)?,
-            generate: compute("strand generation", &shaders::GENERATE_COMP)?,
+            generate: compute("strand generation", generate_shader)?,
+            int64_stores,
             pull: graphics(
                 "strands (vertex pulling)",
                 GraphicsStages::Vertex(&shaders::STRAND_PULL_VERT),
@@ -444,6 +454,15 @@ impl Generator {
             options,
             mesh_unavailable,
         })
+    }
+
+    /// Whether the generate pass stores each vertex as one `u64vec4` (where the device has
+    /// `shaderInt64`, unless [`GeneratorOptions::vec4_vertex_stores`]) rather than two `vec4`s:
+    /// the same bytes either way. On CPU devices (llvmpipe) a store at a per-invocation address
+    /// is a loop over the SIMD lanes, so one store per vertex instead of two made the
+    /// strand-coherent pass about 5 % faster.
+    pub fn int64_vertex_stores(&self) -> bool {
+        self.int64_stores
     }
 
     /// Strand slots needed for `inputs`: the CPU's LOD estimate plus one per bundle for f32

@@ -250,6 +250,49 @@ fn main() -> ExitCode {
             Ok(())
         }),
         GpuTest::new(
+            "vertices_stored_as_64_bit_words_are_the_same_strands",
+            Requirements::NONE,
+            move |ctx| {
+                // Where the device has shaderInt64 the generate pass stores each vertex as one
+                // u64vec4 (generate_int64.comp) instead of two vec4s: the same bytes, so the same
+                // strands bit for bit, for both evaluations, with LOD morphing on and off.
+                let asset = head_cap_asset(1500, styled(0.1))?;
+                let hair = GpuHair::upload(ctx, &asset, TexturePrecision::F32)?;
+                for filtering in [Filtering::StrandCoherent, Filtering::Hardware] {
+                    let default = Generator::new(ctx, filtering)?;
+                    let vec4 = Generator::with_options(
+                        ctx,
+                        GeneratorOptions {
+                            filtering,
+                            vec4_vertex_stores: true,
+                            ..GeneratorOptions::default()
+                        },
+                    )?;
+                    ensure!(default.int64_vertex_stores() == ctx.capabilities().shader_int64);
+                    ensure!(!vec4.int64_vertex_stores(), "vec4 stores when asked for");
+                    for l in [full, lod] {
+                        let inputs = inputs_for(&asset, Vec3::new(0.3, 1.8, 1.2), l);
+                        let a = default.capture(ctx, &hair, &inputs, GenerationPath::Compute)?;
+                        let b = vec4.capture(ctx, &hair, &inputs, GenerationPath::Compute)?;
+                        ensure!(
+                            !a.strands.is_empty() && a.stats == b.stats,
+                            "{:?} vs {:?}",
+                            a.stats,
+                            b.stats
+                        );
+                        ensure!(
+                            a.strands == b.strands,
+                            "{filtering:?}: the two stores give different strands"
+                        );
+                    }
+                }
+                if !ctx.capabilities().shader_int64 {
+                    eprintln!("  the device has no shaderInt64: both generators store vec4s");
+                }
+                Ok(())
+            },
+        ),
+        GpuTest::new(
             "an_updated_gpu_hair_generates_what_a_fresh_upload_of_the_edit_does",
             Requirements::NONE,
             move |ctx| {

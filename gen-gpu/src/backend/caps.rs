@@ -32,6 +32,10 @@ pub struct Capabilities {
     /// Bits of sub-texel precision in filtering weights: hardware trilinear filtering is exact
     /// to about 2^-bits of the difference between neighbouring texels.
     pub sub_texel_precision_bits: u32,
+    /// 64-bit integers in shaders (`shaderInt64`): the generate pass stores each vertex as one
+    /// `u64vec4` (`generate_int64.comp`), which CPU devices write in one loop over the SIMD
+    /// lanes instead of two.
+    pub shader_int64: bool,
     /// 64-bit integer atomics on storage buffers (`shaderInt64` + `shaderBufferInt64Atomics`):
     /// what the compute strand rasterizer's visibility buffer needs.
     pub buffer_int64_atomics: bool,
@@ -155,6 +159,7 @@ impl Capabilities {
             pipeline_statistics_query: features.pipeline_statistics_query == vk::TRUE,
             sampler_anisotropy: features.sampler_anisotropy == vk::TRUE,
             sub_texel_precision_bits: props.limits.sub_texel_precision_bits,
+            shader_int64: features.shader_int64 == vk::TRUE,
             buffer_int64_atomics,
             buffer_device_address,
         }
@@ -260,6 +265,7 @@ impl fmt::Display for Capabilities {
         writeln!(f, "max push constants:     {} bytes", self.max_push_constants_size)?;
         writeln!(f, "max 3D image:           {}", self.max_image_dimension_3d)?;
         writeln!(f, "sub-texel precision:    {} bits", self.sub_texel_precision_bits)?;
+        writeln!(f, "64-bit integers:        {}", yes_no(self.shader_int64))?;
         writeln!(f, "64-bit buffer atomics:  {}", yes_no(self.buffer_int64_atomics))?;
         writeln!(f, "buffer device address:  {}", yes_no(self.buffer_device_address))?;
         writeln!(f, "dispatch workers:       {}", self.dispatch_workers)?;

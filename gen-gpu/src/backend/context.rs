@@ -333,7 +333,7 @@ impl Context {
             .fragment_stores_and_atomics(true)
             .vertex_pipeline_stores_and_atomics(true)
             .shader_int16(true)
-            .shader_int64(caps.buffer_int64_atomics);
+            .shader_int64(caps.shader_int64);
         let mut v11 = vk::PhysicalDeviceVulkan11Features::default().storage_buffer16_bit_access(true);
         let mut v12 = vk::PhysicalDeviceVulkan12Features::default()
             .scalar_block_layout(true)
