@@ -24,12 +24,16 @@ void generate_per_invocation() {
     uint segments = 1u << l.level;
     // The mesh path's rule for short strands, so both paths generate the same strands.
     StrandStream s = strand_stream(bundle, strand, l, strand_coherent(strands_per_mesh_group(l.level)));
-    for (uint step = 0u; step < strand_stream_steps(s); ++step) {
-        StrandVertex v;
-        uint k;
-        if (strand_stream_step(s, v, k)) {
-            store_vertex(local_slot, k, v);
-        }
+    // Segment by segment (strand_stream_enter).
+    while (strand_stream_walking(s)) {
+        int segment = strand_stream_enter(s);
+        do {
+            StrandVertex v;
+            uint k;
+            if (strand_stream_step(s, v, k)) {
+                store_vertex(local_slot, k, v);
+            }
+        } while (strand_stream_within(s, segment));
     }
     strand_info[local_slot] = uvec4(bundle, strand, segments + 1u, floatBitsToUint(l.width_scale));
 }
