@@ -15,7 +15,7 @@ use hairkit_tests::scenes::{scene_with, sintel_scene};
 use render::frame::{RenderedFrame, SceneRenderer};
 use render::raster::cpu::{self, RasterView, StrandPoint};
 use render::raster::{ComputeRaster, DepthClipping, LoadPath, RasterPath, claimed_slots, coverage_sum};
-use render::scene::load_scene;
+use render::scene::{LoadedScene, load_scene};
 
 /// Mean alpha (hair + occluder coverage) of a frame.
 fn mean_alpha(frame: &RenderedFrame) -> f64 {
@@ -754,6 +754,11 @@ fn main() -> ExitCode {
                 // Atomics arrive in any order; the minimum, the K smallest words and the clamped
                 // sum do not depend on it.
                 let dir = tempfile::tempdir()?;
+                // Every character through the raster kernels' variant with depth clipping.
+                let clipping_everywhere = |scene: &LoadedScene| -> anyhow::Result<RenderedFrame> {
+                    let renderer = SceneRenderer::new(ctx, scene, GenerationPath::Compute)?;
+                    Ok(renderer.with_depth_clipping_everywhere(true).render(ctx)?)
+                };
                 for transparency in ["opaque", "oit"] {
                     let scene = load_scene(&scene_with(
                         dir.path(),
@@ -786,11 +791,8 @@ fn main() -> ExitCode {
                     );
                     // The characters lie wholly inside the view volume's depth: the raster
                     // kernel's variant with depth clipping draws them alike.
-                    let clipped = SceneRenderer::new(ctx, &scene, GenerationPath::Compute)?
-                        .with_depth_clipping_everywhere(true)
-                        .render(ctx)?;
                     ensure!(
-                        clipped.linear == a.linear,
+                        clipping_everywhere(&scene)?.linear == a.linear,
                         "{transparency}: the raster kernel with depth clipping changes the image"
                     );
                     // Buffer references only change how the kernels read (where the device has
@@ -824,11 +826,8 @@ fn main() -> ExitCode {
                         tiled.linear == single.linear,
                         "{transparency}: stored strands drawn without the occlusion tiles change the image"
                     );
-                    let clipped = SceneRenderer::new(ctx, &stored, GenerationPath::Compute)?
-                        .with_depth_clipping_everywhere(true)
-                        .render(ctx)?;
                     ensure!(
-                        tiled.linear == clipped.linear,
+                        clipping_everywhere(&stored)?.linear == tiled.linear,
                         "{transparency}: stored strands drawn with depth clipping change the image"
                     );
                     // With shadows, the shade pass reads the shadow maps through buffer
