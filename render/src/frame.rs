@@ -819,14 +819,20 @@ impl SceneRenderer {
         self
     }
 
-    /// The raster kernels' variant for hair inside `bounds` (object space) that
-    /// `object_to_clip` takes to clip space.
-    pub(crate) fn depth_clipping(&self, object_to_clip: Mat4, bounds: (Vec3, Vec3)) -> DepthClipping {
-        if self.depth_clipping_everywhere {
-            DepthClipping::Clip
-        } else {
-            DepthClipping::for_bounds(object_to_clip, bounds)
-        }
+    /// The compute rasterizer's kernel variant for each character seen through `view`: the
+    /// generated characters in scene order, then the stored ones. The raster pass binds these.
+    pub fn raster_depth_clipping(&self, view: &FrameView) -> Vec<DepthClipping> {
+        let view_proj = crate::camera::view_proj(&view.camera, view.width, view.height);
+        self.volume_characters()
+            .map(|(c, source)| {
+                if self.depth_clipping_everywhere {
+                    DepthClipping::Clip
+                } else {
+                    // The matrix the kernels multiply positions by (camera::character_inputs).
+                    DepthClipping::for_bounds(view_proj * c.transform, self.volume_bounds(source))
+                }
+            })
+            .collect()
     }
 
     /// Compute rasterizer: `false` has its raster and shade kernels read the pixel words,

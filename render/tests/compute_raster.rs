@@ -939,6 +939,32 @@ fn main() -> ExitCode {
                 frames.push(frame);
             }
             ensure!(frames[0].linear.rgba.iter().all(|c| c.is_finite()), "finite colour");
+            // The same eye in the small crowd: the middle character and its neighbours reach
+            // through the near plane, the back row does not, so one frame binds both variants
+            // (validation on) and still draws what clipping everywhere draws.
+            let effects = serde_json::json!({ "raster": "compute", "transparency": "opaque" });
+            let path = scene_with(dir.path(), "small_crowd", 128, 96, effects)?;
+            let mut json: serde_json::Value = serde_json::from_slice(&std::fs::read(&path)?)?;
+            json["camera"]["eye"] = serde_json::json!([0.0, 1.62, 0.08]);
+            json["camera"]["target"] = serde_json::json!([0.0, 1.55, -1.0]);
+            std::fs::write(&path, serde_json::to_vec_pretty(&json)?)?;
+            let crowd = load_scene(&path)?;
+            let renderer = SceneRenderer::new(ctx, &crowd, GenerationPath::Compute)?;
+            let camera = &crowd.scene.camera;
+            let view = renderer.frame_view(camera.eye.into(), camera.target.into());
+            let variants = renderer.raster_depth_clipping(&view);
+            ensure!(
+                variants.contains(&DepthClipping::Clip) && variants.contains(&DepthClipping::Skip),
+                "the crowd should need both kernel variants, got {variants:?}"
+            );
+            let mixed = renderer.render(ctx)?;
+            let clipped = SceneRenderer::new(ctx, &crowd, GenerationPath::Compute)?
+                .with_depth_clipping_everywhere(true)
+                .render(ctx)?;
+            ensure!(
+                mixed.linear == clipped.linear,
+                "a crowd with both kernel variants in one frame draws differently"
+            );
             let any = Tolerance { mean: 1.0, percentile: (0.99, 1.0) };
             let flip = compare("raster_near_plane", &frames[0].image, &frames[1].image, any)
                 .map_err(anyhow::Error::msg)?;

@@ -151,12 +151,12 @@ pub(crate) fn record_raster(
         (cr.buffer_address(&b.pixel_words), cr.buffer_address(&b.tiles), cr.buffer_address(depth));
     // Characters wholly inside the view volume's depth (nearly all) go through the kernel
     // without clipping; the pipeline is bound again only where that changes.
+    let clipping = r.raster_depth_clipping(&state.plan.view);
     let mut bound = None;
     for (i, frame) in state.frames {
         let c = &r.characters[*i];
         let hair = &r.hairs[c.hair];
-        let (lo, hi) = hair.asset.bounds();
-        let clipping = r.depth_clipping(state.plan.inputs[*i].view_proj, (lo.as_vec3(), hi.as_vec3()));
+        let clipping = clipping[*i];
         let pipeline = cr.raster.get(clipping);
         if bound != Some(clipping) {
             rec.bind_pipeline(pipeline);
@@ -180,10 +180,7 @@ pub(crate) fn record_raster(
             continue;
         }
         let stored = &r.stored[c.hair];
-        let view = &state.plan.view;
-        // The matrix the stored strands' frame parameters hold (camera::character_inputs).
-        let object_to_clip = crate::camera::view_proj(&view.camera, view.width, view.height) * c.transform;
-        let pipeline = cr.raster_stored.get(r.depth_clipping(object_to_clip, stored.bounds));
+        let pipeline = cr.raster_stored.get(clipping[r.characters.len() + j]);
         let opacity = r.raster_opacity(material);
         stored.record_compute(rec, pipeline, params, &extra, stored_group_size(), phase, |rec, chunk| {
             let mut push =
