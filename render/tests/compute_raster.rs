@@ -224,6 +224,29 @@ fn kernel_vs_port(
     Ok((gpu, port))
 }
 
+/// The CPU port's view of `inputs`, and `strands` (one width for all) uploaded as one set, so
+/// that one dispatch draws them all and its invocations race for the same pixels.
+fn upload_together(
+    ctx: &gen_gpu::Context,
+    inputs: &FrameInputs,
+    strands: &[(Vec<Vec3>, f32)],
+) -> anyhow::Result<(RasterView, StoredStrands)> {
+    let [width, height] = inputs.viewport;
+    let view = RasterView {
+        view_proj: inputs.view_proj,
+        eye: inputs.view.eye.as_vec3(),
+        width,
+        height,
+        model: Mat4::IDENTITY,
+        max_half_width: 64.0,
+    };
+    let points: Vec<Vec3> = strands.iter().flat_map(|(p, _)| p.iter().copied()).collect();
+    let counts: Vec<u32> = strands.iter().map(|(p, _)| p.len() as u32).collect();
+    let width_of_all = strands.first().context("no strands")?.1;
+    ensure!(strands.iter().all(|(_, w)| *w == width_of_all), "one width for all the strands");
+    Ok((view, StoredStrands::upload(ctx, &points, &counts, width_of_all, 0.5)?))
+}
+
 /// Rasterizes `strands` (one width) in one dispatch with one slot per pixel, through both load
 /// paths, where invocations race for the same pixels and dense pixels turn opaque early, and
 /// checks both against the CPU port as [`kernel_vs_port`] does (coverage clamped at the limit,
@@ -236,19 +259,7 @@ fn dense_opaque_vs_port(
     strands: &[(Vec<Vec3>, f32)],
 ) -> anyhow::Result<()> {
     let [width, height] = inputs.viewport;
-    let view = RasterView {
-        view_proj: inputs.view_proj,
-        eye: inputs.view.eye.as_vec3(),
-        width,
-        height,
-        model: Mat4::IDENTITY,
-        max_half_width: 64.0,
-    };
-    let points: Vec<Vec3> = strands.iter().flat_map(|(p, _)| p.iter().copied()).collect();
-    let counts: Vec<u32> = strands.iter().map(|(p, _)| p.len() as u32).collect();
-    let width_of_all = strands[0].1;
-    ensure!(strands.iter().all(|(_, w)| *w == width_of_all), "one width for all the strands");
-    let stored = StoredStrands::upload(ctx, &points, &counts, width_of_all, 0.5)?;
+    let (view, stored) = upload_together(ctx, inputs, strands)?;
     let mut port = cpu::RasterBuffers::new(width, height);
     for (p, w) in strands {
         cpu::raster_strand(&view, &mut port, &stored_points(p, *w, 0.5), 3, 0.0);
@@ -328,19 +339,7 @@ fn k_nearest_vs_port(
     k: u32,
 ) -> anyhow::Result<usize> {
     let [width, height] = inputs.viewport;
-    let view = RasterView {
-        view_proj: inputs.view_proj,
-        eye: inputs.view.eye.as_vec3(),
-        width,
-        height,
-        model: Mat4::IDENTITY,
-        max_half_width: 64.0,
-    };
-    let points: Vec<Vec3> = strands.iter().flat_map(|(p, _)| p.iter().copied()).collect();
-    let counts: Vec<u32> = strands.iter().map(|(p, _)| p.len() as u32).collect();
-    let width_of_all = strands[0].1;
-    ensure!(strands.iter().all(|(_, w)| *w == width_of_all), "one width for all the strands");
-    let stored = StoredStrands::upload(ctx, &points, &counts, width_of_all, 0.5)?;
+    let (view, stored) = upload_together(ctx, inputs, strands)?;
     let stride = render::raster::pixel_stride(k) as usize;
     let runs = [
         rasters.referenced.rasterize_stored_words(ctx, &stored, inputs, Mat4::IDENTITY, 3, k, None, None)?,
@@ -980,15 +979,19 @@ fn main() -> ExitCode {
             // take the raster kernel with depth clipping (the one without would draw the strands
             // behind the eye mirrored), and the image follows the triangle raster's.
             let dir = tempfile::tempdir()?;
-            let mut frames = Vec::new();
-            for raster in ["compute", "triangles"] {
-                let effects = serde_json::json!({ "raster": raster, "transparency": "oit" });
-                let path = scene_with(dir.path(), "one_character", 128, 96, effects)?;
+            // A test scene with the eye among the strands, looking down the back of the head.
+            let eye_in_the_hair = |name: &str, effects: serde_json::Value| -> anyhow::Result<LoadedScene> {
+                let path = scene_with(dir.path(), name, 128, 96, effects)?;
                 let mut json: serde_json::Value = serde_json::from_slice(&std::fs::read(&path)?)?;
                 json["camera"]["eye"] = serde_json::json!([0.0, 1.62, 0.08]);
                 json["camera"]["target"] = serde_json::json!([0.0, 1.55, -1.0]);
                 std::fs::write(&path, serde_json::to_vec_pretty(&json)?)?;
-                let scene = load_scene(&path)?;
+                Ok(load_scene(&path)?)
+            };
+            let mut frames = Vec::new();
+            for raster in ["compute", "triangles"] {
+                let effects = serde_json::json!({ "raster": raster, "transparency": "oit" });
+                let scene = eye_in_the_hair("one_character", effects)?;
                 let frame = SceneRenderer::new(ctx, &scene, GenerationPath::Compute)?.render(ctx)?;
                 render::output::write_png(
                     &output_dir().join(format!("raster-near-plane-{raster}.png")),
@@ -1007,12 +1010,7 @@ fn main() -> ExitCode {
             // through the near plane, the back row does not, so one frame binds both variants
             // (validation on) and still draws what clipping everywhere draws.
             let effects = serde_json::json!({ "raster": "compute", "transparency": "opaque" });
-            let path = scene_with(dir.path(), "small_crowd", 128, 96, effects)?;
-            let mut json: serde_json::Value = serde_json::from_slice(&std::fs::read(&path)?)?;
-            json["camera"]["eye"] = serde_json::json!([0.0, 1.62, 0.08]);
-            json["camera"]["target"] = serde_json::json!([0.0, 1.55, -1.0]);
-            std::fs::write(&path, serde_json::to_vec_pretty(&json)?)?;
-            let crowd = load_scene(&path)?;
+            let crowd = eye_in_the_hair("small_crowd", effects)?;
             let renderer = SceneRenderer::new(ctx, &crowd, GenerationPath::Compute)?;
             let camera = &crowd.scene.camera;
             let view = renderer.frame_view(camera.eye.into(), camera.target.into());
