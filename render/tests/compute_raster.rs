@@ -1020,6 +1020,7 @@ fn main() -> ExitCode {
                 "the crowd should need both kernel variants, got {variants:?}"
             );
             let mixed = renderer.render(ctx)?;
+            render::output::write_png(&output_dir().join("raster-near-plane-crowd.png"), &mixed.image)?;
             let clipped = SceneRenderer::new(ctx, &crowd, GenerationPath::Compute)?
                 .with_depth_clipping_everywhere(true)
                 .render(ctx)?;
