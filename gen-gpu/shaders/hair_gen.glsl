@@ -885,18 +885,6 @@ void load_segment(StrandCell cell, int segment, inout SegmentControl c) {
     load_layer_slice(cell, segment + 1, c.u_w[1], c.v[1]);
 }
 
-// coherent_strand_point() with the invocation's own control data, loading a segment when tau
-// enters it. `st` is strand_style(bundle, seed), `scale` length_scale(seed): per strand.
-vec3 thread_strand_point(StrandStyle st, float scale, StrandCell cell, float tau, inout SegmentControl c) {
-    float t_curve = tau * scale;
-    float local;
-    int segment = floor_int(curve_segment(t_curve, local));
-    if (segment != c.segment) {
-        load_segment(cell, segment, c);
-    }
-    return control_strand_point(st, tau, t_curve, c);
-}
-
 // A strand generated vertex by vertex in one invocation (StrandStream, strand_stream_step):
 // the positions a vertex's tangent and morphing read (its neighbours two apart on either side,
 // four at the ends) stay in a window of nine that shifts by one per vertex. Every index into it
@@ -961,21 +949,14 @@ StrandStream strand_stream(uint bundle, uint strand, BundleLod l, bool from_cont
     return s;
 }
 
-// Full-detail point j of the strand (unmorphed); j must not decrease from call to call.
-vec3 strand_stream_point(inout StrandStream s, uint j) {
-    float tau = float(j) * power_of_two_reciprocal(float(s.segments)); // j / segments, exactly
-    return s.from_control ? thread_strand_point(s.style, s.scale, s.cell, tau, s.control)
-                          : strand_point(s.bundle, s.strand, s.root, tau);
-}
-
 // Steps of a strand walk (strand_stream_step): one per point pushed, the last four only
 // shifting the window.
 uint strand_stream_steps(StrandStream s) {
     return s.segments + 5u;
 }
 
-// The curve segment full-detail point j lies in (thread_strand_point's), or -1 past the
-// strand's last point (the walk's last steps only shift the window).
+// The curve segment full-detail point j lies in, or -1 past the strand's last point (the
+// walk's last steps only shift the window).
 int strand_stream_point_segment(StrandStream s, uint j) {
     if (j > s.segments) {
         return -1;
@@ -983,6 +964,16 @@ int strand_stream_point_segment(StrandStream s, uint j) {
     float tau = float(j) * power_of_two_reciprocal(float(s.segments));
     float local;
     return floor_int(curve_segment(tau * s.scale, local));
+}
+
+// Loads the control data of the curve segment point j lies in, unless the stream holds it
+// already (strand-coherent streams only); returns the segment (strand_stream_point_segment).
+int strand_stream_load_segment_of(inout StrandStream s, uint j) {
+    int segment = strand_stream_point_segment(s, j);
+    if (s.from_control && segment >= 0 && segment != s.control.segment) {
+        load_segment(s.cell, segment, s.control);
+    }
+    return segment;
 }
 
 // Whether the walk has steps left (strand_stream_step).
@@ -1007,11 +998,7 @@ bool strand_stream_walking(StrandStream s) {
 //         } while (strand_stream_within(s, segment));
 //     }
 int strand_stream_enter(inout StrandStream s) {
-    int segment = strand_stream_point_segment(s, s.pushed);
-    if (s.from_control && segment >= 0 && segment != s.control.segment) {
-        load_segment(s.cell, segment, s.control);
-    }
-    return segment;
+    return strand_stream_load_segment_of(s, s.pushed);
 }
 
 // Whether the walk's next step still lies in `segment` (strand_stream_enter).
@@ -1025,6 +1012,13 @@ vec3 strand_stream_walk_point(StrandStream s, uint j) {
     float tau = float(j) * power_of_two_reciprocal(float(s.segments)); // j / segments, exactly
     return s.from_control ? control_strand_point(s.style, tau, tau * s.scale, s.control)
                           : strand_point(s.bundle, s.strand, s.root, tau);
+}
+
+// Full-detail point j of the strand (unmorphed), outside a walk: loads its segment's control
+// data where needed. j must not decrease from call to call.
+vec3 strand_stream_point(inout StrandStream s, uint j) {
+    strand_stream_load_segment_of(s, j);
+    return strand_stream_walk_point(s, j);
 }
 
 void strand_stream_push(inout StrandStream s) {

@@ -266,7 +266,7 @@ fn dense_opaque_vs_port(
     }
     let opaque =
         (0..port.coverage.len()).filter(|&i| port.coverage[i] >= u64::from(cpu::COVERAGE_LIMIT)).count();
-    ensure!(opaque > 100, "too few opaque pixels ({opaque}) to test the gates");
+    ensure!(opaque > 100, "too few opaque pixels ({opaque}) to test the fragments that skip their atomics");
     for raster in [&rasters.referenced, &rasters.bound] {
         let words = raster.rasterize_stored_words(ctx, &stored, inputs, Mat4::IDENTITY, 3, 1, None, None)?;
         let gpu = cpu::RasterBuffers {
