@@ -6,7 +6,8 @@
 // skip such columns and the image stays exactly what drawing every fragment gives. A second word per tile holds
 // the farthest over the 2×2 tiles it is the top left of: a column's test is then one load
 // (on CPU devices each lane's load is a scalar load; four per column were a sixth of the rest
-// phase's time).
+// phase's time). A third holds the farthest over the 3×3 tiles it is the top left of: a whole
+// segment's test (strand_raster.glsl segment_behind_tiles).
 #extension GL_GOOGLE_include_directive : require
 #include "raster_common.glsl"
 
@@ -58,6 +59,13 @@ void main() {
     for (uint n = 1u; n < 4u && square != 0xffffffffu; ++n) {
         square = max(square, tile_farthest(t.x + (n & 1u), t.y + (n >> 1u)));
     }
-    tile_depth[2u * tile] = own;
-    tile_depth[2u * tile + 1u] = square;
+    // Then the 3×3 square's other five (the row and the column after the 2×2 square).
+    uint wide = square;
+    for (uint n = 0u; n < 5u && wide != 0xffffffffu; ++n) {
+        uvec2 o = n < 3u ? uvec2(n, 2u) : uvec2(2u, n - 3u);
+        wide = max(wide, tile_farthest(t.x + o.x, t.y + o.y));
+    }
+    tile_depth[3u * tile] = own;
+    tile_depth[3u * tile + 1u] = square;
+    tile_depth[3u * tile + 2u] = wide;
 }

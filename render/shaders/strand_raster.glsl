@@ -20,10 +20,11 @@
 
 // The occluders' Vulkan depth per pixel (1 = none), read when raster.flags bit 0 is set.
 layout(std430, set = 0, binding = HK_BINDING_SCENE_DEPTH) readonly buffer SceneDepthBuffer { float scene_depth[]; };
-// Per 8×8 tile two words (raster_tiles.comp, after the front strands): the farthest depth bits
-// of its pixels' threshold words (raster_common.glsl) if every pixel is opaque and its slots
-// full, else all ones — a column behind it cannot change any pixel of the tile —, then the same
-// over the 2×2 tiles it is the top left of, for columns that reach into the next tiles.
+// Per 8×8 tile three words (raster_tiles.comp, after the front strands): the farthest depth
+// bits of its pixels' threshold words (raster_common.glsl) if every pixel is opaque and its
+// slots full, else all ones — a column behind it cannot change any pixel of the tile —, then
+// the same over the 2×2 and the 3×3 tiles it is the top left of, for columns that reach into
+// the next tiles and for whole segments (segment_behind_tiles).
 layout(std430, set = 0, binding = HK_BINDING_RASTER_TILES) readonly buffer TileBuffer { uint tile_depth[]; };
 
 layout(push_constant) uniform RasterParams {
@@ -79,6 +80,8 @@ float load_scene_depth(uint pixel) {
 #endif
 
 const uint TILE_SIZE = 8u;
+// Words per tile in tile_depth (raster_tiles.comp): its own, its 2×2 square's, its 3×3 square's.
+const uint TILE_WORDS = 3u;
 
 // Whether segments are clipped to the view volume's depth (0 <= z <= w): 0 when the host found
 // the character's bounds wholly inside it with a margin for rounding (render/src/raster.rs
@@ -221,6 +224,47 @@ void raster_fragment(uint pixel, float coverage, float ndc_z, inout ColumnAttrib
 
 #endif
 
+#ifndef SHADOW_RASTER
+// Margins of segment_behind_tiles's box, in pixels, and of its depth, in depth-bit units: the
+// columns compute their positions, widths and depths in their own order (and the compiler may
+// contract them differently), so the box is widened and the depth lowered past any rounding.
+const float SEGMENT_BOX_MARGIN = 1.0 / 64.0;
+const uint SEGMENT_DEPTH_MARGIN = 2u;
+
+// Whether every column of a segment lies behind the occlusion tiles (the rest phase): the box
+// of the pixels its columns first..last can cover (across them, the centre line at the end
+// columns widened by the wider end's half footprint h_max: the centre line is straight and the
+// half footprint interpolates between the ends) fits in a square of up to 3×3 tiles whose word
+// (raster_tiles.comp) lies in front of the segment's nearest depth (1 / the larger 1 / w of
+// its ends: w is linear along it). Each column would then fail the column test, so the walk is
+// skipped whole — the same image — for one load instead of a tile load per column. Eight
+// strands walk in lock step on CPU devices and skip together only when all eight are hidden:
+// the 3×3 tiles (24 pixels) take in the 12-pixel segments of the 100k-strand close-up, and a
+// box no wider than one or two tiles reads its own or its 2×2 square's tighter word. A box of
+// no pixel (a footprint wholly off the screen across it) covers nothing either.
+bool segment_behind_tiles(int first, int last, float a_major, float a_minor, float inv_d_major, float d_minor,
+                          float h_max, float max_inv_w, bool x_major, int size_minor) {
+    float m_first = a_minor + (float(first) + 0.5 - a_major) * inv_d_major * d_minor;
+    float m_last = a_minor + (float(last) + 0.5 - a_major) * inv_d_major * d_minor;
+    float reach = h_max + SEGMENT_BOX_MARGIN;
+    int lo = max(floor_int(min(m_first, m_last) - reach), 0);
+    int hi = min(floor_int(max(m_first, m_last) + reach), size_minor - 1);
+    if (lo > hi) {
+        return true;
+    }
+    uvec2 b0 = uvec2(x_major ? ivec2(first, lo) : ivec2(lo, first)) / TILE_SIZE;
+    uvec2 b1 = uvec2(x_major ? ivec2(last, hi) : ivec2(hi, last)) / TILE_SIZE;
+    uint span = max(b1.x - b0.x, b1.y - b0.y);
+    if (span > 2u) {
+        return false;
+    }
+    uint behind = load_tile_word(TILE_WORDS * (b0.y * raster.tiles_x + b0.x) + span);
+    uint nearest = visibility_depth_bits(1.0 / max_inv_w);
+    // (A word of all ones, a tile not closed, lies in front of nothing.)
+    return nearest > SEGMENT_DEPTH_MARGIN && nearest - SEGMENT_DEPTH_MARGIN > behind;
+}
+#endif
+
 void raster_segment(RasterVertex a, RasterVertex b, uint material, float random) {
     RasterVertex p = a;
     RasterVertex q = b;
@@ -275,6 +319,13 @@ void raster_segment(RasterVertex a, RasterVertex b, uint material, float random)
     float stretch = len * abs(inv_d_major);
     float inv_wp = p.inv_w;
     float inv_wq = q.inv_w;
+#ifndef SHADOW_RASTER
+    if (raster.phase == SLOT_SUBSET_REMAINDER && first <= last &&
+        segment_behind_tiles(first, last, a_major, a_minor, inv_d_major, d_minor, max(hp, hq) * stretch,
+                             max(inv_wp, inv_wq), x_major, size_minor)) {
+        return;
+    }
+#endif
     float zp = p.z;
     float zq = q.z;
     for (int i = first; i <= last; ++i) {
@@ -305,7 +356,7 @@ void raster_segment(RasterVertex a, RasterVertex b, uint material, float random)
             if (all(lessThanEqual(e1 - e0, uvec2(1u)))) {
                 // One load: the tile's own word, or its 2×2 square's when the column reaches
                 // into the next tiles (each lane's load is a scalar load on CPU devices).
-                uint behind = load_tile_word(2u * (e0.y * raster.tiles_x + e0.x) + (e0 == e1 ? 0u : 1u));
+                uint behind = load_tile_word(TILE_WORDS * (e0.y * raster.tiles_x + e0.x) + (e0 == e1 ? 0u : 1u));
                 if (column.depth_bits > behind) {
                     continue;
                 }

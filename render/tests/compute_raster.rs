@@ -913,6 +913,47 @@ fn main() -> ExitCode {
                 Ok(())
             },
         ),
+        GpuTest::new("whole_segments_skip_only_behind_closed_tiles", Requirements::INT64_ATOMICS, |ctx| {
+            // The close-up with strands 6 mm wide (1.6 pixels here: each fragment nearly
+            // solid), so that the front strands close most tiles and the rest phase skips whole
+            // segments behind them (segment_behind_tiles): without the tiles every fragment is
+            // drawn, and the images must be the same. (Verified to fail when the segment test
+            // skips behind any closed square whatever its depth; the small crowd's and Sintel's
+            // sub-pixel strands close too few tiles to tell.)
+            let dir = tempfile::tempdir()?;
+            for transparency in ["opaque", "oit"] {
+                let effects =
+                    serde_json::json!({ "transparency": transparency, "oit_k": 4, "raster": "compute" });
+                let path = scene_with(dir.path(), "one_character", 256, 192, effects)?;
+                let mut json: serde_json::Value = serde_json::from_slice(&std::fs::read(&path)?)?;
+                for c in json["characters"].as_array_mut().context("characters")? {
+                    c["style"] = serde_json::json!({ "width": 0.006 });
+                }
+                std::fs::write(&path, serde_json::to_vec_pretty(&json)?)?;
+                let scene = load_scene(&path)?;
+                let tiled = SceneRenderer::new(ctx, &scene, GenerationPath::Compute)?.render(ctx)?;
+                let single = SceneRenderer::new(ctx, &scene, GenerationPath::Compute)?
+                    .with_occlusion_tiles(false)
+                    .render(ctx)?;
+                ensure!(
+                    tiled.passes.iter().any(|p| p.contains("occlusion tiles"))
+                        && single.passes.iter().all(|p| !p.contains("occlusion tiles")),
+                    "{:?}",
+                    tiled.passes
+                );
+                render::output::write_png(
+                    &output_dir().join(format!("raster-wide-close-up-{transparency}.png")),
+                    &tiled.image,
+                )?;
+                // Dense hair: most of the frame opaque.
+                ensure!(mean_alpha(&tiled) > 0.4, "{transparency}: mean alpha {}", mean_alpha(&tiled));
+                ensure!(
+                    tiled.linear == single.linear,
+                    "{transparency}: skipping segments behind the occlusion tiles changes the image"
+                );
+            }
+            Ok(())
+        }),
         GpuTest::new("every_dispatch_order_renders_the_same_image", Requirements::INT64_ATOMICS, |ctx| {
             // The dispatch order (dispatch_order.glsl) only changes which workgroup does which
             // work: every kernel that uses it — the fused raster and shadow kernels, their
