@@ -55,6 +55,9 @@ const uint COVERAGE_LIMIT = 3072u;
 const float MAX_FRAGMENT_COVERAGE = 0.999;    // a solid fragment adds -ln(0.001) = 6.9
 const uint MAX_MATERIALS = 1024u;
 const uint DEPTH_SHIFT = 42u;
+// Words per occlusion tile (raster_tiles.comp): its own farthest depth, its 2×2 square's, its
+// 3×3 square's.
+const uint RASTER_TILE_WORDS = HK_RASTER_TILE_WORDS;
 
 // Interleaved gradient noise (Jimenez 2014): a fixed threshold in [0, 1) per pixel. In the
 // transition band between a character's strands and its volume, the volume draws the pixels

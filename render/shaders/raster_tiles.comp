@@ -65,7 +65,7 @@ void main() {
         uvec2 o = n < 3u ? uvec2(n, 2u) : uvec2(2u, n - 3u);
         wide = max(wide, tile_farthest(t.x + o.x, t.y + o.y));
     }
-    tile_depth[3u * tile] = own;
-    tile_depth[3u * tile + 1u] = square;
-    tile_depth[3u * tile + 2u] = wide;
+    tile_depth[RASTER_TILE_WORDS * tile] = own;
+    tile_depth[RASTER_TILE_WORDS * tile + 1u] = square;
+    tile_depth[RASTER_TILE_WORDS * tile + 2u] = wide;
 }

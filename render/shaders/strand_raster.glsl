@@ -80,8 +80,6 @@ float load_scene_depth(uint pixel) {
 #endif
 
 const uint TILE_SIZE = 8u;
-// Words per tile in tile_depth (raster_tiles.comp): its own, its 2×2 square's, its 3×3 square's.
-const uint TILE_WORDS = 3u;
 
 // Whether segments are clipped to the view volume's depth (0 <= z <= w): 0 when the host found
 // the character's bounds wholly inside it with a margin for rounding (render/src/raster.rs
@@ -258,7 +256,7 @@ bool segment_behind_tiles(int first, int last, float a_major, float a_minor, flo
     if (span > 2u) {
         return false;
     }
-    uint behind = load_tile_word(TILE_WORDS * (b0.y * raster.tiles_x + b0.x) + span);
+    uint behind = load_tile_word(RASTER_TILE_WORDS * (b0.y * raster.tiles_x + b0.x) + span);
     uint nearest = visibility_depth_bits(1.0 / max_inv_w);
     // (A word of all ones, a tile not closed, lies in front of nothing.)
     return nearest > SEGMENT_DEPTH_MARGIN && nearest - SEGMENT_DEPTH_MARGIN > behind;
@@ -356,7 +354,7 @@ void raster_segment(RasterVertex a, RasterVertex b, uint material, float random)
             if (all(lessThanEqual(e1 - e0, uvec2(1u)))) {
                 // One load: the tile's own word, or its 2×2 square's when the column reaches
                 // into the next tiles (each lane's load is a scalar load on CPU devices).
-                uint behind = load_tile_word(TILE_WORDS * (e0.y * raster.tiles_x + e0.x) + (e0 == e1 ? 0u : 1u));
+                uint behind = load_tile_word(RASTER_TILE_WORDS * (e0.y * raster.tiles_x + e0.x) + (e0 == e1 ? 0u : 1u));
                 if (column.depth_bits > behind) {
                     continue;
                 }

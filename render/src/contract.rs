@@ -183,8 +183,14 @@ pub const LOAD_BY_ADDRESS_CONSTANT_ID: u32 = 34;
 /// inside it (`raster::DepthClipping`, `strand_raster.glsl`).
 pub const DEPTH_CLIPPING_CONSTANT_ID: u32 = 35;
 
+/// 32-bit words per 8×8 tile of the compute rasterizer's occlusion tiles (`raster_tiles.comp`
+/// writes them, `strand_raster.glsl` reads them): the farthest depth of the tile's own pixels,
+/// then of the 2×2 and of the 3×3 tiles it is the top left of.
+pub const RASTER_TILE_WORDS: u32 = 3;
+
 /// The header's constants that are not bindings, as `(GLSL macro, value)`.
 pub const GLSL_CONSTANTS: &[(&str, u64)] = &[
+    ("HK_RASTER_TILE_WORDS", RASTER_TILE_WORDS as u64),
     ("HK_SCENE_LIGHTS_CONSTANT_ID", SCENE_LIGHTS_CONSTANT_ID as u64),
     ("HK_ONLY_MATERIAL_CONSTANT_ID", ONLY_MATERIAL_CONSTANT_ID as u64),
     ("HK_LOAD_BY_ADDRESS_CONSTANT_ID", LOAD_BY_ADDRESS_CONSTANT_ID as u64),

@@ -592,8 +592,9 @@ impl RasterBuffers {
         }
         let shaded = pool.buffer(ctx, "shaded hair", BufferDesc::storage(pixels * 16))?;
         let (tx, ty) = tile_grid(view.width, view.height);
-        // Three words per tile: its own, its 2×2 and its 3×3 square's (raster_tiles.comp).
-        let tiles = pool.buffer(ctx, "occlusion tiles", BufferDesc::storage(u64::from(tx * ty) * 12))?;
+        let tile_bytes = u64::from(crate::contract::RASTER_TILE_WORDS) * 4;
+        let tiles =
+            pool.buffer(ctx, "occlusion tiles", BufferDesc::storage(u64::from(tx * ty) * tile_bytes))?;
         Ok(Self { pixel_words, frame, shaded, tiles, rect, k, counters, scene_depth })
     }
 
