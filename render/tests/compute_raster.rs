@@ -529,6 +529,18 @@ fn compute_maps_against_triangle_maps(
     Ok(())
 }
 
+/// `scene` drawn with the occlusion tiles (two raster phases) and without them (one phase, every
+/// fragment drawn): what the tiles skip must not change the image.
+fn with_and_without_tiles(
+    ctx: &gen_gpu::Context,
+    scene: &LoadedScene,
+) -> anyhow::Result<(RenderedFrame, RenderedFrame)> {
+    let tiled = SceneRenderer::new(ctx, scene, GenerationPath::Compute)?.render(ctx)?;
+    let single =
+        SceneRenderer::new(ctx, scene, GenerationPath::Compute)?.with_occlusion_tiles(false).render(ctx)?;
+    Ok((tiled, single))
+}
+
 fn main() -> ExitCode {
     run_gpu_tests(vec![
         GpuTest::new("the_shadow_kernel_matches_its_cpu_port", Requirements::INT64_ATOMICS, |ctx| {
@@ -871,10 +883,7 @@ fn main() -> ExitCode {
                     let effects =
                         serde_json::json!({ "transparency": transparency, "oit_k": 4, "raster": "compute" });
                     let stored = load_scene(&sintel_scene(dir.path(), "sintel_tiles", effects)?)?;
-                    let tiled = SceneRenderer::new(ctx, &stored, GenerationPath::Compute)?.render(ctx)?;
-                    let single = SceneRenderer::new(ctx, &stored, GenerationPath::Compute)?
-                        .with_occlusion_tiles(false)
-                        .render(ctx)?;
+                    let (tiled, single) = with_and_without_tiles(ctx, &stored)?;
                     // The raster passes name what they draw: here stored strands only.
                     ensure!(
                         tiled.passes.iter().any(|p| p.contains("occlusion tiles"))
@@ -931,10 +940,7 @@ fn main() -> ExitCode {
                 }
                 std::fs::write(&path, serde_json::to_vec_pretty(&json)?)?;
                 let scene = load_scene(&path)?;
-                let tiled = SceneRenderer::new(ctx, &scene, GenerationPath::Compute)?.render(ctx)?;
-                let single = SceneRenderer::new(ctx, &scene, GenerationPath::Compute)?
-                    .with_occlusion_tiles(false)
-                    .render(ctx)?;
+                let (tiled, single) = with_and_without_tiles(ctx, &scene)?;
                 ensure!(
                     tiled.passes.iter().any(|p| p.contains("occlusion tiles"))
                         && single.passes.iter().all(|p| !p.contains("occlusion tiles")),
