@@ -11,7 +11,7 @@ use gen_gpu::{FrameInputs, GenerationPath, StoredStrands};
 use glam::{Mat4, Vec3};
 use hairkit_tests::harness::{GpuTest, Requirements, run_gpu_tests};
 use hairkit_tests::image_compare::{Tolerance, compare, output_dir};
-use hairkit_tests::scenes::{scene_with, sintel_scene};
+use hairkit_tests::scenes::{scene_with, scene_with_edit, sintel_scene};
 use render::frame::{RenderedFrame, SceneRenderer};
 use render::raster::cpu::{self, RasterView, StrandPoint};
 use render::raster::{ComputeRaster, DepthClipping, LoadPath, RasterPath, claimed_slots, coverage_sum};
@@ -933,12 +933,12 @@ fn main() -> ExitCode {
             for transparency in ["opaque", "oit"] {
                 let effects =
                     serde_json::json!({ "transparency": transparency, "oit_k": 4, "raster": "compute" });
-                let path = scene_with(dir.path(), "one_character", 256, 192, effects)?;
-                let mut json: serde_json::Value = serde_json::from_slice(&std::fs::read(&path)?)?;
-                for c in json["characters"].as_array_mut().context("characters")? {
-                    c["style"] = serde_json::json!({ "width": 0.006 });
-                }
-                std::fs::write(&path, serde_json::to_vec_pretty(&json)?)?;
+                let path = scene_with_edit(dir.path(), "one_character", 256, 192, effects, |json| {
+                    for c in json["characters"].as_array_mut().context("characters")? {
+                        c["style"] = serde_json::json!({ "width": 0.006 });
+                    }
+                    Ok(())
+                })?;
                 let scene = load_scene(&path)?;
                 let (tiled, single) = with_and_without_tiles(ctx, &scene)?;
                 ensure!(
@@ -1028,11 +1028,11 @@ fn main() -> ExitCode {
             let dir = tempfile::tempdir()?;
             // A test scene with the eye among the strands, looking down the back of the head.
             let eye_in_the_hair = |name: &str, effects: serde_json::Value| -> anyhow::Result<LoadedScene> {
-                let path = scene_with(dir.path(), name, 128, 96, effects)?;
-                let mut json: serde_json::Value = serde_json::from_slice(&std::fs::read(&path)?)?;
-                json["camera"]["eye"] = serde_json::json!([0.0, 1.62, 0.08]);
-                json["camera"]["target"] = serde_json::json!([0.0, 1.55, -1.0]);
-                std::fs::write(&path, serde_json::to_vec_pretty(&json)?)?;
+                let path = scene_with_edit(dir.path(), name, 128, 96, effects, |json| {
+                    json["camera"]["eye"] = serde_json::json!([0.0, 1.62, 0.08]);
+                    json["camera"]["target"] = serde_json::json!([0.0, 1.55, -1.0]);
+                    Ok(())
+                })?;
                 Ok(load_scene(&path)?)
             };
             let mut frames = Vec::new();
@@ -1086,12 +1086,12 @@ fn main() -> ExitCode {
         GpuTest::new("compute_raster_handles_empty_and_tiny_frames", Requirements::INT64_ATOMICS, |ctx| {
             let dir = tempfile::tempdir()?;
             // The camera looking away: every bundle culled, nothing drawn.
-            let path =
-                scene_with(dir.path(), "one_character", 64, 48, serde_json::json!({ "raster": "compute" }))?;
-            let mut json: serde_json::Value = serde_json::from_slice(&std::fs::read(&path)?)?;
-            json["camera"]["target"] = serde_json::json!([0.0, 1.82, 5.0]);
-            json["characters"][0].as_object_mut().context("character")?.remove("occluder");
-            std::fs::write(&path, serde_json::to_vec_pretty(&json)?)?;
+            let effects = serde_json::json!({ "raster": "compute" });
+            let path = scene_with_edit(dir.path(), "one_character", 64, 48, effects, |json| {
+                json["camera"]["target"] = serde_json::json!([0.0, 1.82, 5.0]);
+                json["characters"][0].as_object_mut().context("character")?.remove("occluder");
+                Ok(())
+            })?;
             let frame = SceneRenderer::new(ctx, &load_scene(&path)?, GenerationPath::Compute)?.render(ctx)?;
             ensure!(frame.linear.rgba.chunks_exact(4).all(|p| p[3] == 0.0), "an empty view draws nothing");
             ensure!(frame.linear.depth.iter().all(|&d| d == 1.0), "and writes no depth");

@@ -68,6 +68,23 @@ pub fn scene_with(
     Ok(path)
 }
 
+/// [`scene_with`], then `edit` applied to the scene's JSON in place (a camera, a style, an
+/// occluder removed); returns the same path.
+pub fn scene_with_edit(
+    dir: &Path,
+    name: &str,
+    width: u32,
+    height: u32,
+    effects: serde_json::Value,
+    edit: impl FnOnce(&mut serde_json::Value) -> anyhow::Result<()>,
+) -> anyhow::Result<PathBuf> {
+    let path = scene_with(dir, name, width, height, effects)?;
+    let mut json: serde_json::Value = serde_json::from_slice(&std::fs::read(&path)?)?;
+    edit(&mut json)?;
+    std::fs::write(&path, serde_json::to_vec_pretty(&json)?)?;
+    Ok(path)
+}
+
 /// An edit as the editor makes one: the tip-layer vertices on the +x side of the head (root
 /// x > 0.05) pulled outwards and up.
 pub fn pull_tips(asset: &hairmesh::asset::HairAsset) -> Vec<hairmesh::asset::VertexMove> {
