@@ -39,6 +39,8 @@ pub enum GpuError {
     OutOfRange { name: String, size: u64, requested: u64 },
     #[error("upload to `{name}` at byte {offset} with {size} bytes refused: {why}")]
     BadUpload { name: String, offset: u64, size: u64, why: &'static str },
+    #[error("fill of `{name}` at byte {offset} with {size} bytes refused: {why}")]
+    BadFill { name: String, offset: u64, size: u64, why: &'static str },
 }
 
 pub type Result<T, E = GpuError> = std::result::Result<T, E>;

@@ -24,7 +24,8 @@
 // so the pixel's alpha 1 - exp(-sum) keeps the density of sub-pixel hair (1 - prod(1 - a_i),
 // what blending every fragment gives). Nothing is added once the sum reaches COVERAGE_LIMIT,
 // and it is read as min(sum, COVERAGE_LIMIT): a fragment is only skipped when the sum already
-// is at the limit, so the result is the same in any order. (The sum stays far below 2^32: it
+// is at the limit, so the result is the same in any order. A pixel at the limit reads as
+// opaque (coverage_alpha). (The sum stays far below 2^32: it
 // never carries into the high half.) Its high 32 bits, with K > 1: how many of the K slots
 // have been claimed (visibility_write.glsl `claim_and_cover`), counted by the same atomic that
 // adds the claimant's coverage.
@@ -49,9 +50,9 @@ layout(constant_id = HK_LOAD_BY_ADDRESS_CONSTANT_ID) const uint LOAD_BY_ADDRESS 
 
 const uint64_t VISIBILITY_EMPTY = 0xffffffffffffffffUL;
 const float COVERAGE_SCALE = 256.0;          // fixed-point units per unit of optical depth
-// Optical depth 12 (alpha 1 - 6e-6): dense hair reaches it after a few fragments, and the rest
-// skip their atomic.
-const uint COVERAGE_LIMIT = 3072u;
+// Optical depth 4.5 (render/src/contract.rs COVERAGE_LIMIT): dense hair reaches it after a few
+// fragments; the rest skip their atomic, and the occlusion tiles close over it.
+const uint COVERAGE_LIMIT = HK_COVERAGE_LIMIT;
 const float MAX_FRAGMENT_COVERAGE = 0.999;    // a solid fragment adds -ln(0.001) = 6.9
 const uint MAX_MATERIALS = 1024u;
 const uint DEPTH_SHIFT = 42u;
@@ -163,9 +164,12 @@ uint claimed_slots(uint64_t word) {
     return ~uint(word >> 32);
 }
 
-// The alpha of a pixel's coverage word.
+// The alpha of a pixel's coverage word: 1 - exp(-sum), and opaque at the limit (a pixel there
+// holds at least that much hair, in dense hair far more: its alpha lies between 1 - 1.1 % and
+// 1, nearer 1, and no background shows through dense hair).
 float coverage_alpha(uint64_t word) {
-    return 1.0 - exp(-float(min(coverage_sum(word), COVERAGE_LIMIT)) / COVERAGE_SCALE);
+    uint sum = coverage_sum(word);
+    return sum >= COVERAGE_LIMIT ? 1.0 : 1.0 - exp(-float(sum) / COVERAGE_SCALE);
 }
 
 #endif

@@ -7,7 +7,8 @@
 // the farthest over the 2×2 tiles it is the top left of: a column's test is then one load
 // (on CPU devices each lane's load is a scalar load; four per column were a sixth of the rest
 // phase's time). A third holds the farthest over the 3×3 tiles it is the top left of: a whole
-// segment's test (strand_raster.glsl segment_behind_tiles).
+// segment's test (strand_raster.glsl segment_behind_tiles). Only the pixels of the hair's
+// screen rectangle are cleared each frame; the tiles read just those.
 #extension GL_GOOGLE_include_directive : require
 #include "raster_common.glsl"
 
@@ -16,21 +17,34 @@ layout(local_size_x = 64) in;
 layout(std430, set = 0, binding = HK_BINDING_VISIBILITY) readonly buffer PixelBuffer { uint64_t pixel_words[]; };
 layout(std430, set = 0, binding = HK_BINDING_RASTER_TILES) writeonly buffer TileBuffer { uint tile_depth[]; };
 
+// render/src/raster.rs TilePush.
 layout(push_constant) uniform TileParams {
     uint width;
     uint height;
     uint tiles_x;
     uint tiles_y;
     uint k;
+    uint pad0;
+    uint pad1;
+    uint pad2;
+    // The pixels the frame cleared (x0, y0, x1, y1; exclusive ends): the hair's screen
+    // rectangle. The words outside it are stale.
+    uvec4 rect;
 } tiles;
 
 // The farthest threshold depth bits of tile (x, y) if all its pixels are opaque, else all ones;
-// 0 for a tile outside the grid (no column reaches it).
+// 0 for a tile outside the grid (no column reaches it). A tile not wholly inside the cleared
+// rectangle counts as open, whatever its stale words say: the rectangle's margin (wider than
+// a tile) holds no hair, so no tile that could close is lost, and none is read for nothing.
 uint tile_farthest(uint tx, uint ty) {
     if (tx >= tiles.tiles_x || ty >= tiles.tiles_y) {
         return 0u;
     }
     uvec2 origin = uvec2(tx, ty) * 8u;
+    uvec2 end = min(origin + 8u, uvec2(tiles.width, tiles.height));
+    if (any(lessThan(origin, tiles.rect.xy)) || any(greaterThan(end, tiles.rect.zw))) {
+        return 0xffffffffu;
+    }
     uint farthest = 0u;
     // Tiles over the image's edge count only their pixels inside it.
     for (uint y = origin.y; y < min(origin.y + 8u, tiles.height); ++y) {

@@ -151,6 +151,23 @@ pub fn pixel_stride(k: u32) -> u64 {
     if k == 1 { 2 } else { u64::from(k) + 2 }
 }
 
+/// The byte ranges (offset, size) of the pixel words of the pixels in `rect` (x0, y0, x1, y1;
+/// exclusive ends) of a `width` pixels wide frame with `k` slots: one range per row, or one for
+/// them all when the rectangle spans the whole width. The frame clears just these (the hair's
+/// screen rectangle), since nothing outside it is shaded or resolved.
+pub fn rect_word_ranges(rect: [u32; 4], width: u32, k: u32) -> Vec<(u64, u64)> {
+    let [x0, y0, x1, y1] = rect.map(u64::from);
+    let (width, bytes) = (u64::from(width), pixel_stride(k) * 8);
+    let x1 = x1.min(width);
+    if x0 >= x1 || y0 >= y1 {
+        return Vec::new();
+    }
+    if x0 == 0 && x1 == width {
+        return vec![(y0 * width * bytes, (y1 - y0) * width * bytes)];
+    }
+    (y0..y1).map(|y| ((y * width + x0) * bytes, (x1 - x0) * bytes)).collect()
+}
+
 /// The optical-depth sum (fixed point) of a pixel's coverage word: its low half, complemented
 /// (`coverage_sum` in `raster_common.glsl`).
 pub fn coverage_sum(word: u64) -> u64 {
@@ -343,7 +360,7 @@ impl ComputeRaster {
             "compute raster tiles",
             &shaders::RASTER_TILES_COMP,
             &Binding::storage_buffers(&RASTER_TILE_BINDINGS, stage),
-            32,
+            size_of::<TilePush>() as u32,
             &[],
         )?;
         let resolve = crate::target::composite_pipeline(
@@ -640,6 +657,20 @@ pub fn screen_rect(
     [lo.x as u32, lo.y as u32, hi.x as u32, hi.y as u32]
 }
 
+/// The tile kernel's push constants (raster_tiles.comp `TileParams`).
+#[repr(C)]
+#[derive(Clone, Copy, bytemuck::Pod, bytemuck::Zeroable)]
+pub(crate) struct TilePush {
+    /// The frame's width and height in pixels.
+    pub(crate) size: [u32; 2],
+    /// Tiles per row and column ([`tile_grid`]).
+    pub(crate) tiles: [u32; 2],
+    pub(crate) k: u32,
+    pub(crate) pad: [u32; 3],
+    /// The cleared pixels ([`RasterBuffers::rect`]).
+    pub(crate) rect: [u32; 4],
+}
+
 /// The shade kernel's push constants (raster_shade.comp `Rect`).
 #[repr(C)]
 #[derive(Clone, Copy, bytemuck::Pod, bytemuck::Zeroable)]
@@ -704,8 +735,8 @@ pub mod cpu {
 
     use super::{COVERAGE_SCALE, MAX_MATERIALS};
 
-    /// No coverage is added past this sum, and it is read clamped to it (`COVERAGE_LIMIT`).
-    pub const COVERAGE_LIMIT: u32 = 3072;
+    /// No coverage is added past this sum, and it is read clamped to it, as opaque.
+    pub use crate::contract::COVERAGE_LIMIT;
 
     /// What the kernel needs of the frame (`GenParams` of the strands' object space).
     #[derive(Clone, Copy, Debug)]
@@ -747,9 +778,10 @@ pub mod cpu {
             Self { width, height, visibility: vec![u64::MAX; n], coverage: vec![0; n] }
         }
 
-        /// The alpha the resolve gives pixel `i`.
+        /// The alpha the resolve gives pixel `i` (`coverage_alpha`: opaque at the limit).
         pub fn alpha(&self, i: usize) -> f32 {
-            1.0 - (-(self.coverage[i].min(u64::from(COVERAGE_LIMIT)) as f32) / COVERAGE_SCALE).exp()
+            let sum = self.coverage[i];
+            if sum >= u64::from(COVERAGE_LIMIT) { 1.0 } else { 1.0 - (-(sum as f32) / COVERAGE_SCALE).exp() }
         }
     }
 
@@ -1104,6 +1136,40 @@ mod tests {
         // Too small for two slots and their two words: one slot (two words), or one anyway.
         assert_eq!(slots_within(8, pixels, (pixels * 3 * 8) as u32), 1);
         assert_eq!(slots_within(8, pixels, 8), 1);
+    }
+
+    #[test]
+    fn the_cleared_ranges_are_the_rects_pixel_words() {
+        use super::{pixel_stride, rect_word_ranges};
+        let (width, height) = (13u32, 7u32);
+        for k in [1, 4] {
+            let bytes = pixel_stride(k) * 8;
+            for rect in
+                [[2, 1, 9, 5], [0, 2, 13, 6], [0, 0, 13, 7], [12, 6, 13, 7], [3, 3, 3, 5], [5, 5, 4, 6]]
+            {
+                let mut cleared = vec![0u32; (width * height) as usize];
+                for (offset, size) in rect_word_ranges(rect, width, k) {
+                    assert!(offset % bytes == 0 && size % bytes == 0 && size > 0, "{rect:?}: whole pixels");
+                    for pixel in offset / bytes..(offset + size) / bytes {
+                        cleared[pixel as usize] += 1;
+                    }
+                }
+                let [x0, y0, x1, y1] = rect;
+                for y in 0..height {
+                    for x in 0..width {
+                        let inside = (x0..x1).contains(&x) && (y0..y1).contains(&y);
+                        assert_eq!(
+                            cleared[(y * width + x) as usize],
+                            u32::from(inside),
+                            "{rect:?} at ({x}, {y})"
+                        );
+                    }
+                }
+            }
+            // The whole width in one range.
+            assert_eq!(rect_word_ranges([0, 2, 13, 6], width, k).len(), 1);
+            assert_eq!(rect_word_ranges([1, 2, 13, 6], width, k).len(), 4);
+        }
     }
 
     #[test]

@@ -960,6 +960,76 @@ fn main() -> ExitCode {
             }
             Ok(())
         }),
+        GpuTest::new("a_frame_after_a_larger_one_renders_the_same", Requirements::INT64_ATOMICS, |ctx| {
+            // A frame clears only the pixel words of its hair's screen rectangle: after a
+            // close-up, whose words cover the whole frame with near, opaque hair, a view from
+            // afar (a smaller rectangle) must render what a fresh renderer does: nothing stale
+            // inside the rectangle, and the occlusion tiles over its edge open whatever the
+            // stale words around it say. (Fails when the frame clears nothing; the ranges
+            // themselves are checked by the_cleared_ranges_are_the_rects_pixel_words.)
+            let dir = tempfile::tempdir()?;
+            let (near, far) = (Vec3::new(0.0, 1.82, 0.62), Vec3::new(0.3, 1.7, 1.2));
+            for transparency in ["opaque", "oit"] {
+                let effects =
+                    serde_json::json!({ "transparency": transparency, "oit_k": 4, "raster": "compute" });
+                let scene = load_scene(&scene_with(dir.path(), "one_character", 384, 192, effects)?)?;
+                let renderer = SceneRenderer::new(ctx, &scene, GenerationPath::Compute)?;
+                let close = renderer.render_from(ctx, near)?;
+                let after = renderer.render_from(ctx, far)?;
+                let fresh =
+                    SceneRenderer::new(ctx, &scene, GenerationPath::Compute)?.render_from(ctx, far)?;
+                let (a, b) = (mean_alpha(&close), mean_alpha(&fresh));
+                ensure!(
+                    a > 0.25 && b > 0.05 && b < 0.2,
+                    "{transparency}: mean alpha {a:.3} near, {b:.3} far"
+                );
+                render::output::write_png(
+                    &output_dir().join(format!("raster-after-close-up-{transparency}.png")),
+                    &after.image,
+                )?;
+                ensure!(
+                    after.linear == fresh.linear,
+                    "{transparency}: the close-up's words change the far view"
+                );
+            }
+            Ok(())
+        }),
+        GpuTest::new("dense_hair_reads_as_opaque", Requirements::INT64_ATOMICS, |ctx| {
+            // The close-up without its head: where the hair's optical depth reaches the coverage
+            // limit (4.5: alpha 1 − 1.1 %), the pixel is opaque, in the resolve as in the CPU
+            // port — no background shows through dense hair (without the rule no pixel of hair
+            // alone gets above 0.989).
+            let limit = cpu::COVERAGE_LIMIT;
+            let port = cpu::RasterBuffers {
+                width: 2,
+                height: 1,
+                visibility: vec![u64::MAX; 2],
+                coverage: vec![u64::from(limit), u64::from(limit - 1)],
+            };
+            ensure!(port.alpha(0) == 1.0, "at the limit: alpha {}", port.alpha(0));
+            ensure!(port.alpha(1) < 0.99, "under the limit: alpha {}", port.alpha(1));
+            let dir = tempfile::tempdir()?;
+            let effects = serde_json::json!({ "transparency": "opaque", "raster": "compute" });
+            let path = scene_with_edit(dir.path(), "one_character", 256, 192, effects, |json| {
+                for c in json["characters"].as_array_mut().context("characters")? {
+                    c.as_object_mut().context("character")?.remove("occluder");
+                }
+                Ok(())
+            })?;
+            let frame = SceneRenderer::new(ctx, &load_scene(&path)?, GenerationPath::Compute)?.render(ctx)?;
+            render::output::write_png(&output_dir().join("raster-dense-hair-no-head.png"), &frame.image)?;
+            let alphas: Vec<f32> = frame.linear.rgba.chunks_exact(4).map(|p| p[3]).collect();
+            let opaque = alphas.iter().filter(|&&a| a == 1.0).count();
+            let partial = alphas.iter().filter(|&&a| a > 0.0 && a < 1.0).count();
+            eprintln!("  {opaque} opaque pixels, {partial} partly covered");
+            ensure!(
+                opaque > alphas.len() / 5,
+                "dense hair should be opaque: {opaque} of {} pixels",
+                alphas.len()
+            );
+            ensure!(alphas.iter().all(|a| (0.0..=1.0).contains(a)), "alpha out of [0, 1]");
+            Ok(())
+        }),
         GpuTest::new("every_dispatch_order_renders_the_same_image", Requirements::INT64_ATOMICS, |ctx| {
             // The dispatch order (dispatch_order.glsl) only changes which workgroup does which
             // work: every kernel that uses it — the fused raster and shadow kernels, their

@@ -50,14 +50,22 @@ fn main() -> ExitCode {
                         gen_gpu::vk::PipelineStageFlags2::ALL_TRANSFER,
                         gen_gpu::vk::AccessFlags2::TRANSFER_WRITE,
                     );
+                    // So is a ranged fill that is misaligned, empty or past the end.
+                    for (offset, size) in [(2, 4), (4, 6), (4, 0), (252, 8)] {
+                        ensure_gpu(
+                            rec.fill_buffer_range(&kept, offset, size, 3).is_err(),
+                            "bad ranged fill refused",
+                        )?;
+                    }
                     rec.memory_barrier(transfer, transfer);
-                    rec.update_buffer(&kept, 0, &[1u8, 0, 0, 0])
+                    rec.update_buffer(&kept, 0, &[1u8, 0, 0, 0])?;
+                    rec.fill_buffer_range(&kept, 4, 4, 5)
                 })?;
                 ensure!(ctx.resources_awaiting_submissions() == 0, "freed after the fence");
-                let bytes = ctx.read_buffer(&kept, 8)?;
+                let bytes = ctx.read_buffer(&kept, 12)?;
                 let words: Vec<u32> =
                     bytes.chunks_exact(4).map(|w| u32::from_le_bytes([w[0], w[1], w[2], w[3]])).collect();
-                ensure!(words == [1, 9], "the commands ran in order: {words:?}");
+                ensure!(words == [1, 5, 9], "the commands ran in order: {words:?}");
                 Ok(())
             },
         ),

@@ -424,6 +424,29 @@ impl<'a> Recorder<'a> {
         unsafe { self.device().cmd_fill_buffer(self.cmd, buffer.raw, 0, vk::WHOLE_SIZE, value) };
     }
 
+    /// Fills `size` bytes of a buffer from byte `offset` with a repeated 32-bit value. Offset
+    /// and size must be multiples of 4, the range non-empty and within the buffer; anything
+    /// else is refused with [`GpuError::BadFill`] before it reaches the driver.
+    pub fn fill_buffer_range(&self, buffer: &Buffer, offset: u64, size: u64, value: u32) -> Result<()> {
+        let problem = if size == 0 {
+            Some("no bytes")
+        } else if !offset.is_multiple_of(4) || !size.is_multiple_of(4) {
+            Some("offset and size must be multiples of 4")
+        } else if offset.checked_add(size).is_none_or(|end| end > buffer.size()) {
+            Some("past the end of the buffer")
+        } else {
+            None
+        };
+        if let Some(why) = problem {
+            return Err(GpuError::BadFill { name: buffer.name().into(), offset, size, why });
+        }
+        // SAFETY: recording outside rendering; the buffer is live and was created with
+        // TRANSFER_DST (storage buffers here are); offset and size were checked above
+        // (multiples of 4, inside the buffer), as vkCmdFillBuffer requires.
+        unsafe { self.device().cmd_fill_buffer(self.cmd, buffer.raw, offset, size, value) };
+        Ok(())
+    }
+
     /// Writes up to 64 KiB of data into a buffer (vkCmdUpdateBuffer). Offset and size must be
     /// multiples of 4, the data non-empty and within the buffer; anything else is refused with
     /// [`GpuError::BadUpload`] before it reaches the driver.

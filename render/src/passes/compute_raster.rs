@@ -9,7 +9,7 @@ use super::ScenePass;
 use crate::contract::binding;
 use crate::frame::{FrameIds, FrameState, SceneRenderer};
 use crate::graph::{Access, FrameGraph};
-use crate::raster::{ShadePush, raster_push, stored_group_size, tile_grid};
+use crate::raster::{ShadePush, TilePush, raster_push, stored_group_size, tile_grid};
 use crate::shaders;
 
 pub(crate) fn plan_clear(g: &mut FrameGraph<ScenePass>, ids: &FrameIds, submission: usize) {
@@ -97,10 +97,17 @@ pub(crate) fn plan_resolve(g: &mut FrameGraph<ScenePass>, ids: &FrameIds, submis
         .add(ScenePass::RasterResolve);
 }
 
+/// Clears the pixel words of the hair's screen rectangle: the frame's other pixels are never
+/// shaded or resolved, no fragment reaches them, and the occlusion tiles count them as open
+/// (raster_tiles.comp), so what they hold — an earlier frame's words, or whatever the pool's
+/// memory held — changes nothing. (The OIT frame of the Sintel groom, ten words per pixel,
+/// otherwise fills 74 MB.)
 pub(crate) fn record_clear(rec: &mut Recorder<'_>, state: &FrameState<'_>) -> gen_gpu::Result<()> {
     let Some(b) = state.raster else { return Ok(()) };
     // All ones: no fragment, and a complemented coverage sum of zero.
-    rec.fill_buffer(&b.pixel_words, u32::MAX);
+    for (offset, size) in crate::raster::rect_word_ranges(b.rect, state.plan.view.width, b.k) {
+        rec.fill_buffer_range(&b.pixel_words, offset, size, u32::MAX)?;
+    }
     rec.fill_buffer(&b.counters, 0);
     Ok(())
 }
@@ -125,7 +132,9 @@ pub(crate) fn record_tiles(
         &cr.tiles,
         &[(binding::VISIBILITY, &b.pixel_words), (binding::RASTER_TILES, &b.tiles)],
     );
-    rec.push_constants(&cr.tiles, &[view.width, view.height, tx, ty, b.k, 0, 0, 0]);
+    let push =
+        TilePush { size: [view.width, view.height], tiles: [tx, ty], k: b.k, pad: [0; 3], rect: b.rect };
+    rec.push_constants(&cr.tiles, &push);
     rec.dispatch((tx * ty).div_ceil(shaders::RASTER_TILES_COMP.workgroup_size[0]), 1, 1);
     Ok(())
 }
