@@ -41,6 +41,10 @@ pub mod binding {
     pub const VOLUME: u32 = 26;
     /// Hair volumes: per voxel the ambient occlusion (1 = none).
     pub const VOLUME_AO: u32 = 27;
+    /// Compute rasterizer's resolve: the frame's colour, RGBA16F per pixel (its readback buffer).
+    pub const OUTPUT_COLOR: u32 = 30;
+    /// Compute rasterizer's resolve: the frame's depth, f32 per pixel (its readback buffer).
+    pub const OUTPUT_DEPTH: u32 = 31;
     /// Voxelization: per voxel the 64-bit fixed-point sums of area and area × direction.
     pub const VOXEL_SUMS: u32 = 28;
     /// Hair volumes: per brick of 4³ voxels, 1 when a trilinear sample inside it can see hair.
@@ -100,8 +104,14 @@ pub const RASTER_SHADE_BINDINGS: [u32; 11] = [
     LIGHTING_BINDINGS[3],
 ];
 
-/// The compute rasterizer's resolve.
-pub const RESOLVE_BINDINGS: [u32; 3] = [binding::VISIBILITY, binding::RASTER_FRAME, binding::SHADED];
+/// The compute rasterizer's resolve: its inputs, then the frame's image (readback buffers).
+pub const RESOLVE_BINDINGS: [u32; 5] = [
+    binding::VISIBILITY,
+    binding::RASTER_FRAME,
+    binding::SHADED,
+    binding::OUTPUT_COLOR,
+    binding::OUTPUT_DEPTH,
+];
 
 /// The OIT buffers (`oit.glsl`).
 pub const OIT_BINDINGS: [u32; 3] = [binding::OIT_HEADS, binding::OIT_NODES, binding::OIT_COUNTERS];
@@ -146,6 +156,8 @@ pub const GLSL_DEFINES: &[(&str, u64)] = &[
     ("HK_BINDING_VOLUME_AO", binding::VOLUME_AO as u64),
     ("HK_BINDING_VOXEL_SUMS", binding::VOXEL_SUMS as u64),
     ("HK_BINDING_VOLUME_BRICKS", binding::VOLUME_BRICKS as u64),
+    ("HK_BINDING_OUTPUT_COLOR", binding::OUTPUT_COLOR as u64),
+    ("HK_BINDING_OUTPUT_DEPTH", binding::OUTPUT_DEPTH as u64),
     ("HK_BINDING_OCCLUDER_POSITIONS", binding::OCCLUDER_POSITIONS as u64),
     ("HK_BINDING_OCCLUDER_NORMALS", binding::OCCLUDER_NORMALS as u64),
     ("HK_BINDING_OCCLUDER_INDICES", binding::OCCLUDER_INDICES as u64),

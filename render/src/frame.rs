@@ -1591,7 +1591,13 @@ impl SceneRenderer {
             }
             None => (None, None),
         };
-        let linear = scene_target.read(ctx)?;
+        // Without occluders the compute rasterizer's resolve writes only the hair's rectangle
+        // (passes/compute_raster.rs record_resolve).
+        let only = match &raster_buffers {
+            Some(b) if self.occluders.is_empty() => Some((b.rect, self.scene.scene.output.background)),
+            _ => None,
+        };
+        let linear = scene_target.read(ctx, only)?;
         let passes = run.ran;
         // Every submission has waited for its fence: the transient resources can be reused.
         scene_target.give_back(&mut pool);

@@ -200,7 +200,7 @@ pub fn tile_grid(width: u32, height: u32) -> (u32, u32) {
 /// Bit 0 of [`RasterPush::flags`]: test fragments against the occluders' depth.
 pub(crate) const FLAG_SCENE_DEPTH: u32 = 1;
 
-/// `RasterMaterial` of `raster_resolve.frag`.
+/// `RasterMaterial` of `raster_frame.glsl`.
 #[repr(C)]
 #[derive(Clone, Copy, Debug, PartialEq, bytemuck::Pod, bytemuck::Zeroable)]
 pub(crate) struct RasterMaterial {
@@ -216,7 +216,7 @@ pub(crate) struct RasterMaterial {
     pub(crate) volume_info: [u32; 4],
 }
 
-/// The header of `RasterFrame` in `raster_resolve.frag`.
+/// The header of `RasterFrame` in `raster_frame.glsl`.
 #[repr(C)]
 #[derive(Clone, Copy, Debug, bytemuck::Pod, bytemuck::Zeroable)]
 struct RasterFrameHeader {
@@ -363,13 +363,12 @@ impl ComputeRaster {
             size_of::<TilePush>() as u32,
             &[],
         )?;
-        let resolve = crate::target::composite_pipeline(
-            ctx,
+        let resolve = compute(
             "compute raster resolve",
-            &shaders::RASTER_RECT_VERT,
-            &shaders::RASTER_RESOLVE_FRAG,
-            &RESOLVE_BINDINGS,
-            32,
+            &shaders::RASTER_RESOLVE_COMP,
+            &Binding::storage_buffers(&RESOLVE_BINDINGS, stage),
+            size_of::<ResolvePush>() as u32,
+            &[],
         )?;
         let no_scene_depth = Buffer::new(ctx, "no scene depth", BufferDesc::storage(16))?;
         Ok(Self { raster, raster_stored, shade, tiles, resolve, no_scene_depth, loads })
@@ -669,6 +668,18 @@ pub(crate) struct TilePush {
     pub(crate) pad: [u32; 3],
     /// The cleared pixels ([`RasterBuffers::rect`]).
     pub(crate) rect: [u32; 4],
+}
+
+/// The resolve kernel's push constants (raster_resolve.comp `ResolveParams`).
+#[repr(C)]
+#[derive(Clone, Copy, bytemuck::Pod, bytemuck::Zeroable)]
+pub(crate) struct ResolvePush {
+    /// The pixels the shade pass wrote, and the resolve ([`RasterBuffers::rect`]).
+    pub(crate) rect: [u32; 4],
+    /// rgb: the background; w: 1 when the output buffers hold the occluders' image.
+    pub(crate) background: [f32; 4],
+    pub(crate) k: u32,
+    pub(crate) pad: [u32; 3],
 }
 
 /// The shade kernel's push constants (raster_shade.comp `Rect`).

@@ -147,7 +147,8 @@ impl SceneTarget {
                 name,
                 BufferDesc {
                     size: pixels * bytes,
-                    usage: vk::BufferUsageFlags::TRANSFER_DST,
+                    // Storage too: the compute rasterizer's resolve writes the frame into them.
+                    usage: vk::BufferUsageFlags::TRANSFER_DST | vk::BufferUsageFlags::STORAGE_BUFFER,
                     location: MemoryLocation::GpuToCpu,
                 },
             )
@@ -198,12 +199,32 @@ impl SceneTarget {
         rec.copy_image_to_buffer(depth, &self.depth_readback);
     }
 
-    /// The frame copied by [`Self::copy_out`] (after the submission).
-    pub fn read(&self, ctx: &Context) -> gen_gpu::Result<LinearFrame> {
+    /// The frame in the readback buffers (after the submission): copied by [`Self::copy_out`],
+    /// or with `only` = `Some((rect, background))` written by the compute rasterizer's resolve
+    /// in the pixels of `rect` alone (x0, y0, x1, y1; exclusive ends), the others being the
+    /// background (alpha 0, depth 1) as a cleared image would hold them.
+    pub fn read(&self, ctx: &Context, only: Option<([u32; 4], [f32; 3])>) -> gen_gpu::Result<LinearFrame> {
         let color = ctx.read_buffer(&self.color_readback, self.color_readback.size())?;
         let depth = ctx.read_buffer(&self.depth_readback, self.depth_readback.size())?;
-        let rgba = color.chunks_exact(2).map(|h| half::f16::from_le_bytes([h[0], h[1]]).to_f32()).collect();
-        let depth = depth.chunks_exact(4).map(|d| f32::from_le_bytes([d[0], d[1], d[2], d[3]])).collect();
+        let mut rgba: Vec<f32> =
+            color.chunks_exact(2).map(|h| half::f16::from_le_bytes([h[0], h[1]]).to_f32()).collect();
+        let mut depth: Vec<f32> =
+            depth.chunks_exact(4).map(|d| f32::from_le_bytes([d[0], d[1], d[2], d[3]])).collect();
+        if let Some(([x0, y0, x1, y1], background)) = only {
+            // What the attachment's clear stores: the colour in half floats.
+            let clear = background.map(|c| half::f16::from_f32(c).to_f32());
+            let pixel = [clear[0], clear[1], clear[2], 0.0];
+            for y in 0..self.height {
+                for x in 0..self.width {
+                    if (x0..x1).contains(&x) && (y0..y1).contains(&y) {
+                        continue;
+                    }
+                    let i = (y * self.width + x) as usize;
+                    rgba[4 * i..4 * i + 4].copy_from_slice(&pixel);
+                    depth[i] = 1.0;
+                }
+            }
+        }
         Ok(LinearFrame { width: self.width, height: self.height, rgba, depth })
     }
 }

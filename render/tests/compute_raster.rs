@@ -1028,6 +1028,14 @@ fn main() -> ExitCode {
                 alphas.len()
             );
             ensure!(alphas.iter().all(|a| (0.0..=1.0).contains(a)), "alpha out of [0, 1]");
+            // The corner lies outside the hair's rectangle, which alone the resolve writes: the
+            // frame's read gives it the background, as a cleared image would.
+            let scene = load_scene(&path)?;
+            let [r, g, b] = scene.scene.output.background.map(|c| half::f16::from_f32(c).to_f32());
+            ensure!(
+                frame.linear.rgba[..4] == [r, g, b, 0.0] && frame.linear.depth[0] == 1.0,
+                "the background"
+            );
             Ok(())
         }),
         GpuTest::new("every_dispatch_order_renders_the_same_image", Requirements::INT64_ATOMICS, |ctx| {

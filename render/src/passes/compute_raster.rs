@@ -9,7 +9,7 @@ use super::ScenePass;
 use crate::contract::binding;
 use crate::frame::{FrameIds, FrameState, SceneRenderer};
 use crate::graph::{Access, FrameGraph};
-use crate::raster::{ShadePush, TilePush, raster_push, stored_group_size, tile_grid};
+use crate::raster::{ResolvePush, ShadePush, TilePush, raster_push, stored_group_size, tile_grid};
 use crate::shaders;
 
 pub(crate) fn plan_clear(g: &mut FrameGraph<ScenePass>, ids: &FrameIds, submission: usize) {
@@ -87,12 +87,16 @@ pub(crate) fn plan_shade(g: &mut FrameGraph<ScenePass>, ids: &FrameIds, submissi
         .add(ScenePass::RasterShade);
 }
 
+/// The last pass of the frame: the hair resolved straight into the frame's image (the readback
+/// buffers). With occluders, the copy out of their image comes first and the hair blends over
+/// it; without, the resolve writes every pixel (the background where no hair is) and there is
+/// no image to copy.
 pub(crate) fn plan_resolve(g: &mut FrameGraph<ScenePass>, ids: &FrameIds, submission: usize) {
     g.pass("resolve hair (compute raster)")
-        .read(ids.visibility, Access::FragmentRead)
-        .read(ids.raster_frame, Access::FragmentRead)
-        .read(ids.shaded, Access::FragmentRead)
-        .writes(ids.target_writes())
+        .read(ids.visibility, Access::ComputeRead)
+        .read(ids.raster_frame, Access::ComputeRead)
+        .read(ids.shaded, Access::ComputeRead)
+        .write(ids.readback, Access::ComputeWrite)
         .submission(submission)
         .add(ScenePass::RasterResolve);
 }
@@ -246,6 +250,11 @@ pub(crate) fn record_shade(
     Ok(())
 }
 
+/// `clear`: the background when nothing has drawn into the frame's image (no occluders): the
+/// resolve then writes the hair's rectangle over it, and the frame's read fills the other
+/// pixels with it (`SceneTarget::read`: on CPU devices writing them here cost more than the
+/// rest of the resolve); else it blends the rectangle over the image that the copy out left in
+/// the readback buffers.
 pub(crate) fn record_resolve(
     r: &SceneRenderer,
     rec: &mut Recorder<'_>,
@@ -257,14 +266,22 @@ pub(crate) fn record_resolve(
         (binding::VISIBILITY, &b.pixel_words),
         (binding::RASTER_FRAME, &b.frame),
         (binding::SHADED, &b.shaded),
+        (binding::OUTPUT_COLOR, &state.target.color_readback),
+        (binding::OUTPUT_DEPTH, &state.target.depth_readback),
     ];
-    state.target.begin_rendering(rec, clear);
+    let background = match clear {
+        Some([r, g, b]) => [r, g, b, 0.0],
+        None => [0.0, 0.0, 0.0, 1.0],
+    };
+    let [x0, y0, x1, y1] = b.rect;
+    if x0 >= x1 || y0 >= y1 {
+        return Ok(());
+    }
     rec.bind_pipeline(&cr.resolve);
     rec.push_storage_buffers(&cr.resolve, &buffers);
-    let view = &state.plan.view;
-    let [x0, y0, x1, y1] = b.rect;
-    rec.push_constants(&cr.resolve, &[x0, y0, x1, y1, view.width, view.height, b.k, 0]);
-    rec.draw(6, 1);
-    rec.end_rendering();
+    let push = ResolvePush { rect: b.rect, background, k: b.k, pad: [0; 3] };
+    rec.push_constants(&cr.resolve, &push);
+    let [gx, gy, _] = shaders::RASTER_RESOLVE_COMP.workgroup_size;
+    rec.dispatch((x1 - x0).div_ceil(gx), (y1 - y0).div_ceil(gy), 1);
     Ok(())
 }

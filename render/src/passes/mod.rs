@@ -101,8 +101,12 @@ pub(crate) fn frame_batch(
         compute_raster::plan_raster(r, g, ids, batch, last, submission);
         if last {
             compute_raster::plan_shade(g, ids, submission);
+            // The occluders' image into the readback buffers, the hair over it; without
+            // occluders the resolve writes the whole image.
+            if !r.occluders.is_empty() {
+                copy_out::plan(g, ids, submission);
+            }
             compute_raster::plan_resolve(g, ids, submission);
-            copy_out::plan(g, ids, submission);
         }
         return;
     }
