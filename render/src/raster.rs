@@ -368,7 +368,7 @@ impl ComputeRaster {
             &shaders::RASTER_RESOLVE_COMP,
             &Binding::storage_buffers(&RESOLVE_BINDINGS, stage),
             size_of::<ResolvePush>() as u32,
-            &[],
+            &[by_address],
         )?;
         let no_scene_depth = Buffer::new(ctx, "no scene depth", BufferDesc::storage(16))?;
         Ok(Self { raster, raster_stored, shade, tiles, resolve, no_scene_depth, loads })
@@ -679,7 +679,9 @@ pub(crate) struct ResolvePush {
     /// rgb: the background; w: 1 when the output buffers hold the occluders' image.
     pub(crate) background: [f32; 4],
     pub(crate) k: u32,
-    pub(crate) pad: [u32; 3],
+    pub(crate) pad: u32,
+    /// The shaded colours' device address (0: read through the binding).
+    pub(crate) shaded_address: u64,
 }
 
 /// The shade kernel's push constants (raster_shade.comp `Rect`).

@@ -279,7 +279,13 @@ pub(crate) fn record_resolve(
     }
     rec.bind_pipeline(&cr.resolve);
     rec.push_storage_buffers(&cr.resolve, &buffers);
-    let push = ResolvePush { rect: b.rect, background, k: b.k, pad: [0; 3] };
+    let push = ResolvePush {
+        rect: b.rect,
+        background,
+        k: b.k,
+        pad: 0,
+        shaded_address: cr.buffer_address(&b.shaded),
+    };
     rec.push_constants(&cr.resolve, &push);
     let [gx, gy, _] = shaders::RASTER_RESOLVE_COMP.workgroup_size;
     rec.dispatch((x1 - x0).div_ceil(gx), (y1 - y0).div_ceil(gy), 1);
