@@ -428,16 +428,7 @@ impl<'a> Recorder<'a> {
     /// and size must be multiples of 4, the range non-empty and within the buffer; anything
     /// else is refused with [`GpuError::BadFill`] before it reaches the driver.
     pub fn fill_buffer_range(&self, buffer: &Buffer, offset: u64, size: u64, value: u32) -> Result<()> {
-        let problem = if size == 0 {
-            Some("no bytes")
-        } else if !offset.is_multiple_of(4) || !size.is_multiple_of(4) {
-            Some("offset and size must be multiples of 4")
-        } else if offset.checked_add(size).is_none_or(|end| end > buffer.size()) {
-            Some("past the end of the buffer")
-        } else {
-            None
-        };
-        if let Some(why) = problem {
+        if let Some(why) = transfer_range_problem(buffer, offset, size, false) {
             return Err(GpuError::BadFill { name: buffer.name().into(), offset, size, why });
         }
         // SAFETY: recording outside rendering; the buffer is live and was created with
@@ -452,18 +443,7 @@ impl<'a> Recorder<'a> {
     /// [`GpuError::BadUpload`] before it reaches the driver.
     pub fn update_buffer(&self, buffer: &Buffer, offset: u64, data: &[u8]) -> Result<()> {
         let size = data.len() as u64;
-        let problem = if data.is_empty() {
-            Some("no data")
-        } else if !offset.is_multiple_of(4) || !size.is_multiple_of(4) {
-            Some("offset and size must be multiples of 4")
-        } else if size > 65_536 {
-            Some("more than 65536 bytes (use a staging copy)")
-        } else if offset.checked_add(size).is_none_or(|end| end > buffer.size()) {
-            Some("past the end of the buffer")
-        } else {
-            None
-        };
-        if let Some(why) = problem {
+        if let Some(why) = transfer_range_problem(buffer, offset, size, true) {
             return Err(GpuError::BadUpload { name: buffer.name().into(), offset, size, why });
         }
         // SAFETY: recording outside rendering; offset and size were checked above (multiples of
@@ -603,6 +583,26 @@ impl<'a> Recorder<'a> {
                 &[region],
             );
         }
+    }
+}
+
+/// What vkCmdUpdateBuffer writes at most.
+const UPDATE_BUFFER_MAX_BYTES: u64 = 65_536;
+
+/// Why a fill or (`update`) an update may not write `size` bytes of `buffer` from byte
+/// `offset`: the range must be non-empty, start and end on multiples of 4, lie inside the
+/// buffer, and for an update hold at most [`UPDATE_BUFFER_MAX_BYTES`]. `None` when it may.
+fn transfer_range_problem(buffer: &Buffer, offset: u64, size: u64, update: bool) -> Option<&'static str> {
+    if size == 0 {
+        Some("nothing to write")
+    } else if !offset.is_multiple_of(4) || !size.is_multiple_of(4) {
+        Some("offset and size must be multiples of 4")
+    } else if update && size > UPDATE_BUFFER_MAX_BYTES {
+        Some("more than 65536 bytes (use a staging copy)")
+    } else if offset.checked_add(size).is_none_or(|end| end > buffer.size()) {
+        Some("past the end of the buffer")
+    } else {
+        None
     }
 }
 
