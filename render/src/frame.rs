@@ -1594,7 +1594,9 @@ impl SceneRenderer {
         // Without occluders the compute rasterizer's resolve writes only the hair's rectangle
         // (passes/compute_raster.rs record_resolve).
         let only = match &raster_buffers {
-            Some(b) if self.occluders.is_empty() => Some((b.rect, self.scene.scene.output.background)),
+            Some(b) if !crate::passes::compute_raster::resolves_over_occluders(self) => {
+                Some((b.rect, self.scene.scene.output.background))
+            }
             _ => None,
         };
         let linear = scene_target.read(ctx, only)?;

@@ -87,10 +87,16 @@ pub(crate) fn plan_shade(g: &mut FrameGraph<ScenePass>, ids: &FrameIds, submissi
         .add(ScenePass::RasterShade);
 }
 
+/// Whether the resolve blends the hair over an image already in the readback buffers: the
+/// occluders', copied out first. Else nothing draws into the attachments, the resolve writes the
+/// hair's rectangle alone and the frame's read fills in the background around it
+/// (`SceneTarget::read`). The frame plans, records and reads by this one rule.
+pub(crate) fn resolves_over_occluders(r: &SceneRenderer) -> bool {
+    !r.occluders.is_empty()
+}
+
 /// The last pass of the frame: the hair resolved straight into the frame's image (the readback
-/// buffers). With occluders, the copy out of their image comes first and the hair blends over
-/// it; without, the resolve writes every pixel (the background where no hair is) and there is
-/// no image to copy.
+/// buffers), over the occluders' image when [`resolves_over_occluders`].
 pub(crate) fn plan_resolve(g: &mut FrameGraph<ScenePass>, ids: &FrameIds, submission: usize) {
     g.pass("resolve hair (compute raster)")
         .read(ids.visibility, Access::ComputeRead)
@@ -250,16 +256,13 @@ pub(crate) fn record_shade(
     Ok(())
 }
 
-/// `clear`: the background when nothing has drawn into the frame's image (no occluders): the
-/// resolve then writes the hair's rectangle over it, and the frame's read fills the other
-/// pixels with it (`SceneTarget::read`: on CPU devices writing them here cost more than the
-/// rest of the resolve); else it blends the rectangle over the image that the copy out left in
-/// the readback buffers.
+/// Over the occluders' image that the copy out left in the readback buffers, or over the
+/// background, which the frame's read then fills in around the rectangle (on CPU devices
+/// writing those pixels here cost more than the rest of the resolve).
 pub(crate) fn record_resolve(
     r: &SceneRenderer,
     rec: &mut Recorder<'_>,
     state: &FrameState<'_>,
-    clear: Option<[f32; 3]>,
 ) -> gen_gpu::Result<()> {
     let (Some(cr), Some(b)) = (&r.compute_raster, state.raster) else { return Ok(()) };
     let buffers = [
@@ -269,9 +272,11 @@ pub(crate) fn record_resolve(
         (binding::OUTPUT_COLOR, &state.target.color_readback),
         (binding::OUTPUT_DEPTH, &state.target.depth_readback),
     ];
-    let background = match clear {
-        Some([r, g, b]) => [r, g, b, 0.0],
-        None => [0.0, 0.0, 0.0, 1.0],
+    let background = if resolves_over_occluders(r) {
+        [0.0, 0.0, 0.0, 1.0]
+    } else {
+        let [red, green, blue] = r.scene.scene.output.background;
+        [red, green, blue, 0.0]
     };
     let [x0, y0, x1, y1] = b.rect;
     if x0 >= x1 || y0 >= y1 {

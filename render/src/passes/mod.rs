@@ -103,7 +103,7 @@ pub(crate) fn frame_batch(
             compute_raster::plan_shade(g, ids, submission);
             // The occluders' image into the readback buffers, the hair over it; without
             // occluders the resolve writes the whole image.
-            if !r.occluders.is_empty() {
+            if compute_raster::resolves_over_occluders(r) {
                 copy_out::plan(g, ids, submission);
             }
             compute_raster::plan_resolve(g, ids, submission);
@@ -159,7 +159,7 @@ pub(crate) fn record(
         ScenePass::ComputeRaster(phase) => compute_raster::record_raster(r, rec, state, phase),
         ScenePass::RasterTiles => compute_raster::record_tiles(r, rec, state),
         ScenePass::RasterShade => compute_raster::record_shade(r, rec, state),
-        ScenePass::RasterResolve => compute_raster::record_resolve(r, rec, state, clear),
+        ScenePass::RasterResolve => compute_raster::record_resolve(r, rec, state),
         ScenePass::Volume(h, step) => volume::record_hair(r, rec, state, h, step),
         ScenePass::March(i) => volume::record_march(r, rec, state, i),
         ScenePass::CopyOut => copy_out::record(rec, state),
