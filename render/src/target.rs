@@ -206,25 +206,32 @@ impl SceneTarget {
     pub fn read(&self, ctx: &Context, only: Option<([u32; 4], [f32; 3])>) -> gen_gpu::Result<LinearFrame> {
         let color = ctx.read_buffer(&self.color_readback, self.color_readback.size())?;
         let depth = ctx.read_buffer(&self.depth_readback, self.depth_readback.size())?;
-        let mut rgba: Vec<f32> =
-            color.chunks_exact(2).map(|h| half::f16::from_le_bytes([h[0], h[1]]).to_f32()).collect();
-        let mut depth: Vec<f32> =
-            depth.chunks_exact(4).map(|d| f32::from_le_bytes([d[0], d[1], d[2], d[3]])).collect();
-        if let Some(([x0, y0, x1, y1], background)) = only {
-            // What the attachment's clear stores: the colour in half floats.
-            let clear = background.map(|c| half::f16::from_f32(c).to_f32());
-            let pixel = [clear[0], clear[1], clear[2], 0.0];
-            for y in 0..self.height {
-                for x in 0..self.width {
-                    if (x0..x1).contains(&x) && (y0..y1).contains(&y) {
-                        continue;
-                    }
-                    let i = (y * self.width + x) as usize;
-                    rgba[4 * i..4 * i + 4].copy_from_slice(&pixel);
-                    depth[i] = 1.0;
+        // Each pixel once: from the buffers where they hold it, else the background as the
+        // attachment's clear stores it (the colour in half floats).
+        let written = |i: usize| {
+            only.is_none_or(|([x0, y0, x1, y1], _)| {
+                let (x, y) = (i as u32 % self.width, i as u32 / self.width);
+                (x0..x1).contains(&x) && (y0..y1).contains(&y)
+            })
+        };
+        let [r, g, b] =
+            only.map_or([0.0; 3], |(_, background)| background.map(|c| half::f16::from_f32(c).to_f32()));
+        let rgba = color
+            .chunks_exact(8)
+            .enumerate()
+            .flat_map(|(i, texel)| {
+                if written(i) {
+                    [0, 2, 4, 6].map(|c| half::f16::from_le_bytes([texel[c], texel[c + 1]]).to_f32())
+                } else {
+                    [r, g, b, 0.0]
                 }
-            }
-        }
+            })
+            .collect();
+        let depth = depth
+            .chunks_exact(4)
+            .enumerate()
+            .map(|(i, d)| if written(i) { f32::from_le_bytes([d[0], d[1], d[2], d[3]]) } else { 1.0 })
+            .collect();
         Ok(LinearFrame { width: self.width, height: self.height, rgba, depth })
     }
 }

@@ -102,7 +102,8 @@ pub(crate) fn frame_batch(
         if last {
             compute_raster::plan_shade(g, ids, submission);
             // The occluders' image into the readback buffers, the hair over it; without
-            // occluders the resolve writes the whole image.
+            // occluders the resolve writes the hair's rectangle and the frame's read fills in
+            // the background around it.
             if compute_raster::resolves_over_occluders(r) {
                 copy_out::plan(g, ids, submission);
             }
