@@ -23,7 +23,7 @@ layout(local_size_x = 8, local_size_y = 8) in;
 layout(push_constant) uniform Rect {
     uvec4 rect;
     uint k;
-    uint pad0;
+    uint flags;                      // bit 0: write final_depth (render/src/raster.rs SHADE_FINAL_DEPTH)
     uint64_t words_address;          // the pixel words (read before the sort writes them)
     uint64_t shadow_depth_address;
     uint64_t shadow_opacity_address;
@@ -53,6 +53,9 @@ layout(std430, set = 0, binding = HK_BINDING_VISIBILITY) buffer PixelBuffer { ui
 layout(std430, set = 0, binding = HK_BINDING_SHADED) writeonly buffer ShadedBuffer { vec4 shaded[]; };
 // x: pixels whose fragments did not all fit their K slots.
 layout(std430, set = 0, binding = HK_BINDING_RASTER_COUNTERS) buffer Counters { uint counters[]; };
+// Per pixel the depth bits of its K-th nearest fragment (all ones: fewer than K): what the next
+// frame's raster tests to mark the strands that reached the image (hair_raster.comp).
+layout(std430, set = 0, binding = HK_BINDING_RASTER_FINAL_DEPTH) writeonly buffer FinalDepthBuffer { uint final_depth[]; };
 // The hair volumes (render/src/volume.rs), read for materials whose volume_info.y asks for AO
 // or volume shadows: AO per voxel, mean direction and σ per voxel, bricks.
 #include "volume_ao.glsl"
@@ -183,6 +186,9 @@ void main() {
     uint64_t nearest = paired ? pair.x : pixel_words[first];
     if (nearest == VISIBILITY_EMPTY) {
         shaded[pixel] = vec4(0.0, 0.0, 0.0, -1.0);
+        if ((area.flags & 1u) != 0u) {
+            final_depth[pixel] = 0u;
+        }
         return;
     }
     vec2 ndc = (vec2(xy) + 0.5) / vec2(frame.size.xy) * 2.0 - 1.0;
@@ -223,8 +229,15 @@ void main() {
     float total = 1.0 - coverage_alpha(paired ? pair.y : pixel_words[first + k]);
     float tail = clamp(1.0 - total / max(transmittance, 1e-6), 0.0, 1.0);
     // (Slots fill in order: the last holds a fragment when all do.)
-    if ((paired ? pair.x : pixel_words[first + k - 1u]) != VISIBILITY_EMPTY && tail > 1.0 / 255.0) {
+    uint64_t farthest = paired ? pair.x : pixel_words[first + k - 1u];
+    if (farthest != VISIBILITY_EMPTY && tail > 1.0 / 255.0) {
         atomicAdd(counters[0], 1u);
+    }
+    // 0 where the pixel is not opaque: no strand order closes its tile (hair_raster.comp
+    // marks nothing there).
+    bool opaque = coverage_sum(paired ? pair.y : pixel_words[first + k]) >= COVERAGE_LIMIT;
+    if ((area.flags & 1u) != 0u) {
+        final_depth[pixel] = !opaque ? 0u : farthest == VISIBILITY_EMPTY ? 0xffffffffu : uint(farthest >> DEPTH_SHIFT);
     }
     color += transmittance * tail * last;
     float alpha = 1.0 - transmittance * (1.0 - tail);

@@ -48,7 +48,19 @@ layout(push_constant) uniform RasterParams {
     uint64_t scene_depth_address;
     // Stored strands: the device address of the bound chunk's vertices (likewise).
     uint64_t vertices_address;
+    // Fused generation: the device address of the last frame's depths (RASTER_MARKS below).
+    uint64_t final_depth_address;
 } raster;
+
+// Whether the kernel can take its slots from a slot order and mark segments (scenes with
+// K > 1; raster_split.comp): else the code for it is left out.
+layout(constant_id = HK_SLOT_ORDER_CONSTANT_ID) const uint SLOT_ORDER = 0u;
+
+// raster.flags: bit 0 (above); bit 1: the slots come from the character's slot order
+// (raster_split.comp: the strands visible last frame as the front phase, the others as the
+// rest) instead of the phase's slot subset; bit 2: mark the strands visible this frame.
+const uint RASTER_FLAG_SLOT_ORDER = 2u;
+const uint RASTER_FLAG_MARK = 4u;
 
 layout(buffer_reference, std430, buffer_reference_align = 8) readonly buffer PixelWordsRef { uint64_t words[]; };
 layout(buffer_reference, std430, buffer_reference_align = 4) readonly buffer TileWordsRef { uint words[]; };
@@ -59,6 +71,42 @@ layout(buffer_reference, std430, buffer_reference_align = 4) readonly buffer Sce
 // visibility_write.glsl's plain loads, through the reference when LOAD_BY_ADDRESS.
 #define PIXEL_WORD_LOAD(i) (LOAD_BY_ADDRESS != 0u ? PixelWordsRef(raster.words_address).words[i] : pixel_words[i])
 #include "visibility_write.glsl"
+
+#ifdef RASTER_MARKS
+// The fused-generation kernel marks each segment one of whose fragments lies at or in front of
+// its pixel's K-th nearest depth of the last frame (the front phase) or comes nearer than the
+// pixel's K-th nearest so far (the rest phase) — a segment that reached the image — and the
+// next frame draws the marked segments first (raster_split.comp): their fragments are most
+// pixels' nearest, so the occlusion tiles made after them close nearly at the image's depths
+// and the rest skips more. Which segments are marked changes only the order of drawing, never
+// the image.
+layout(std430, set = 0, binding = HK_BINDING_RASTER_FINAL_DEPTH) readonly buffer FinalDepthBuffer { uint final_depth[]; };
+layout(buffer_reference, std430, buffer_reference_align = 4) readonly buffer FinalDepthRef { uint depth[]; };
+
+uint load_final_depth(uint pixel) {
+    return LOAD_BY_ADDRESS != 0u ? FinalDepthRef(raster.final_depth_address).depth[pixel] : final_depth[pixel];
+}
+
+// The bits of the segment being walked (hair_raster.comp), and the bits of this invocation's
+// strand's segments marked so far.
+uint segment_bit = 0u;
+uint segment_marks = 0u;
+
+// Marks the segment being walked for a fragment at `pixel` (its depth bits; whether it adds
+// coverage; whether it comes nearer than the pixel's K-th nearest so far) when the pixel was
+// opaque at the end of the last frame (final depth 0: not opaque, where no order makes tiles
+// close) and the fragment reached its image — at or in front of its K-th nearest depth then
+// (the front phase), nearer than the front phase's (the rest) — or adds to its coverage.
+void mark_segment(uint pixel, uint depth_bits, bool adds, bool nearer) {
+    bool front = raster.phase == SLOT_SUBSET_SPARSE;
+    if (front || adds || nearer) {
+        uint last = load_final_depth(pixel);
+        if (last != 0u && (adds || (front ? depth_bits <= last : nearer))) {
+            segment_marks |= segment_bit;
+        }
+    }
+}
+#endif
 
 uint64_t load_pixel_word(uint i) {
     return PIXEL_WORD_LOAD(i);
@@ -203,6 +251,11 @@ void raster_fragment(uint pixel, float coverage, float ndc_z, inout ColumnAttrib
     // add_coverage's test, with the increment (a logarithm: dear on CPU devices) computed only
     // for pixels not yet opaque.
     uint add = coverage_sum(cover) < COVERAGE_LIMIT ? coverage_increment(coverage * raster.opacity) : 0u;
+#ifdef RASTER_MARKS
+    if (SLOT_ORDER != 0u && (raster.flags & RASTER_FLAG_MARK) != 0u && (segment_marks & segment_bit) != segment_bit) {
+        mark_segment(pixel, a.depth_bits, add > 0u, a.depth_bits <= uint(threshold >> DEPTH_SHIFT));
+    }
+#endif
     if (a.depth_bits <= uint(threshold >> DEPTH_SHIFT)) {
         if (!a.encoded) {
             a.word = visibility_word(a.depth_bits, visibility_attributes(a.material, a.tangent, a.tau, a.random));

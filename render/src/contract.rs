@@ -26,6 +26,10 @@ pub mod binding {
     /// shading attributes) and a coverage word (accumulated optical depth), 64 bits each
     /// (`raster_common.glsl`).
     pub const VISIBILITY: u32 = 19;
+    /// Compute rasterizer: a character's strand slots in drawing order — those whose strands
+    /// were visible last frame, then the others — with each part's indirect dispatch
+    /// (`raster_split.comp`).
+    pub const RASTER_SLOTS: u32 = 20;
     /// Compute rasterizer: the frame's camera and the hair materials (`RasterFrame`).
     pub const RASTER_FRAME: u32 = 21;
     /// Compute rasterizer: the occluders' depth per pixel (a copy of the scene depth buffer).
@@ -45,6 +49,13 @@ pub mod binding {
     pub const OUTPUT_COLOR: u32 = 30;
     /// Compute rasterizer's resolve: the frame's depth, f32 per pixel (its readback buffer).
     pub const OUTPUT_DEPTH: u32 = 31;
+    /// Compute rasterizer: one bit per strand slot of a character, set when a fragment of the
+    /// strand lies at or in front of its pixel's K-th nearest depth of the previous frame
+    /// (kept from frame to frame: the next frame draws those strands first).
+    pub const RASTER_MARKS: u32 = 32;
+    /// Compute rasterizer: per pixel the depth bits of its K-th nearest fragment at the end of
+    /// the last frame (all ones: fewer than K), written by the shade pass.
+    pub const RASTER_FINAL_DEPTH: u32 = 33;
     /// Voxelization: per voxel the 64-bit fixed-point sums of area and area × direction.
     pub const VOXEL_SUMS: u32 = 28;
     /// Hair volumes: per brick of 4³ voxels, 1 when a trilinear sample inside it can see hair.
@@ -63,6 +74,14 @@ pub const LIGHTING_BINDINGS: [u32; 4] =
 
 /// What the compute rasterizer's raster kernels add to the strand bindings.
 pub const RASTER_BINDINGS: [u32; 3] = [binding::VISIBILITY, binding::SCENE_DEPTH, binding::RASTER_TILES];
+
+/// What the compute rasterizer's fused-generation kernel adds to the strand bindings besides
+/// [`RASTER_BINDINGS`]: its slot order, the marks it sets, the last frame's depths it tests.
+pub const GENERATED_RASTER_BINDINGS: [u32; 6] =
+    concat(RASTER_BINDINGS, [binding::RASTER_SLOTS, binding::RASTER_MARKS, binding::RASTER_FINAL_DEPTH]);
+
+/// What the compute rasterizer's split pass adds to the strand bindings.
+pub const RASTER_SPLIT_BINDINGS: [u32; 2] = [binding::RASTER_SLOTS, binding::RASTER_MARKS];
 
 /// The compute rasterizer's tile pass.
 pub const RASTER_TILE_BINDINGS: [u32; 2] = [binding::VISIBILITY, binding::RASTER_TILES];
@@ -90,11 +109,12 @@ pub const MARCH_BINDINGS: [u32; 5] = [
 
 /// The compute rasterizer's shade pass: its own buffers, the volumes (AO, volume shadows), then
 /// the lighting.
-pub const RASTER_SHADE_BINDINGS: [u32; 11] = [
+pub const RASTER_SHADE_BINDINGS: [u32; 12] = [
     binding::VISIBILITY,
     binding::RASTER_FRAME,
     binding::SHADED,
     binding::RASTER_COUNTERS,
+    binding::RASTER_FINAL_DEPTH,
     binding::VOLUME_AO,
     binding::VOLUME,
     binding::VOLUME_BRICKS,
@@ -148,6 +168,9 @@ pub const GLSL_DEFINES: &[(&str, u64)] = &[
     ("HK_BINDING_OCCLUDER_DEPTH", binding::OCCLUDER_DEPTH as u64),
     ("HK_BINDING_VISIBILITY", binding::VISIBILITY as u64),
     ("HK_BINDING_RASTER_FRAME", binding::RASTER_FRAME as u64),
+    ("HK_BINDING_RASTER_SLOTS", binding::RASTER_SLOTS as u64),
+    ("HK_BINDING_RASTER_MARKS", binding::RASTER_MARKS as u64),
+    ("HK_BINDING_RASTER_FINAL_DEPTH", binding::RASTER_FINAL_DEPTH as u64),
     ("HK_BINDING_SCENE_DEPTH", binding::SCENE_DEPTH as u64),
     ("HK_BINDING_SHADED", binding::SHADED as u64),
     ("HK_BINDING_RASTER_TILES", binding::RASTER_TILES as u64),
@@ -195,6 +218,11 @@ pub const LOAD_BY_ADDRESS_CONSTANT_ID: u32 = 34;
 /// inside it (`raster::DepthClipping`, `strand_raster.glsl`).
 pub const DEPTH_CLIPPING_CONSTANT_ID: u32 = 35;
 
+/// Specialization constant of the compute rasterizer's fused-generation kernel: 1 when it can
+/// take its strands from a slot order and mark the segments that reach the image (scenes with
+/// more than one visibility slot per pixel: `raster_split.comp`), 0 when that code is left out.
+pub const SLOT_ORDER_CONSTANT_ID: u32 = 36;
+
 /// 32-bit words per 8×8 tile of the compute rasterizer's occlusion tiles (`raster_tiles.comp`
 /// writes them, `strand_raster.glsl` reads them): the farthest depth of the tile's own pixels,
 /// then of the 2×2 and of the 3×3 tiles it is the top left of.
@@ -220,6 +248,7 @@ pub const GLSL_CONSTANTS: &[(&str, u64)] = &[
     ("HK_ONLY_MATERIAL_CONSTANT_ID", ONLY_MATERIAL_CONSTANT_ID as u64),
     ("HK_LOAD_BY_ADDRESS_CONSTANT_ID", LOAD_BY_ADDRESS_CONSTANT_ID as u64),
     ("HK_DEPTH_CLIPPING_CONSTANT_ID", DEPTH_CLIPPING_CONSTANT_ID as u64),
+    ("HK_SLOT_ORDER_CONSTANT_ID", SLOT_ORDER_CONSTANT_ID as u64),
 ];
 
 /// Every binding a render shader may use: the values of [`GLSL_DEFINES`] (all of which are

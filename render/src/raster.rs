@@ -42,8 +42,9 @@ use gen_gpu::{
 use glam::{Mat4, Vec3};
 
 use crate::contract::{
-    DEPTH_CLIPPING_CONSTANT_ID, LOAD_BY_ADDRESS_CONSTANT_ID, ONLY_MATERIAL_CONSTANT_ID, RASTER_BINDINGS,
-    RASTER_SHADE_BINDINGS, RASTER_TILE_BINDINGS, RESOLVE_BINDINGS, scene_lights_constant,
+    DEPTH_CLIPPING_CONSTANT_ID, GENERATED_RASTER_BINDINGS, LOAD_BY_ADDRESS_CONSTANT_ID,
+    ONLY_MATERIAL_CONSTANT_ID, RASTER_BINDINGS, RASTER_SHADE_BINDINGS, RASTER_SPLIT_BINDINGS,
+    RASTER_TILE_BINDINGS, RESOLVE_BINDINGS, SLOT_ORDER_CONSTANT_ID, scene_lights_constant,
 };
 use crate::graph::TransientPool;
 use crate::scene::{Effects, Raster};
@@ -143,6 +144,113 @@ pub(crate) struct RasterPush {
     pub(crate) scene_depth_address: u64,
     /// Stored strands: the bound chunk's vertices (0: through the binding).
     pub(crate) vertices_address: u64,
+    /// Fused generation: the last frame's depths ([`FLAG_MARK`]; 0: through the binding).
+    pub(crate) final_depth_address: u64,
+}
+
+// Vulkan guarantees 128 bytes of push constants.
+const _: () = assert!(size_of::<RasterPush>() == 128);
+
+/// The split kernel's push constants (raster_split.comp `SplitParams`).
+#[repr(C)]
+#[derive(Clone, Copy, Debug, bytemuck::Pod, bytemuck::Zeroable)]
+pub(crate) struct SplitPush {
+    /// 1 when the marks are the last frame's, 0 when there are none (the sparse slots first).
+    pub(crate) history: u32,
+}
+
+/// `ShadePush.flags`: write each pixel's K-th nearest depth for the next frame's slot order
+/// ([`SlotOrderHistory`]).
+pub(crate) const SHADE_FINAL_DEPTH: u32 = 1;
+
+/// Bytes of a slot order's header (`raster_slots.glsl`): two indirect dispatches, the front
+/// part's length and a pad.
+pub(crate) const SLOT_ORDER_HEADER: u64 = 32;
+/// Bytes of a slot order's entry: the slot and the mask of its segments to walk.
+pub(crate) const SLOT_ORDER_ENTRY_BYTES: u64 = 8;
+/// Where the rest part's indirect dispatch sits in a slot order.
+pub(crate) const SLOT_ORDER_REST_DISPATCH: u64 = 12;
+
+/// What the compute rasterizer keeps from one frame to the next so that the strand segments
+/// that reached the last frame's image are drawn first (two-phase occlusion culling, per strand
+/// segment): the last frame's depth per pixel, written by the shade pass, and per generated
+/// character its marks and its slot order. Which segments come first changes only the order of
+/// drawing — each segment is drawn in exactly one phase and the phases' result does not depend
+/// on the order — so a stale or missing history (the first frames, a resized output, an edited
+/// hair whose slots moved) costs time, never correctness.
+#[derive(Debug, Default)]
+pub(crate) struct SlotOrderHistory {
+    /// The last frame's K-th nearest depth bits per pixel (0 where the pixel was not opaque),
+    /// its width and height, and whether a frame has written it since it was made.
+    pub(crate) final_depth: Option<(u32, u32, Buffer, bool)>,
+    /// Per generated character.
+    pub(crate) characters: Vec<Option<CharacterOrder>>,
+}
+
+/// One character's part of [`SlotOrderHistory`].
+#[derive(Debug)]
+pub(crate) struct CharacterOrder {
+    /// Strand slots the buffers hold.
+    pub(crate) capacity: u64,
+    /// Per strand slot a mask of its segments that reached the image (`hair_raster.comp`).
+    pub(crate) marks: Buffer,
+    /// The frame's drawing order (`raster_slots.glsl`), made from the marks.
+    pub(crate) order: Buffer,
+    /// Whether the last frame that drew the character set the marks (else they are clear).
+    pub(crate) history: bool,
+}
+
+/// A generated character's strands in the compute rasterizer's drawing order
+/// ([`crate::frame::SceneRenderer::strand_order`], `raster_slots.glsl`): per entry its slot and
+/// the mask of its segments walked (bit `i * 32 / segments` of segment `i`); the front phase's
+/// entries, then the rest's.
+#[derive(Clone, Debug, Default, PartialEq, Eq)]
+pub struct StrandOrder {
+    pub front: Vec<[u32; 2]>,
+    pub rest: Vec<[u32; 2]>,
+}
+
+impl SlotOrderHistory {
+    /// Makes the buffers for a `width × height` frame and characters of `capacities` slots
+    /// where they are missing or too small (new ones have no history).
+    pub(crate) fn prepare(
+        &mut self,
+        ctx: &Context,
+        width: u32,
+        height: u32,
+        capacities: &[u64],
+    ) -> gen_gpu::Result<()> {
+        if !matches!(&self.final_depth, Some((w, h, _, _)) if (*w, *h) == (width, height)) {
+            let pixels = u64::from(width) * u64::from(height);
+            // Zero: no pixel known to be opaque, so nothing is marked against it.
+            let buffer = ctx.create_buffer_with_data(
+                "hair depth (last frame)",
+                BufferDesc::storage(pixels * 4),
+                &vec![0u8; (pixels * 4) as usize],
+            )?;
+            self.final_depth = Some((width, height, buffer, false));
+        }
+        self.characters.resize_with(capacities.len(), || None);
+        for (character, &capacity) in self.characters.iter_mut().zip(capacities) {
+            if !matches!(character, Some(c) if c.capacity >= capacity) {
+                let slots = capacity.max(1);
+                let marks = ctx.create_buffer_with_data(
+                    "strand marks",
+                    BufferDesc::storage(slots * 4),
+                    &vec![0u8; (slots * 4) as usize],
+                )?;
+                // Both parts may hold every slot.
+                let order = Buffer::new(
+                    ctx,
+                    "strand slot order",
+                    BufferDesc::storage(SLOT_ORDER_HEADER + slots * 2 * SLOT_ORDER_ENTRY_BYTES)
+                        .usage(vk::BufferUsageFlags::INDIRECT_BUFFER | vk::BufferUsageFlags::TRANSFER_SRC),
+                )?;
+                *character = Some(CharacterOrder { capacity, marks, order, history: false });
+            }
+        }
+        Ok(())
+    }
 }
 
 /// 64-bit words per pixel with `k` visibility slots (`pixel_stride` in `raster_common.glsl`):
@@ -199,6 +307,12 @@ pub fn tile_grid(width: u32, height: u32) -> (u32, u32) {
 
 /// Bit 0 of [`RasterPush::flags`]: test fragments against the occluders' depth.
 pub(crate) const FLAG_SCENE_DEPTH: u32 = 1;
+/// `RasterParams.flags`: the fused kernel takes its slots from the character's slot order
+/// (`raster_split.comp`: the strands visible last frame first) instead of the phase's subset.
+pub(crate) const FLAG_SLOT_ORDER: u32 = 2;
+/// `RasterParams.flags`: the fused kernel marks the strands with a fragment at or in front of
+/// their pixel's K-th nearest depth of the last frame ([`SlotOrderHistory`]).
+pub(crate) const FLAG_MARK: u32 = 4;
 
 /// `RasterMaterial` of `raster_frame.glsl`.
 #[repr(C)]
@@ -304,6 +418,8 @@ impl ClippingVariants {
 pub struct ComputeRaster {
     pub(crate) raster: ClippingVariants,
     pub(crate) raster_stored: ClippingVariants,
+    /// Each character's slot order before its raster phases (`raster_split.comp`).
+    pub(crate) split: Pipeline,
     pub(crate) shade: Pipeline,
     pub(crate) tiles: Pipeline,
     pub(crate) resolve: Pipeline,
@@ -318,7 +434,13 @@ impl ComputeRaster {
     /// `materials` distinct hair materials, reading as `loads` says (buffer references only
     /// where the device has buffer device addresses: else through the bindings): the shade
     /// kernel is specialized for the light count and for a single material.
-    pub fn new(ctx: &Context, lights: usize, materials: usize, loads: LoadPath) -> gen_gpu::Result<Self> {
+    pub fn new(
+        ctx: &Context,
+        lights: usize,
+        materials: usize,
+        loads: LoadPath,
+        slot_order: bool,
+    ) -> gen_gpu::Result<Self> {
         let loads = if ctx.capabilities().buffer_device_address { loads } else { LoadPath::Bindings };
         let by_address = (LOAD_BY_ADDRESS_CONSTANT_ID, u32::from(loads == LoadPath::BufferReferences));
         let compute = |name: &str, shader, bindings: &[Binding], push, specialization: &[(u32, u32)]| {
@@ -330,20 +452,33 @@ impl ComputeRaster {
                 },
             )
         };
-        let strand = gen_gpu::strand_bindings(&RASTER_BINDINGS);
         let push = size_of::<RasterPush>() as u32;
-        let variants = |name: &str, shader| -> gen_gpu::Result<ClippingVariants> {
+        let ordered = (SLOT_ORDER_CONSTANT_ID, u32::from(slot_order));
+        let variants = |name: &str, shader, bindings: &[u32]| -> gen_gpu::Result<ClippingVariants> {
+            let strand = gen_gpu::strand_bindings(bindings);
             let variant = |clipping: DepthClipping, suffix| {
                 let clips = (DEPTH_CLIPPING_CONSTANT_ID, u32::from(clipping == DepthClipping::Clip));
-                compute(&format!("{name}{suffix}"), shader, &strand, push, &[by_address, clips])
+                compute(&format!("{name}{suffix}"), shader, &strand, push, &[by_address, clips, ordered])
             };
             Ok(ClippingVariants {
                 clip: variant(DepthClipping::Clip, ", depth clipping")?,
                 skip: variant(DepthClipping::Skip, "")?,
             })
         };
-        let raster = variants("compute raster (fused generation)", &shaders::HAIR_RASTER_COMP)?;
-        let raster_stored = variants("compute raster (stored strands)", &shaders::HAIR_RASTER_STORED_COMP)?;
+        let raster = variants(
+            "compute raster (fused generation)",
+            &shaders::HAIR_RASTER_COMP,
+            &GENERATED_RASTER_BINDINGS,
+        )?;
+        let raster_stored =
+            variants("compute raster (stored strands)", &shaders::HAIR_RASTER_STORED_COMP, &RASTER_BINDINGS)?;
+        let split = compute(
+            "compute raster slot order",
+            &shaders::RASTER_SPLIT_COMP,
+            &gen_gpu::strand_bindings(&RASTER_SPLIT_BINDINGS),
+            size_of::<SplitPush>() as u32,
+            &[],
+        )?;
         let stage = vk::ShaderStageFlags::COMPUTE;
         let shade_bindings = Binding::storage_buffers(&RASTER_SHADE_BINDINGS, stage);
         let only_material = if materials == 1 { 0 } else { u32::MAX };
@@ -371,7 +506,7 @@ impl ComputeRaster {
             &[by_address],
         )?;
         let no_scene_depth = Buffer::new(ctx, "no scene depth", BufferDesc::storage(16))?;
-        Ok(Self { raster, raster_stored, shade, tiles, resolve, no_scene_depth, loads })
+        Ok(Self { raster, raster_stored, split, shade, tiles, resolve, no_scene_depth, loads })
     }
 
     /// How the kernels read: what [`Self::new`] was asked for where the device allows it.
@@ -690,7 +825,8 @@ pub(crate) struct ResolvePush {
 pub(crate) struct ShadePush {
     pub(crate) rect: [u32; 4],
     pub(crate) k: u32,
-    pub(crate) pad: u32,
+    /// [`SHADE_FINAL_DEPTH`], or 0.
+    pub(crate) flags: u32,
     pub(crate) words_address: u64,
     pub(crate) shadow_depth_address: u64,
     pub(crate) shadow_opacity_address: u64,
@@ -728,6 +864,7 @@ pub(crate) fn raster_push(
         tiles_address: 0,
         scene_depth_address: 0,
         vertices_address: 0,
+        final_depth_address: 0,
     }
 }
 
@@ -750,6 +887,28 @@ pub mod cpu {
 
     /// No coverage is added past this sum, and it is read clamped to it, as opaque.
     pub use crate::contract::COVERAGE_LIMIT;
+
+    /// The port of `raster_split.comp`: the drawing order of `slots` live strand slots from
+    /// their marks (`history`: the marks are a frame's; else there are none).
+    pub fn slot_order(marks: &[u32], slots: usize, history: bool) -> super::StrandOrder {
+        let stride = gen_gpu::contract::SPARSE_SLOT_STRIDE as usize;
+        let marked = |slot: usize| if history { marks.get(slot).copied().unwrap_or(0) } else { 0 };
+        let sparse_unmarked = |slot: usize| marked(slot) == 0 && slot.is_multiple_of(stride);
+        let marked_count = (0..slots).filter(|&slot| marked(slot) != 0).count();
+        // Fewer marked strands than the sparse subset holds: the sparse ones join the front.
+        let both = marked_count * stride < slots;
+        let mut order = super::StrandOrder::default();
+        order.front.extend((0..slots).filter(|&s| marked(s) != 0).map(|s| [s as u32, marked(s)]));
+        if both {
+            order.front.extend((0..slots).filter(|&s| sparse_unmarked(s)).map(|s| [s as u32, u32::MAX]));
+        }
+        order.rest.extend(
+            (0..slots)
+                .filter(|&s| marked(s) != u32::MAX && !(both && sparse_unmarked(s)))
+                .map(|s| [s as u32, !marked(s)]),
+        );
+        order
+    }
 
     /// What the kernel needs of the frame (`GenParams` of the strands' object space).
     #[derive(Clone, Copy, Debug)]
@@ -1253,5 +1412,37 @@ mod tests {
         assert_eq!(screen_rect(view_proj(), 64, 32, []), [0, 0, 0, 0]);
         let nan = (Vec3::splat(f32::NAN), Vec3::splat(f32::NAN));
         assert_eq!(screen_rect(view_proj(), 64, 32, [(Mat4::IDENTITY, nan)]), [0, 0, 64, 32]);
+    }
+    #[test]
+    fn the_slot_order_puts_marked_segments_first() {
+        use super::cpu::slot_order;
+        // No history: every eighth slot first, walking all of its segments; the others after.
+        let order = slot_order(&[], 20, false);
+        assert_eq!(order.front, vec![[0, u32::MAX], [8, u32::MAX], [16, u32::MAX]]);
+        assert_eq!(order.rest.len(), 17);
+        assert!(order.rest.iter().all(|e| e[0] % 8 != 0 && e[1] == u32::MAX));
+        // Marks on three of 16 slots (one with every segment): more than 16 / 8, so they go
+        // first alone, walking their marked segments; the rest walks the others, and a strand
+        // marked whole has no rest entry.
+        let mut marks = vec![0u32; 16];
+        marks[3] = 0x0000_00ff;
+        marks[5] = u32::MAX;
+        marks[9] = 0x8000_0001;
+        let order = slot_order(&marks, 16, true);
+        assert_eq!(order.front, vec![[3, 0xff], [5, u32::MAX], [9, 0x8000_0001]]);
+        assert_eq!(order.rest.len(), 15);
+        assert!(order.rest.contains(&[3, !0xff]) && order.rest.contains(&[9, 0x7fff_fffe]));
+        assert!(!order.rest.iter().any(|e| e[0] == 5));
+        assert!(order.rest.contains(&[0, u32::MAX]));
+        // One marked strand of 16 (fewer than 16 / 8): the sparse slots join the front whole,
+        // and leave the rest.
+        let mut marks = vec![0u32; 16];
+        marks[3] = 0xf0;
+        let order = slot_order(&marks, 16, true);
+        assert_eq!(order.front, vec![[3, 0xf0], [0, u32::MAX], [8, u32::MAX]]);
+        assert_eq!(order.rest.len(), 14);
+        assert!(!order.rest.iter().any(|e| e[0] == 0 || e[0] == 8));
+        // Marks without history count for nothing; every slot is drawn in some phase.
+        assert_eq!(slot_order(&marks, 16, false), slot_order(&[], 16, false));
     }
 }

@@ -9,7 +9,10 @@ use super::ScenePass;
 use crate::contract::binding;
 use crate::frame::{FrameIds, FrameState, SceneRenderer};
 use crate::graph::{Access, FrameGraph};
-use crate::raster::{ResolvePush, ShadePush, TilePush, raster_push, stored_group_size, tile_grid};
+use crate::raster::{
+    FLAG_MARK, FLAG_SLOT_ORDER, ResolvePush, SLOT_ORDER_REST_DISPATCH, ShadePush, SplitPush, TilePush,
+    raster_push, stored_group_size, tile_grid,
+};
 use crate::shaders;
 
 pub(crate) fn plan_clear(g: &mut FrameGraph<ScenePass>, ids: &FrameIds, submission: usize) {
@@ -41,6 +44,17 @@ pub(crate) fn plan_raster(
 ) {
     let phases: &[SlotSubset] =
         if r.occlusion_tiles { &[SlotSubset::Sparse, SlotSubset::Remainder] } else { &[SlotSubset::All] };
+    let ordered = r.raster_slot_order() && !batch.is_empty();
+    if ordered {
+        let mut pass = g.pass("strand slot order (compute raster)");
+        for &i in batch {
+            pass = pass.read(ids.lod[i], Access::ComputeRead);
+        }
+        pass.write(ids.slot_orders, Access::ComputeWrite)
+            .write(ids.strand_marks, Access::ComputeWrite)
+            .submission(submission)
+            .add(ScenePass::RasterSlotOrder);
+    }
     for &phase in phases {
         if phase == SlotSubset::Remainder {
             g.pass("occlusion tiles (compute raster)")
@@ -49,10 +63,13 @@ pub(crate) fn plan_raster(
                 .submission(submission)
                 .add(ScenePass::RasterTiles);
         }
-        let name = match phase {
-            SlotSubset::All => r.raster_pass_name(),
-            SlotSubset::Sparse => format!("{}: front strands", r.raster_pass_name()),
-            SlotSubset::Remainder => format!("{}: other strands, tile-culled", r.raster_pass_name()),
+        let name = match (phase, ordered) {
+            (SlotSubset::All, _) => r.raster_pass_name(),
+            (SlotSubset::Sparse, false) => format!("{}: front strands", r.raster_pass_name()),
+            (SlotSubset::Sparse, true) => {
+                format!("{}: front strands (visible last frame)", r.raster_pass_name())
+            }
+            (SlotSubset::Remainder, _) => format!("{}: other strands, tile-culled", r.raster_pass_name()),
         };
         let mut pass = g.pass(name);
         for &i in batch {
@@ -70,6 +87,13 @@ pub(crate) fn plan_raster(
         if phase == SlotSubset::Remainder {
             pass = pass.read(ids.raster_tiles, Access::ComputeRead);
         }
+        if ordered {
+            pass = pass
+                .read(ids.slot_orders, Access::ComputeRead)
+                .read(ids.slot_orders, Access::IndirectRead)
+                .read(ids.final_depth, Access::ComputeRead)
+                .write(ids.strand_marks, Access::ComputeWrite);
+        }
         pass.write(ids.visibility, Access::ComputeWrite)
             .submission(submission)
             .add(ScenePass::ComputeRaster(phase));
@@ -83,6 +107,7 @@ pub(crate) fn plan_shade(g: &mut FrameGraph<ScenePass>, ids: &FrameIds, submissi
         .read(ids.raster_frame, Access::ComputeRead)
         .reads(ids.compute_hair_shading_reads())
         .write(ids.shaded, Access::ComputeWrite)
+        .write(ids.final_depth, Access::ComputeWrite)
         .submission(submission)
         .add(ScenePass::RasterShade);
 }
@@ -129,6 +154,26 @@ pub(crate) fn record_occluder_depth(rec: &mut Recorder<'_>, state: &FrameState<'
     Ok(())
 }
 
+/// Each of the batch's characters' slot order (`raster_split.comp`) from the marks the last
+/// frame that drew it set, which it then clears.
+pub(crate) fn record_slot_order(
+    r: &SceneRenderer,
+    rec: &mut Recorder<'_>,
+    state: &FrameState<'_>,
+) -> gen_gpu::Result<()> {
+    let (Some(cr), Some(history)) = (&r.compute_raster, state.slot_history) else { return Ok(()) };
+    rec.bind_pipeline(&cr.split);
+    for (i, frame) in state.frames {
+        let Some(c) = history.characters.get(*i).and_then(Option::as_ref) else { continue };
+        let hair = &r.hairs[r.characters[*i].hair];
+        let extra = [(binding::RASTER_SLOTS, &c.order), (binding::RASTER_MARKS, &c.marks)];
+        r.generator.bind_frame(rec, &cr.split, hair, frame, &extra);
+        rec.push_constants(&cr.split, &SplitPush { history: u32::from(c.history) });
+        rec.dispatch(1, 1, 1);
+    }
+    Ok(())
+}
+
 pub(crate) fn record_tiles(
     r: &SceneRenderer,
     rec: &mut Recorder<'_>,
@@ -163,6 +208,11 @@ pub(crate) fn record_raster(
         (binding::SCENE_DEPTH, depth),
         (binding::RASTER_TILES, &b.tiles),
     ];
+    // The last frame's depths, and whether the fused kernel marks against them (a frame has
+    // written them since they were made).
+    let final_depth = state.slot_history.and_then(|h| h.final_depth.as_ref());
+    let marking = final_depth.is_some_and(|(_, _, _, written)| *written);
+    let final_depth = final_depth.map_or(&cr.no_scene_depth, |(_, _, buffer, _)| buffer);
     let tiles_x = tile_grid(state.plan.view.width, state.plan.view.height).0;
     // Where the kernels' plain loads read through (0 when they read through the bindings:
     // unused, ComputeRaster::load_path).
@@ -181,14 +231,37 @@ pub(crate) fn record_raster(
             rec.bind_pipeline(pipeline);
             bound = Some(clipping);
         }
+        // With a slot order (the two phases of a scene that has one), its part for this phase
+        // and the marks to set.
+        let ordered = (r.raster_slot_order() && phase != SlotSubset::All)
+            .then(|| state.slot_history.and_then(|h| h.characters.get(*i)).and_then(Option::as_ref))
+            .flatten();
+        let stand_in = &cr.no_scene_depth;
+        let extra = [
+            extra[0],
+            extra[1],
+            extra[2],
+            (binding::RASTER_SLOTS, ordered.map_or(stand_in, |c| &c.order)),
+            (binding::RASTER_MARKS, ordered.map_or(stand_in, |c| &c.marks)),
+            (binding::RASTER_FINAL_DEPTH, final_depth),
+        ];
+        let order = ordered.map(|c| &c.order);
         r.generator.bind_frame(rec, pipeline, hair, frame, &extra);
         let material = state.materials[*i];
         let opacity = r.raster_opacity(material);
         let mut push = raster_push(c.transform, material, 0, occluders, phase, tiles_x, b.k, opacity);
         (push.words_address, push.tiles_address, push.scene_depth_address) = addresses;
         push.volume_fraction = state.plan.volume_fraction(*i);
+        if order.is_some() {
+            push.flags |= FLAG_SLOT_ORDER | if marking { FLAG_MARK } else { 0 };
+            push.final_depth_address = cr.buffer_address(final_depth);
+        }
         rec.push_constants(pipeline, &push);
-        Generator::record_fused_subset_dispatch(rec, frame, phase);
+        match order {
+            Some(order) if phase == SlotSubset::Sparse => rec.dispatch_indirect(order, 0),
+            Some(order) => rec.dispatch_indirect(order, SLOT_ORDER_REST_DISPATCH),
+            None => Generator::record_fused_subset_dispatch(rec, frame, phase),
+        }
     }
     let stored_materials = &state.materials[r.characters.len()..];
     let stored = r.stored_characters.iter().zip(state.stored_params).zip(stored_materials).enumerate();
@@ -220,11 +293,18 @@ pub(crate) fn record_shade(
 ) -> gen_gpu::Result<()> {
     let (Some(cr), Some(b)) = (&r.compute_raster, state.raster) else { return Ok(()) };
     let l = state.lighting;
+    // The K-th nearest depths for the next frame's slot order, where there is one.
+    let final_depth = state
+        .slot_history
+        .and_then(|h| h.final_depth.as_ref())
+        .filter(|_| r.raster_slot_order())
+        .map(|(_, _, buffer, _)| buffer);
     let buffers = [
         (binding::VISIBILITY, &b.pixel_words),
         (binding::RASTER_FRAME, &b.frame),
         (binding::SHADED, &b.shaded),
         (binding::RASTER_COUNTERS, &b.counters),
+        (binding::RASTER_FINAL_DEPTH, final_depth.unwrap_or(&cr.no_scene_depth)),
         (binding::VOLUME_AO, r.volumes.as_ref().map_or(&cr.no_scene_depth, |v| &v.store.ao)),
         (binding::VOLUME, r.volumes.as_ref().map_or(&cr.no_scene_depth, |v| &v.store.volume)),
         (binding::VOLUME_BRICKS, r.volumes.as_ref().map_or(&cr.no_scene_depth, |v| &v.store.bricks)),
@@ -244,7 +324,7 @@ pub(crate) fn record_shade(
     let push = ShadePush {
         rect: b.rect,
         k: b.k,
-        pad: 0,
+        flags: if final_depth.is_some() { crate::raster::SHADE_FINAL_DEPTH } else { 0 },
         words_address: cr.buffer_address(&b.pixel_words),
         shadow_depth_address: map(binding::SHADOW_DEPTH),
         shadow_opacity_address: map(binding::SHADOW_OPACITY),

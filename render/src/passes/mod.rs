@@ -54,6 +54,9 @@ pub enum ScenePass {
     /// Compute rasterizer: one batch's characters (and the stored strands on the last), one
     /// phase.
     ComputeRaster(gen_gpu::SlotSubset),
+    /// Compute rasterizer: one batch's characters' slot orders (the strands visible last frame
+    /// first).
+    RasterSlotOrder,
     /// Compute rasterizer: the occlusion tiles between the phases.
     RasterTiles,
     RasterShade,
@@ -158,6 +161,7 @@ pub(crate) fn record(
         ScenePass::ClearVisibility => compute_raster::record_clear(rec, state),
         ScenePass::OccluderDepthCopy => compute_raster::record_occluder_depth(rec, state),
         ScenePass::ComputeRaster(phase) => compute_raster::record_raster(r, rec, state, phase),
+        ScenePass::RasterSlotOrder => compute_raster::record_slot_order(r, rec, state),
         ScenePass::RasterTiles => compute_raster::record_tiles(r, rec, state),
         ScenePass::RasterShade => compute_raster::record_shade(r, rec, state),
         ScenePass::RasterResolve => compute_raster::record_resolve(r, rec, state),

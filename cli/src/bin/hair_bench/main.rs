@@ -791,7 +791,7 @@ fn compute_raster_parts(frame: &render::frame::RenderedFrame) -> [f64; 4] {
     for p in frame.timings.passes.iter().filter(|p| p.depth == 1) {
         let Some(ms) = p.gpu_ms else { continue };
         let part = if p.name.starts_with("raster hair (compute raster") {
-            if p.name.ends_with(": front strands") { 0 } else { 1 }
+            if p.name.contains(": front strands") { 0 } else { 1 }
         } else if p.name.starts_with("shade hair (compute raster") {
             2
         } else if p.name.starts_with("resolve hair (compute raster") {
