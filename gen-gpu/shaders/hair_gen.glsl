@@ -1021,12 +1021,14 @@ vec3 strand_stream_point(inout StrandStream s, uint j) {
     return strand_stream_walk_point(s, j);
 }
 
-void strand_stream_push(inout StrandStream s) {
+// Pushes the walk's next point; with `evaluate` false a stand-in (zero) instead, for a
+// consumer that needs no vertex within two points of it (strand_stream_step_needed).
+void strand_stream_push_needed(inout StrandStream s, bool evaluate) {
     [[unroll]] for (int i = 0; i < 8; ++i) {
         s.window[i] = s.window[i + 1];
     }
     if (s.pushed <= s.segments) {
-        s.window[8] = strand_stream_walk_point(s, s.pushed);
+        s.window[8] = evaluate ? strand_stream_walk_point(s, s.pushed) : vec3(0.0);
     }
     s.pushed += 1u;
     if (s.pushed == 2u) {
@@ -1059,8 +1061,14 @@ vec3 window_tangent(uint k, uint n, vec3 first_seg, vec3 prev2, vec3 prev, vec3 
 // a loop of pushes inside it costs more on CPU devices, where every loop writes back the state
 // it carries under the SIMD lanes' mask at each turn (the 100k-strand generate pass about 5 %
 // faster).
-bool strand_stream_step(inout StrandStream s, out StrandVertex v, out uint k) {
-    strand_stream_push(s);
+// The point it pushes is evaluated only if `evaluate` (else a stand-in:
+// strand_stream_push_needed), for consumers that need only some of the vertices: a vertex's
+// tangent and morphing read the points two on either side of it and the first three points
+// (the end directions), so the vertices returned are exact wherever every point within two of
+// them, and points 0-2, were evaluated (strand_stream_step evaluates all). The caller loads the
+// control data of the points it evaluates (strand_stream_enter).
+bool strand_stream_step_needed(inout StrandStream s, bool evaluate, out StrandVertex v, out uint k) {
+    strand_stream_push_needed(s, evaluate);
     v.position = vec3(0.0);
     v.width = 0.0;
     v.tangent = vec3(0.0);
@@ -1081,6 +1089,11 @@ bool strand_stream_step(inout StrandStream s, out StrandVertex v, out uint k) {
     }
     v = assemble_vertex(s.lod, k, s.segments, s.window[4], s.window[3], s.window[5], full_tangent, coarse);
     return true;
+}
+
+// strand_stream_step_needed with every point evaluated.
+bool strand_stream_step(inout StrandStream s, out StrandVertex v, out uint k) {
+    return strand_stream_step_needed(s, true, v, k);
 }
 
 // Strands per compute workgroup in the one-strand-per-invocation variant.

@@ -15,10 +15,54 @@ layout(local_size_x = 32) in;
 // Per slot the segments of its strand marked this frame (raster_split.comp cleared them).
 layout(std430, set = 0, binding = HK_BINDING_RASTER_MARKS) buffer MarkBuffer { uint marks[]; };
 
+// `marks` (bit i * 32 / segments of segment i, set by a frame whose strand may have had another
+// vertex level) as whole segments at `bits` = 32 / segments bits each: every bit of a segment
+// set when any of its bits is, so that each segment lands in exactly one phase (the front
+// walks these, the rest the others) whatever level marked it.
+uint whole_segments(uint marks, uint bits) {
+    uint any = marks;
+    for (uint shift = 1u; shift < bits; shift <<= 1u) {
+        any |= any >> shift;
+    }
+    // Bit s * bits now holds the OR over segment s's bits; keep those and spread them.
+    uint starts = bits == 32u ? 1u : bits == 16u ? 0x00010001u : bits == 8u ? 0x01010101u
+                : bits == 4u ? 0x11111111u : bits == 2u ? 0x55555555u : 0xffffffffu;
+    any &= starts;
+    for (uint shift = 1u; shift < bits; shift <<= 1u) {
+        any |= any << shift;
+    }
+    return any;
+}
+
+// Whether point j of a strand walk of `segments` segments is needed when the segments in
+// `walk` are walked (bit i * 32 / segments of segment i): it lies within two points of a
+// vertex of a walked segment (segments j - 3 .. j + 2), it is one of the first three (the end
+// directions every tangent may fall back on), or it is point 4 or segments - 4 and the first
+// or the last segment is walked (under LOD morphing the coarse polyline's end tangents at
+// vertices 0 and segments read them); strand_stream_step_needed.
+bool point_needed(uint walk, uint j, uint segments) {
+    if (walk == 0xffffffffu || j <= 2u) {
+        return true;
+    }
+    uint bits = 32u / segments;
+    uint first = bits == 32u ? 0xffffffffu : (1u << bits) - 1u;
+    if ((j == 4u && (walk & first) != 0u) || (j + 4u == segments && (walk & (first << (32u - bits))) != 0u)) {
+        return true;
+    }
+    uint lo = (j - 3u) * bits;
+    if (lo >= 32u) {
+        return false;
+    }
+    uint hi = min(j + 3u, segments) * bits;
+    uint range = (hi >= 32u ? 0xffffffffu : (1u << hi) - 1u) & ~((1u << lo) - 1u);
+    return (walk & range) != 0u;
+}
+
 void main() {
-    // The phase's slots, one per invocation: from the character's slot order with the segments
-    // to walk (dispatched with its arguments, raster_split.comp), or the phase's slot subset,
-    // walking every segment (Generator::record_fused_subset_dispatch).
+    // The phase's slots, one per invocation: from the character's slot order with the strand's
+    // marks (dispatched with its arguments, raster_split.comp), or the phase's slot subset,
+    // walking every segment (Generator::record_fused_subset_dispatch). `walk`: the segments to
+    // walk (bit i * 32 / segments of segment i).
     uint slot;
     uint walk = 0xffffffffu;
     if (SLOT_ORDER != 0u && (raster.flags & RASTER_FLAG_SLOT_ORDER) != 0u) {
@@ -36,16 +80,30 @@ void main() {
     // to f32 rounding and costs more (measured: the LOD'd crowd 15 % faster this way).
     StrandStream s = strand_stream(bundle, strand, l, PER_VERTEX_FETCH == 0u);
     float random = seeded_random(s.seed, 7u);
+    if (SLOT_ORDER != 0u && walk != 0xffffffffu) {
+        // The order entry's marks: the front walks the marked segments, the rest the others.
+        uint marked = whole_segments(walk, 32u / s.segments);
+        walk = raster.phase == SLOT_SUBSET_SPARSE ? marked : ~marked;
+    }
     RasterVertex previous;
     // One loop with one call site of strand_stream_step (each is a whole inlined copy of
     // generation), entering each segment at the step that reaches it: here a loop per segment
     // (strand_stream_enter) measured 1-2 % slower on the close-ups, where the column walk's
     // state outweighs the control data it keeps out of the inner loop.
     for (uint step = 0u; step < strand_stream_steps(s); ++step) {
-        strand_stream_enter(s);
+        // With a slot order, only the points the walked segments' vertices read are evaluated
+        // (their control data loaded by the whole subgroup when it fetches together).
+        bool needed = SLOT_ORDER == 0u || point_needed(walk, s.pushed, s.segments);
+        bool enter = needed;
+        if (SLOT_ORDER != 0u && s.cell.together) {
+            enter = subgroupAny(needed);
+        }
+        if (enter) {
+            strand_stream_enter(s);
+        }
         StrandVertex v;
         uint k;
-        if (strand_stream_step(s, v, k)) {
+        if (strand_stream_step_needed(s, needed, v, k)) {
             RasterVertex next = raster_vertex(v);
             // Segment k - 1's bits: its 32 / segments of the mask (segments is a power of two
             // <= 32), so that a strand with every segment marked has all 32.

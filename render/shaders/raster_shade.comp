@@ -49,7 +49,7 @@ float shade_light_transmittance(uint i, vec3 p);
 #include "hair_shading.glsl"
 #include "raster_frame.glsl"
 
-layout(std430, set = 0, binding = HK_BINDING_VISIBILITY) buffer PixelBuffer { uint64_t pixel_words[]; };
+layout(std430, set = 0, binding = HK_BINDING_VISIBILITY) readonly buffer PixelBuffer { uint64_t pixel_words[]; };
 layout(std430, set = 0, binding = HK_BINDING_SHADED) writeonly buffer ShadedBuffer { vec4 shaded[]; };
 // x: pixels whose fragments did not all fit their K slots.
 layout(std430, set = 0, binding = HK_BINDING_RASTER_COUNTERS) buffer Counters { uint counters[]; };
@@ -76,18 +76,18 @@ const uint MAX_SLOTS = 16u;
 #define ORDER_SLOTS(i, j) \
     { uint64_t nearer = min(s[i], s[j]); s[j] = max(s[i], s[j]); s[i] = nearer; }
 
-// A plain load of word i, before the sort writes the pixel's words (a load through the
-// read-only reference after a store through the binding could be reordered before it).
+// A plain load of word i.
 uint64_t load_pixel_word(uint i) {
     return LOAD_BY_ADDRESS != 0u ? PixelWordsRef(area.words_address).words[i] : pixel_words[i];
 }
 
-// Sorts the K > 1 slots of the pixel whose words start at `first` in place, nearest first (the
+// The K > 1 slots of the pixel whose words start at `first`, sorted nearest first into `s` (the
 // raster kernels leave them unordered): Batcher's odd-even merge sort of 4, 8 or 16 words
 // (5, 19 or 63 compare-exchanges), the slots past K empty, with constant indices only so that
-// the words stay in registers on CPU devices.
-void sort_slots(uint first, uint k) {
-    uint64_t s[MAX_SLOTS];
+// the words stay in registers on CPU devices; the pixel's words are left as they are (nothing
+// after this pass reads the slots: writing the sorted words back and reading them again were
+// two scattered accesses per slot).
+void sort_slots(uint first, uint k, out uint64_t s[MAX_SLOTS]) {
     [[unroll]] for (uint i = 0u; i < MAX_SLOTS; ++i) {
         s[i] = i < k ? load_pixel_word(first + i) : VISIBILITY_EMPTY;
     }
@@ -118,14 +118,21 @@ void sort_slots(uint first, uint k) {
         ORDER_SLOTS(1, 2); ORDER_SLOTS(3, 4); ORDER_SLOTS(5, 6); ORDER_SLOTS(7, 8);
         ORDER_SLOTS(9, 10); ORDER_SLOTS(11, 12); ORDER_SLOTS(13, 14);
     }
-    [[unroll]] for (uint i = 0u; i < MAX_SLOTS; ++i) {
-        if (i < k) {
-            pixel_words[first + i] = s[i];
-        }
-    }
 }
 
 // The material of the fragment being shaded (for shade_light_transmittance).
+// Sorted slot i (uniform across the invocations): a select per slot, as a dynamic index into
+// a private array is lane-by-lane work on CPU devices.
+uint64_t sorted_slot(uint64_t s[MAX_SLOTS], uint i) {
+    uint64_t word = VISIBILITY_EMPTY;
+    [[unroll]] for (uint j = 0u; j < MAX_SLOTS; ++j) {
+        if (j == i) {
+            word = s[j];
+        }
+    }
+    return word;
+}
+
 RasterMaterial shading_material;
 
 // The maps' light (occluders, and the hair unless the material's volume shadows it), times the
@@ -204,11 +211,12 @@ void main() {
     if (ONLY_MATERIAL != SEVERAL_MATERIALS) {
         m = frame.materials[ONLY_MATERIAL];
     }
+    uint64_t sorted[MAX_SLOTS];
     if (k > 1u) {
-        sort_slots(first, k);
+        sort_slots(first, k, sorted);
     }
     for (uint i = 0u; i < k; ++i) {
-        uint64_t word = paired ? pair.x : pixel_words[first + i];
+        uint64_t word = paired ? pair.x : k > 1u ? sorted_slot(sorted, i) : pixel_words[first];
         if (word == VISIBILITY_EMPTY) {
             break;
         }
@@ -229,7 +237,7 @@ void main() {
     float total = 1.0 - coverage_alpha(paired ? pair.y : pixel_words[first + k]);
     float tail = clamp(1.0 - total / max(transmittance, 1e-6), 0.0, 1.0);
     // (Slots fill in order: the last holds a fragment when all do.)
-    uint64_t farthest = paired ? pair.x : pixel_words[first + k - 1u];
+    uint64_t farthest = paired ? pair.x : k > 1u ? sorted_slot(sorted, k - 1u) : pixel_words[first];
     if (farthest != VISIBILITY_EMPTY && tail > 1.0 / 255.0) {
         atomicAdd(counters[0], 1u);
     }

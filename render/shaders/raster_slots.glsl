@@ -1,8 +1,8 @@
 // A character's strands in drawing order for the compute rasterizer's two phases
-// (raster_split.comp writes it, hair_raster.comp reads it). Each entry is a slot and the mask of
-// its strand's segments to walk in that phase (bit i * 32 / segments for segment i): the front
-// part holds the strands with segments that reached the last frame's image, walking just those
-// (or, with little history, every SPARSE_SLOT_STRIDE-th slot walking all of its segments); the
+// (raster_split.comp writes it, hair_raster.comp reads it). Each entry is a slot and its
+// strand's marks from the last frame (bit i * 32 / segments for segment i; all ones: drawn
+// whole): the front part holds the strands with segments that reached the last frame's image,
+// walking just those (or, with little history, every SPARSE_SLOT_STRIDE-th slot, whole); the
 // rest part every other strand, walking the segments the front part did not. Each part is in
 // slot order, with an indirect dispatch.
 #include "hk_render_contract.glsl"
@@ -12,11 +12,11 @@ layout(std430, set = 0, binding = HK_BINDING_RASTER_SLOTS) buffer SlotOrder {
     DispatchArgs rest_dispatch;  // over the rest
     uint front_count;
     uint rest_count;
-    uvec2 ordered_slots[];       // (slot, segments to walk): the front part, then the rest
+    uvec2 ordered_slots[];       // (slot, marks): the front part, then the rest
 };
 
-// The slot and segment mask of invocation `index` of the front (or rest) phase; false past the
-// part's end.
+// The slot and marks of invocation `index` of the front (or rest) phase; false past the part's
+// end.
 bool ordered_slot(bool front, uint index, out uint slot, out uint walk) {
     uint count = front ? front_count : rest_count;
     slot = 0u;

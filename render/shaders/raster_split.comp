@@ -6,7 +6,8 @@
 // frame's raster to set. The front part: every strand with marked segments, walking those;
 // when fewer strands are marked than the sparse subset holds (no history, or hair too thin to
 // hide much), every SPARSE_SLOT_STRIDE-th slot besides, walking all of its segments. The rest:
-// every other strand, walking the segments the front part does not. One workgroup, in slot
+// every other strand, walking the segments the front part does not (its entry carries the
+// same marks: hair_raster.comp reads them at the strand's vertex level this frame). One workgroup, in slot
 // order, as gen-gpu's scan: each invocation counts a contiguous run of slots, one scans the
 // 256 counts, each writes its run (two barriers whatever the slot count; the order, and so the
 // drawing, is the same in every run).
@@ -113,7 +114,7 @@ void main() {
             ordered_slots[sparse_at++] = uvec2(slot, 0xffffffffu);
         }
         if (in_rest(both, slot, m)) {
-            ordered_slots[rest_at++] = uvec2(slot, ~m);
+            ordered_slots[rest_at++] = uvec2(slot, m);
         }
         marks[slot] = 0u;
     }

@@ -202,8 +202,9 @@ pub(crate) struct CharacterOrder {
 
 /// A generated character's strands in the compute rasterizer's drawing order
 /// ([`crate::frame::SceneRenderer::strand_order`], `raster_slots.glsl`): per entry its slot and
-/// the mask of its segments walked (bit `i * 32 / segments` of segment `i`); the front phase's
-/// entries, then the rest's.
+/// its strand's marks from the last frame (bit `i * 32 / segments` of segment `i`; all ones:
+/// drawn whole) — the front phase walks the marked segments, the rest the others —; the front
+/// phase's entries, then the rest's.
 #[derive(Clone, Debug, Default, PartialEq, Eq)]
 pub struct StrandOrder {
     pub front: Vec<[u32; 2]>,
@@ -905,7 +906,7 @@ pub mod cpu {
         order.rest.extend(
             (0..slots)
                 .filter(|&s| marked(s) != u32::MAX && !(both && sparse_unmarked(s)))
-                .map(|s| [s as u32, !marked(s)]),
+                .map(|s| [s as u32, marked(s)]),
         );
         order
     }
@@ -1420,7 +1421,7 @@ mod tests {
         let order = slot_order(&[], 20, false);
         assert_eq!(order.front, vec![[0, u32::MAX], [8, u32::MAX], [16, u32::MAX]]);
         assert_eq!(order.rest.len(), 17);
-        assert!(order.rest.iter().all(|e| e[0] % 8 != 0 && e[1] == u32::MAX));
+        assert!(order.rest.iter().all(|e| e[0] % 8 != 0 && e[1] == 0));
         // Marks on three of 16 slots (one with every segment): more than 16 / 8, so they go
         // first alone, walking their marked segments; the rest walks the others, and a strand
         // marked whole has no rest entry.
@@ -1431,9 +1432,9 @@ mod tests {
         let order = slot_order(&marks, 16, true);
         assert_eq!(order.front, vec![[3, 0xff], [5, u32::MAX], [9, 0x8000_0001]]);
         assert_eq!(order.rest.len(), 15);
-        assert!(order.rest.contains(&[3, !0xff]) && order.rest.contains(&[9, 0x7fff_fffe]));
+        assert!(order.rest.contains(&[3, 0xff]) && order.rest.contains(&[9, 0x8000_0001]));
         assert!(!order.rest.iter().any(|e| e[0] == 5));
-        assert!(order.rest.contains(&[0, u32::MAX]));
+        assert!(order.rest.contains(&[0, 0]));
         // One marked strand of 16 (fewer than 16 / 8): the sparse slots join the front whole,
         // and leave the rest.
         let mut marks = vec![0u32; 16];

@@ -965,66 +965,89 @@ fn main() -> ExitCode {
             Requirements::INT64_ATOMICS,
             |ctx| {
                 // OIT (K > 1) draws the strand segments that reached the last frame's image first
-                // (raster_split.comp): only the order changes, so every frame of a renderer with
-                // it — the first (no depths to mark against), the second (marks, but no order from
-                // them yet), the later ones, and after the camera moved (an order from the other
-                // view) — must equal the same frame drawn with every eighth strand first. The
-                // order the GPU made must be the CPU port's from the marks the frame before left.
-                // (Verified to fail when the split drops a strand from the rest part, and when the
-                // front phase walks the unmarked segments too.)
+                // (raster_split.comp), generating only the points their vertices read: only the
+                // order changes, so every frame of a renderer with it — the first (no depths to
+                // mark against), the second (marks, but no order from them yet), the later ones,
+                // and after the camera moved (an order from the other view) — must equal the same
+                // frame drawn with every eighth strand first; once without LOD and once with a
+                // vertex LOD so strong that most strands morph between levels (whose end tangents
+                // read points four away) and change level when the camera moves (marks made at one
+                // level, read at another). The order the GPU made must be the CPU port's from the
+                // marks the frame before left. (Verified to fail when the split drops a strand from
+                // the rest part, when the front phase walks the unmarked segments too, when fewer
+                // points around the walked segments are evaluated, and, with the LOD, without the
+                // morphing's end points or with a segment partly marked at another level walked in
+                // both phases.)
                 let dir = tempfile::tempdir()?;
-                let effects = serde_json::json!({ "transparency": "oit", "oit_k": 4, "raster": "compute" });
-                let path = scene_with_edit(dir.path(), "one_character", 256, 192, effects, |json| {
-                    for c in json["characters"].as_array_mut().context("characters")? {
-                        c["style"] = serde_json::json!({ "width": 0.006 });
-                    }
-                    Ok(())
-                })?;
-                let scene = load_scene(&path)?;
-                let ordered = SceneRenderer::new(ctx, &scene, GenerationPath::Compute)?;
-                let sparse = SceneRenderer::new(ctx, &scene, GenerationPath::Compute)?.with_slot_order(false);
-                let eye = Vec3::from_array(scene.scene.camera.eye);
-                let moved = eye + Vec3::new(0.25, -0.05, 0.1);
-                let mut marks: Option<Vec<u32>> = None;
-                for (frame, at) in [eye, eye, eye, eye, moved, moved].into_iter().enumerate() {
-                    let a = ordered.render_from(ctx, at)?;
-                    let b = sparse.render_from(ctx, at)?;
-                    ensure!(
-                        a.passes.iter().any(|p| p.contains("visible last frame"))
-                            && b.passes.iter().all(|p| !p.contains("visible last frame")),
-                        "{:?}",
-                        a.passes
-                    );
-                    ensure!(a.linear == b.linear, "frame {frame}: the strand order changes the image");
-                    let order = ordered.strand_order(ctx, 0)?.context("an order")?;
-                    let slots = (a.stats.strands) as usize;
-                    ensure!(order.front.len() + order.rest.len() >= slots, "frame {frame}: strands left out");
-                    if let Some(before) = &marks {
-                        let port = cpu::slot_order(before, slots, frame >= 2);
-                        ensure!(order == port, "frame {frame}: the GPU's order is not the port's");
-                    }
-                    if let (3, Some(before)) = (frame, &marks) {
-                        // By now the front part is the marked strands alone (these wide strands
-                        // hide most of the hair: no sparse strands join them), each walking its
-                        // marked segments, and the rest walks the others.
-                        let marked = before[..slots].iter().filter(|&&m| m != 0).count();
-                        let whole = order.front.iter().filter(|e| e[1] == u32::MAX).count();
-                        eprintln!(
-                            "  frame {frame}: {} of {slots} strands first ({whole} with every segment), {} in the rest",
-                            order.front.len(),
-                            order.rest.len()
+                let strong_lod = serde_json::json!({ "enabled": true, "strand_alpha": 1, "vertex_alpha": 2000, "vertex_error_pixels": 0 });
+                for (name, lod) in [("no LOD", None), ("strong vertex LOD", Some(strong_lod))] {
+                    let effects =
+                        serde_json::json!({ "transparency": "oit", "oit_k": 4, "raster": "compute" });
+                    let path = scene_with_edit(dir.path(), "one_character", 256, 192, effects, |json| {
+                        for c in json["characters"].as_array_mut().context("characters")? {
+                            c["style"] = serde_json::json!({ "width": 0.006 });
+                        }
+                        if let Some(lod) = &lod {
+                            json["lod"] = lod.clone();
+                        }
+                        Ok(())
+                    })?;
+                    let scene = load_scene(&path)?;
+                    let ordered = SceneRenderer::new(ctx, &scene, GenerationPath::Compute)?;
+                    let sparse =
+                        SceneRenderer::new(ctx, &scene, GenerationPath::Compute)?.with_slot_order(false);
+                    let eye = Vec3::from_array(scene.scene.camera.eye);
+                    let moved = eye + Vec3::new(0.25, -0.05, 0.1);
+                    let mut marks: Option<Vec<u32>> = None;
+                    for (frame, at) in [eye, eye, eye, eye, moved, moved].into_iter().enumerate() {
+                        let a = ordered.render_from(ctx, at)?;
+                        let b = sparse.render_from(ctx, at)?;
+                        ensure!(
+                            a.passes.iter().any(|p| p.contains("visible last frame"))
+                                && b.passes.iter().all(|p| !p.contains("visible last frame")),
+                            "{:?}",
+                            a.passes
                         );
-                        ensure!(marked * 8 >= slots && order.front.len() == marked, "{marked} marked");
-                        ensure!(order.front.len() < slots, "every strand marked");
+                        ensure!(
+                            a.linear == b.linear,
+                            "{name}, frame {frame}: the strand order changes the image"
+                        );
+                        let order = ordered.strand_order(ctx, 0)?.context("an order")?;
+                        let slots = (a.stats.strands) as usize;
+                        ensure!(
+                            order.front.len() + order.rest.len() >= slots,
+                            "{name}, frame {frame}: strands left out"
+                        );
+                        if let Some(before) = &marks {
+                            let port = cpu::slot_order(before, slots, frame >= 2);
+                            ensure!(
+                                order == port,
+                                "{name}, frame {frame}: the GPU's order is not the port's"
+                            );
+                        }
+                        if let (3, Some(before)) = (frame, &marks) {
+                            // By now the front part is the marked strands alone (these wide strands
+                            // hide most of the hair: no sparse strands join them), each walking its
+                            // marked segments, and the rest walks the others.
+                            let marked = before[..slots].iter().filter(|&&m| m != 0).count();
+                            let whole = order.front.iter().filter(|e| e[1] == u32::MAX).count();
+                            eprintln!(
+                                "  {name}, frame {frame}: {} of {slots} strands first ({whole} with every segment), {} in the rest",
+                                order.front.len(),
+                                order.rest.len()
+                            );
+                            ensure!(marked * 8 >= slots && order.front.len() == marked, "{marked} marked");
+                            ensure!(order.front.len() < slots, "every strand marked");
+                        }
+                        marks = ordered.strand_marks(ctx, 0)?;
+                        ensure!(marks.is_some(), "marks after a frame");
                     }
-                    marks = ordered.strand_marks(ctx, 0)?;
-                    ensure!(marks.is_some(), "marks after a frame");
+                    ensure!(sparse.strand_order(ctx, 0)?.is_none(), "no order without it");
+                    render::output::write_png(
+                        &output_dir().join(format!("raster-slot-order-{}.png", name.replace(' ', "-"))),
+                        &sparse.render_from(ctx, moved)?.image,
+                    )?;
                 }
-                ensure!(sparse.strand_order(ctx, 0)?.is_none(), "no order without it");
-                render::output::write_png(
-                    &output_dir().join("raster-slot-order-moved.png"),
-                    &sparse.render_from(ctx, moved)?.image,
-                )?;
                 Ok(())
             },
         ),

@@ -102,8 +102,7 @@ pub(crate) fn plan_raster(
 
 pub(crate) fn plan_shade(g: &mut FrameGraph<ScenePass>, ids: &FrameIds, submission: usize) {
     g.pass("shade hair (compute raster)")
-        // It sorts each pixel's unordered slots in place (K > 1) before compositing them.
-        .write(ids.visibility, Access::ComputeWrite)
+        .read(ids.visibility, Access::ComputeRead)
         .read(ids.raster_frame, Access::ComputeRead)
         .reads(ids.compute_hair_shading_reads())
         .write(ids.shaded, Access::ComputeWrite)
