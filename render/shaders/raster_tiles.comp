@@ -7,15 +7,16 @@
 // the farthest over the 2×2 tiles it is the top left of: a column's test is then one load
 // (on CPU devices each lane's load is a scalar load; four per column were a sixth of the rest
 // phase's time). A third holds the farthest over the 3×3 tiles it is the top left of: a whole
-// segment's test (strand_raster.glsl segment_behind_tiles). Only the pixels of the hair's
-// screen rectangle are cleared each frame; the tiles read just those.
+// segment's test (strand_raster.glsl segment_behind_tiles). Two stages: the own words from the
+// pixels, then the squares' from the own words. Only the pixels of the hair's screen rectangle
+// are cleared each frame; the tiles read just those.
 #extension GL_GOOGLE_include_directive : require
 #include "raster_common.glsl"
 
 layout(local_size_x = 64) in;
 
 layout(std430, set = 0, binding = HK_BINDING_VISIBILITY) readonly buffer PixelBuffer { uint64_t pixel_words[]; };
-layout(std430, set = 0, binding = HK_BINDING_RASTER_TILES) writeonly buffer TileBuffer { uint tile_depth[]; };
+layout(std430, set = 0, binding = HK_BINDING_RASTER_TILES) buffer TileBuffer { uint tile_depth[]; };
 
 // render/src/raster.rs TilePush.
 layout(push_constant) uniform TileParams {
@@ -24,7 +25,7 @@ layout(push_constant) uniform TileParams {
     uint tiles_x;
     uint tiles_y;
     uint k;
-    uint pad0;
+    uint stage; // 0: each tile's own word; 1: its squares' words from the own words
     uint pad1;
     uint pad2;
     // The pixels the frame cleared (x0, y0, x1, y1; exclusive ends): the hair's screen
@@ -60,26 +61,36 @@ uint tile_farthest(uint tx, uint ty) {
     return farthest;
 }
 
+// Stage 1: tile (x, y)'s own word (stage 0), 0 outside the grid (no column reaches it).
+uint own_word(uint tx, uint ty) {
+    if (tx >= tiles.tiles_x || ty >= tiles.tiles_y) {
+        return 0u;
+    }
+    return tile_depth[RASTER_TILE_WORDS * (ty * tiles.tiles_x + tx)];
+}
+
 void main() {
     uint tile = gl_GlobalInvocationID.x;
     if (tile >= tiles.tiles_x * tiles.tiles_y) {
         return;
     }
     uvec2 t = uvec2(tile % tiles.tiles_x, tile / tiles.tiles_x);
-    uint own = tile_farthest(t.x, t.y);
+    if (tiles.stage == 0u) {
+        tile_depth[RASTER_TILE_WORDS * tile] = tile_farthest(t.x, t.y);
+        return;
+    }
+    uint own = own_word(t.x, t.y);
     uint square = own;
-    // The 2×2 square's other three (each read again by its own invocation: four times the
-    // reads, and no second dispatch or barrier).
+    // The 2×2 square's other three.
     for (uint n = 1u; n < 4u && square != 0xffffffffu; ++n) {
-        square = max(square, tile_farthest(t.x + (n & 1u), t.y + (n >> 1u)));
+        square = max(square, own_word(t.x + (n & 1u), t.y + (n >> 1u)));
     }
     // Then the 3×3 square's other five (the row and the column after the 2×2 square).
     uint wide = square;
     for (uint n = 0u; n < 5u && wide != 0xffffffffu; ++n) {
         uvec2 o = n < 3u ? uvec2(n, 2u) : uvec2(2u, n - 3u);
-        wide = max(wide, tile_farthest(t.x + o.x, t.y + o.y));
+        wide = max(wide, own_word(t.x + o.x, t.y + o.y));
     }
-    tile_depth[RASTER_TILE_WORDS * tile] = own;
     tile_depth[RASTER_TILE_WORDS * tile + 1u] = square;
     tile_depth[RASTER_TILE_WORDS * tile + 2u] = wide;
 }

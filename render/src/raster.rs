@@ -801,7 +801,9 @@ pub(crate) struct TilePush {
     /// Tiles per row and column ([`tile_grid`]).
     pub(crate) tiles: [u32; 2],
     pub(crate) k: u32,
-    pub(crate) pad: [u32; 3],
+    /// 0: each tile's own word from its pixels; 1: the squares' words from the own words.
+    pub(crate) stage: u32,
+    pub(crate) pad: [u32; 2],
     /// The cleared pixels ([`RasterBuffers::rect`]).
     pub(crate) rect: [u32; 4],
 }
