@@ -166,8 +166,14 @@ pub(crate) const SHADE_FINAL_DEPTH: u32 = 1;
 /// Bytes of a slot order's header (`raster_slots.glsl`): two indirect dispatches, the front
 /// part's length and a pad.
 pub(crate) const SLOT_ORDER_HEADER: u64 = 32;
-/// Bytes of a slot order's entry: the slot and the mask of its segments to walk.
+/// Bytes of a slot order's entry: the slot and its strand's marks.
 pub(crate) const SLOT_ORDER_ENTRY_BYTES: u64 = 8;
+/// What [`SlotOrderHistory`] keeps per strand slot: its marks and two order entries.
+pub(crate) const SLOT_ORDER_BYTES_PER_SLOT: u64 = 4 + 2 * SLOT_ORDER_ENTRY_BYTES;
+/// The most [`SlotOrderHistory`] keeps for a scene's characters' strand slots (3.3 M slots):
+/// the characters past it draw every eighth slot first, so the memory stays bounded whatever
+/// the strand count.
+pub const SLOT_ORDER_BUDGET_BYTES: u64 = 64 << 20;
 /// Where the rest part's indirect dispatch sits in a slot order.
 pub(crate) const SLOT_ORDER_REST_DISPATCH: u64 = 12;
 
@@ -211,6 +217,19 @@ pub struct StrandOrder {
     pub rest: Vec<[u32; 2]>,
 }
 
+/// Which of characters of `capacities` strand slots get a slot order: those, in scene order,
+/// whose history fits [`SLOT_ORDER_BUDGET_BYTES`] together with the ones before them.
+pub(crate) fn within_slot_order_budget(capacities: &[u64]) -> Vec<bool> {
+    let mut bytes = 0u64;
+    capacities
+        .iter()
+        .map(|&capacity| {
+            bytes = bytes.saturating_add(capacity.max(1).saturating_mul(SLOT_ORDER_BYTES_PER_SLOT));
+            bytes <= SLOT_ORDER_BUDGET_BYTES
+        })
+        .collect()
+}
+
 impl SlotOrderHistory {
     /// Makes the buffers for a `width × height` frame and characters of `capacities` slots
     /// where they are missing or too small (new ones have no history).
@@ -232,7 +251,13 @@ impl SlotOrderHistory {
             self.final_depth = Some((width, height, buffer, false));
         }
         self.characters.resize_with(capacities.len(), || None);
-        for (character, &capacity) in self.characters.iter_mut().zip(capacities) {
+        let within = within_slot_order_budget(capacities);
+        for ((character, &capacity), within) in self.characters.iter_mut().zip(capacities).zip(within) {
+            if !within {
+                // No entry: the character keeps the sparse front (record_raster falls back).
+                *character = None;
+                continue;
+            }
             if !matches!(character, Some(c) if c.capacity >= capacity) {
                 let slots = capacity.max(1);
                 let marks = ctx.create_buffer_with_data(
@@ -1416,6 +1441,20 @@ mod tests {
         let nan = (Vec3::splat(f32::NAN), Vec3::splat(f32::NAN));
         assert_eq!(screen_rect(view_proj(), 64, 32, [(Mat4::IDENTITY, nan)]), [0, 0, 64, 32]);
     }
+    #[test]
+    fn slot_orders_stay_within_their_budget() {
+        use super::{SLOT_ORDER_BUDGET_BYTES, SLOT_ORDER_BYTES_PER_SLOT, within_slot_order_budget};
+        let per = SLOT_ORDER_BUDGET_BYTES / SLOT_ORDER_BYTES_PER_SLOT;
+        // 40 % of the budget each: two fit, the third does not (nor a later small one: scene
+        // order, so which characters get one does not depend on what comes after them).
+        let c = per * 2 / 5;
+        assert_eq!(within_slot_order_budget(&[c, c, c, 1]), vec![true, true, false, false]);
+        assert_eq!(within_slot_order_budget(&[per]), vec![true]);
+        assert_eq!(within_slot_order_budget(&[per + 1]), vec![false]);
+        assert_eq!(within_slot_order_budget(&[u64::MAX, 1]), vec![false, false]);
+        assert!(within_slot_order_budget(&[]).is_empty());
+    }
+
     #[test]
     fn the_slot_order_puts_marked_segments_first() {
         use super::cpu::slot_order;
