@@ -170,9 +170,9 @@ pub(crate) const SLOT_ORDER_HEADER: u64 = 32;
 pub(crate) const SLOT_ORDER_ENTRY_BYTES: u64 = 8;
 /// What [`SlotOrderHistory`] keeps per strand slot: its marks and two order entries.
 pub(crate) const SLOT_ORDER_BYTES_PER_SLOT: u64 = 4 + 2 * SLOT_ORDER_ENTRY_BYTES;
-/// The most [`SlotOrderHistory`] keeps for a scene's characters' strand slots (3.3 M slots):
-/// the characters past it draw every eighth slot first, so the memory stays bounded whatever
-/// the strand count.
+/// The most the slot orders keep from frame to frame for a scene's characters' strand slots
+/// (3.3 M slots; `raster_split.comp`): the characters past it draw every eighth slot first, so
+/// the memory stays bounded whatever the strand count.
 pub const SLOT_ORDER_BUDGET_BYTES: u64 = 64 << 20;
 /// Where the rest part's indirect dispatch sits in a slot order.
 pub(crate) const SLOT_ORDER_REST_DISPATCH: u64 = 12;
@@ -459,7 +459,9 @@ impl ComputeRaster {
     /// The pipelines for a scene of `lights` lights (at most [`crate::scene::MAX_LIGHTS`]) and
     /// `materials` distinct hair materials, reading as `loads` says (buffer references only
     /// where the device has buffer device addresses: else through the bindings): the shade
-    /// kernel is specialized for the light count and for a single material.
+    /// kernel is specialized for the light count and for a single material, the fused raster
+    /// kernel with or without the code that takes a slot order and marks segments
+    /// (`slot_order`: scenes with more than one visibility slot per pixel; `raster_split.comp`).
     pub fn new(
         ctx: &Context,
         lights: usize,
