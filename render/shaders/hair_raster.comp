@@ -34,6 +34,13 @@ uint whole_segments(uint marks, uint bits) {
     return any;
 }
 
+// The mask bits of segment i of `segments` (a power of two <= 32): its 32 / segments bits, so
+// that a strand with every segment marked has all 32.
+uint segment_bits(uint i, uint segments) {
+    uint bits = 32u / segments;
+    return bits == 32u ? 0xffffffffu : ((1u << bits) - 1u) << (i * bits);
+}
+
 // Whether point j of a strand walk of `segments` segments is needed when the segments in
 // `walk` are walked (bit i * 32 / segments of segment i): it lies within two points of a
 // vertex of a walked segment (segments j - 3 .. j + 2), it is one of the first three (the end
@@ -44,11 +51,11 @@ bool point_needed(uint walk, uint j, uint segments) {
     if (walk == 0xffffffffu || j <= 2u) {
         return true;
     }
-    uint bits = 32u / segments;
-    uint first = bits == 32u ? 0xffffffffu : (1u << bits) - 1u;
-    if ((j == 4u && (walk & first) != 0u) || (j + 4u == segments && (walk & (first << (32u - bits))) != 0u)) {
+    if ((j == 4u && (walk & segment_bits(0u, segments)) != 0u) ||
+        (j + 4u == segments && (walk & segment_bits(segments - 1u, segments)) != 0u)) {
         return true;
     }
+    uint bits = 32u / segments;
     uint lo = (j - 3u) * bits;
     if (lo >= 32u) {
         return false;
@@ -105,11 +112,8 @@ void main() {
         uint k;
         if (strand_stream_step_needed(s, needed, v, k)) {
             RasterVertex next = raster_vertex(v);
-            // Segment k - 1's bits: its 32 / segments of the mask (segments is a power of two
-            // <= 32), so that a strand with every segment marked has all 32.
             if (SLOT_ORDER != 0u && k > 0u) {
-                uint bits = 32u / s.segments;
-                segment_bit = bits == 32u ? 0xffffffffu : ((1u << bits) - 1u) << ((k - 1u) * bits);
+                segment_bit = segment_bits(k - 1u, s.segments);
             }
             if (k > 0u && (SLOT_ORDER == 0u || (walk & segment_bit) != 0u)) {
                 raster_segment(previous, next, raster.material, random);

@@ -24,7 +24,7 @@ layout(push_constant) uniform Rect {
     uvec4 rect;
     uint k;
     uint flags;                      // bit 0: write final_depth (render/src/raster.rs SHADE_FINAL_DEPTH)
-    uint64_t words_address;          // the pixel words (read before the sort writes them)
+    uint64_t words_address;          // the pixel words
     uint64_t shadow_depth_address;
     uint64_t shadow_opacity_address;
     uint64_t occluder_depth_address;
@@ -53,8 +53,9 @@ layout(std430, set = 0, binding = HK_BINDING_VISIBILITY) readonly buffer PixelBu
 layout(std430, set = 0, binding = HK_BINDING_SHADED) writeonly buffer ShadedBuffer { vec4 shaded[]; };
 // x: pixels whose fragments did not all fit their K slots.
 layout(std430, set = 0, binding = HK_BINDING_RASTER_COUNTERS) buffer Counters { uint counters[]; };
-// Per pixel the depth bits of its K-th nearest fragment (all ones: fewer than K): what the next
-// frame's raster tests to mark the strands that reached the image (hair_raster.comp).
+// Per pixel the depth bits of its K-th nearest fragment (all ones: fewer than K; 0: the pixel is
+// not opaque): what the next frame's raster tests to mark the segments that reached the image
+// (hair_raster.comp).
 layout(std430, set = 0, binding = HK_BINDING_RASTER_FINAL_DEPTH) writeonly buffer FinalDepthBuffer { uint final_depth[]; };
 // The hair volumes (render/src/volume.rs), read for materials whose volume_info.y asks for AO
 // or volume shadows: AO per voxel, mean direction and σ per voxel, bricks.
@@ -120,7 +121,6 @@ void sort_slots(uint first, uint k, out uint64_t s[MAX_SLOTS]) {
     }
 }
 
-// The material of the fragment being shaded (for shade_light_transmittance).
 // Sorted slot i (uniform across the invocations): a select per slot, as a dynamic index into
 // a private array is lane-by-lane work on CPU devices.
 uint64_t sorted_slot(uint64_t s[MAX_SLOTS], uint i) {
@@ -133,6 +133,7 @@ uint64_t sorted_slot(uint64_t s[MAX_SLOTS], uint i) {
     return word;
 }
 
+// The material of the fragment being shaded (for shade_light_transmittance).
 RasterMaterial shading_material;
 
 // The maps' light (occluders, and the hair unless the material's volume shadows it), times the
@@ -234,7 +235,8 @@ void main() {
         transmittance *= 1.0 - alpha;
     }
     // Everything behind the slots: the pixel's whole transmittance over the slots'.
-    float total = 1.0 - coverage_alpha(paired ? pair.y : pixel_words[first + k]);
+    uint64_t cover = paired ? pair.y : pixel_words[first + k];
+    float total = 1.0 - coverage_alpha(cover);
     float tail = clamp(1.0 - total / max(transmittance, 1e-6), 0.0, 1.0);
     // (Slots fill in order: the last holds a fragment when all do.)
     uint64_t farthest = paired ? pair.x : k > 1u ? sorted_slot(sorted, k - 1u) : pixel_words[first];
@@ -243,7 +245,7 @@ void main() {
     }
     // 0 where the pixel is not opaque: no strand order closes its tile (hair_raster.comp
     // marks nothing there).
-    bool opaque = coverage_sum(paired ? pair.y : pixel_words[first + k]) >= COVERAGE_LIMIT;
+    bool opaque = coverage_sum(cover) >= COVERAGE_LIMIT;
     if ((area.flags & 1u) != 0u) {
         final_depth[pixel] = !opaque ? 0u : farthest == VISIBILITY_EMPTY ? 0xffffffffu : uint(farthest >> DEPTH_SHIFT);
     }

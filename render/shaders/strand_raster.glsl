@@ -58,7 +58,8 @@ layout(constant_id = HK_SLOT_ORDER_CONSTANT_ID) const uint SLOT_ORDER = 0u;
 
 // raster.flags: bit 0 (above); bit 1: the slots come from the character's slot order
 // (raster_split.comp: the strands visible last frame as the front phase, the others as the
-// rest) instead of the phase's slot subset; bit 2: mark the strands visible this frame.
+// rest) instead of the phase's slot subset; bit 2: mark the segments that reach the image
+// (RASTER_MARKS below).
 const uint RASTER_FLAG_SLOT_ORDER = 2u;
 const uint RASTER_FLAG_MARK = 4u;
 

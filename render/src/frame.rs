@@ -212,9 +212,9 @@ pub struct SceneRenderer {
     /// Compute rasterizer: draw in two phases around the occlusion tiles (the default) or every
     /// strand in one ([`Self::with_occlusion_tiles`]).
     pub(crate) occlusion_tiles: bool,
-    /// Compute rasterizer: the front phase draws each character's strands visible last frame
-    /// (with no history, every eighth slot) instead of every eighth slot
-    /// ([`Self::with_slot_order`]).
+    /// Compute rasterizer with OIT: the front phase draws each character's strand segments that
+    /// reached the last frame's image (with no history, every eighth slot) instead of every
+    /// eighth slot ([`Self::with_slot_order`]).
     pub(crate) slot_order: bool,
     /// Compute rasterizer: clip every character's segments to the view volume's depth, also
     /// where its bounds lie wholly inside it ([`Self::with_depth_clipping_everywhere`]).
@@ -878,9 +878,9 @@ impl SceneRenderer {
         self
     }
 
-    /// Compute rasterizer with occlusion tiles: `false` makes the front phase every eighth
-    /// strand slot of each character in every frame, instead of the strands visible in the last
-    /// frame (the image is the same; tests compare them).
+    /// Compute rasterizer with occlusion tiles and OIT: `false` makes the front phase every
+    /// eighth strand slot of each character in every frame, instead of the strand segments that
+    /// reached the last frame's image (the image is the same; tests compare them).
     pub fn with_slot_order(mut self, on: bool) -> Self {
         self.slot_order = on;
         self
@@ -1631,8 +1631,7 @@ impl SceneRenderer {
                 self.characters.iter().map(|c| self.hairs[c.hair].total_strands().max(1)).collect();
             slot_history.prepare(ctx, view.width, view.height, &capacities)?;
         }
-        // Whether this frame's raster marks strands: against depths a frame has written.
-        let marking = ordered && matches!(slot_history.final_depth, Some((_, _, _, true)));
+        let marking = ordered && slot_history.marking();
         let mut drawn = vec![false; self.characters.len()];
         let batch_count = plan.batches.len();
         for (k, batch) in plan.batches.iter().enumerate() {

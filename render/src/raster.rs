@@ -163,8 +163,8 @@ pub(crate) struct SplitPush {
 /// ([`SlotOrderHistory`]).
 pub(crate) const SHADE_FINAL_DEPTH: u32 = 1;
 
-/// Bytes of a slot order's header (`raster_slots.glsl`): two indirect dispatches, the front
-/// part's length and a pad.
+/// Bytes of a slot order's header (`raster_slots.glsl`): two indirect dispatches, the front and
+/// the rest part's lengths.
 pub(crate) const SLOT_ORDER_HEADER: u64 = 32;
 /// Bytes of a slot order's entry: the slot and its strand's marks.
 pub(crate) const SLOT_ORDER_ENTRY_BYTES: u64 = 8;
@@ -231,6 +231,16 @@ pub(crate) fn within_slot_order_budget(capacities: &[u64]) -> Vec<bool> {
 }
 
 impl SlotOrderHistory {
+    /// The last frame's depths per pixel, once made.
+    pub(crate) fn final_depth_buffer(&self) -> Option<&Buffer> {
+        self.final_depth.as_ref().map(|(_, _, buffer, _)| buffer)
+    }
+
+    /// Whether this frame's raster marks segments: against depths a frame has written.
+    pub(crate) fn marking(&self) -> bool {
+        matches!(self.final_depth, Some((_, _, _, true)))
+    }
+
     /// Makes the buffers for a `width × height` frame and characters of `capacities` slots
     /// where they are missing or too small (new ones have no history).
     pub(crate) fn prepare(
@@ -336,8 +346,8 @@ pub(crate) const FLAG_SCENE_DEPTH: u32 = 1;
 /// `RasterParams.flags`: the fused kernel takes its slots from the character's slot order
 /// (`raster_split.comp`: the strands visible last frame first) instead of the phase's subset.
 pub(crate) const FLAG_SLOT_ORDER: u32 = 2;
-/// `RasterParams.flags`: the fused kernel marks the strands with a fragment at or in front of
-/// their pixel's K-th nearest depth of the last frame ([`SlotOrderHistory`]).
+/// `RasterParams.flags`: the fused kernel marks the segments that reach the image
+/// (`strand_raster.glsl` `mark_segment`; [`SlotOrderHistory`]).
 pub(crate) const FLAG_MARK: u32 = 4;
 
 /// `RasterMaterial` of `raster_frame.glsl`.

@@ -224,11 +224,9 @@ pub(crate) fn record_raster(
         (binding::SCENE_DEPTH, depth),
         (binding::RASTER_TILES, &b.tiles),
     ];
-    // The last frame's depths, and whether the fused kernel marks against them (a frame has
-    // written them since they were made).
-    let final_depth = state.slot_history.and_then(|h| h.final_depth.as_ref());
-    let marking = final_depth.is_some_and(|(_, _, _, written)| *written);
-    let final_depth = final_depth.map_or(&cr.no_scene_depth, |(_, _, buffer, _)| buffer);
+    // The last frame's depths, and whether the fused kernel marks against them.
+    let marking = state.slot_history.is_some_and(|h| h.marking());
+    let final_depth = state.slot_history.and_then(|h| h.final_depth_buffer()).unwrap_or(&cr.no_scene_depth);
     let tiles_x = tile_grid(state.plan.view.width, state.plan.view.height).0;
     // Where the kernels' plain loads read through (0 when they read through the bindings:
     // unused, ComputeRaster::load_path).
@@ -310,11 +308,8 @@ pub(crate) fn record_shade(
     let (Some(cr), Some(b)) = (&r.compute_raster, state.raster) else { return Ok(()) };
     let l = state.lighting;
     // The K-th nearest depths for the next frame's slot order, where there is one.
-    let final_depth = state
-        .slot_history
-        .and_then(|h| h.final_depth.as_ref())
-        .filter(|_| r.raster_slot_order())
-        .map(|(_, _, buffer, _)| buffer);
+    let final_depth =
+        state.slot_history.and_then(|h| h.final_depth_buffer()).filter(|_| r.raster_slot_order());
     let buffers = [
         (binding::VISIBILITY, &b.pixel_words),
         (binding::RASTER_FRAME, &b.frame),
