@@ -182,7 +182,7 @@ void main() {
         return;
     }
     uint pixel = xy.y * frame.size.x + xy.x;
-    uint k = area.k;
+    uint k = visibility_slots(area.k);
     uint first = pixel_word(pixel, k, 0u);
     // Slots fill in order (the first empty one is the farthest an insertion replaces), so an
     // empty first slot is an empty pixel.

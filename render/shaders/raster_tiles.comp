@@ -46,16 +46,17 @@ uint tile_farthest(uint tx, uint ty) {
     if (any(lessThan(origin, tiles.rect.xy)) || any(greaterThan(end, tiles.rect.zw))) {
         return 0xffffffffu;
     }
+    uint k = visibility_slots(tiles.k);
     uint farthest = 0u;
     // Tiles over the image's edge count only their pixels inside it.
     for (uint y = origin.y; y < min(origin.y + 8u, tiles.height); ++y) {
         for (uint x = origin.x; x < min(origin.x + 8u, tiles.width); ++x) {
-            uint first = pixel_word(y * tiles.width + x, tiles.k, 0u);
-            bool opaque = coverage_sum(pixel_words[first + tiles.k]) >= COVERAGE_LIMIT;
+            uint first = pixel_word(y * tiles.width + x, k, 0u);
+            bool opaque = coverage_sum(pixel_words[first + k]) >= COVERAGE_LIMIT;
             if (!opaque) {
                 return 0xffffffffu;
             }
-            farthest = max(farthest, uint(pixel_words[threshold_word(first, tiles.k)] >> DEPTH_SHIFT));
+            farthest = max(farthest, uint(pixel_words[threshold_word(first, k)] >> DEPTH_SHIFT));
         }
     }
     return farthest;

@@ -53,8 +53,8 @@ layout(push_constant) uniform RasterParams {
 } raster;
 
 // Whether the kernel can take its slots from a slot order and mark segments (scenes with
-// K > 1; raster_split.comp): else the code for it is left out.
-layout(constant_id = HK_SLOT_ORDER_CONSTANT_ID) const uint SLOT_ORDER = 0u;
+// K > 1; raster_split.comp): else the code for it is left out (VISIBILITY_SLOTS below).
+const uint SLOT_ORDER = uint(VISIBILITY_SLOTS != 1u);
 
 // raster.flags: bit 0 (above); bit 1: the slots come from the character's slot order
 // (raster_split.comp: the strands visible last frame as the front phase, the others as the
@@ -232,7 +232,7 @@ void raster_fragment(uint pixel, float coverage, float ndc_z, inout ColumnAttrib
     if ((raster.flags & 1u) != 0u && !(ndc_z < load_scene_depth(pixel))) {
         return;
     }
-    uint k = raster.k;
+    uint k = visibility_slots(raster.k);
     uint first = pixel_word(pixel, k, 0u);
     // The test reads the pixel's coverage word and its threshold word; with K = 1 they sit side
     // by side and come through the reference in one 16-byte load (on CPU devices one address and

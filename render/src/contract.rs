@@ -218,10 +218,12 @@ pub const LOAD_BY_ADDRESS_CONSTANT_ID: u32 = 34;
 /// inside it (`raster::DepthClipping`, `strand_raster.glsl`).
 pub const DEPTH_CLIPPING_CONSTANT_ID: u32 = 35;
 
-/// Specialization constant of the compute rasterizer's fused-generation kernel: 1 when it can
-/// take its strands from a slot order and mark the segments that reach the image (scenes with
-/// more than one visibility slot per pixel: `raster_split.comp`), 0 when that code is left out.
-pub const SLOT_ORDER_CONSTANT_ID: u32 = 36;
+/// Specialization constant of the compute rasterizer's raster, tile and shade kernels: the
+/// visibility slots per pixel (K) of the frames they run in, or 0 for kernels that read K from
+/// their push constants (any K: the tests' stored-strand kernels). The fused-generation kernel
+/// compiles the code that takes its strands from a slot order and marks the segments that
+/// reach the image (`raster_split.comp`) unless K is 1 (`raster::ComputeRaster::new`).
+pub const VISIBILITY_SLOTS_CONSTANT_ID: u32 = 36;
 
 /// 32-bit words per 8×8 tile of the compute rasterizer's occlusion tiles (`raster_tiles.comp`
 /// writes them, `strand_raster.glsl` reads them): the farthest depth of the tile's own pixels,
@@ -248,7 +250,7 @@ pub const GLSL_CONSTANTS: &[(&str, u64)] = &[
     ("HK_ONLY_MATERIAL_CONSTANT_ID", ONLY_MATERIAL_CONSTANT_ID as u64),
     ("HK_LOAD_BY_ADDRESS_CONSTANT_ID", LOAD_BY_ADDRESS_CONSTANT_ID as u64),
     ("HK_DEPTH_CLIPPING_CONSTANT_ID", DEPTH_CLIPPING_CONSTANT_ID as u64),
-    ("HK_SLOT_ORDER_CONSTANT_ID", SLOT_ORDER_CONSTANT_ID as u64),
+    ("HK_VISIBILITY_SLOTS_CONSTANT_ID", VISIBILITY_SLOTS_CONSTANT_ID as u64),
 ];
 
 /// Every binding a render shader may use: the values of [`GLSL_DEFINES`] (all of which are

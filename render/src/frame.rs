@@ -723,7 +723,7 @@ impl SceneRenderer {
                 self.scene.lights().len(),
                 table.len(),
                 self.compute_raster_loads(),
-                self.raster_slots() > 1,
+                Some(self.frame_slots(ctx)),
             )?);
             self.raster_materials = table;
             self.character_materials = indices;
@@ -838,6 +838,16 @@ impl SceneRenderer {
         if effects.transparency == Transparency::Oit { effects.oit_k } else { 1 }
     }
 
+    /// The compute rasterizer's visibility slots per pixel in every frame: the scene's
+    /// ([`Self::raster_slots`]) as many as one storage buffer holds at its output size
+    /// ([`crate::raster::slots_within`]). Views are at most the output ([`Self::render_view`]),
+    /// so each frame's buffers hold exactly these, and the kernels are specialized for them.
+    fn frame_slots(&self, ctx: &Context) -> u32 {
+        let output = self.scene.scene.output;
+        let pixels = u64::from(output.width) * u64::from(output.height);
+        crate::raster::slots_within(self.raster_slots(), pixels, ctx.capabilities().max_storage_buffer_range)
+    }
+
     fn view(&self) -> FrameView {
         let c = &self.scene.scene.camera;
         self.view_from(Vec3::from_array(c.eye), Vec3::from_array(c.target))
@@ -868,7 +878,9 @@ impl SceneRenderer {
     /// scenes) it measured no faster than every eighth strand: their front phase closes the
     /// tiles already, and the rest then generates the marked strands a second time.
     pub(crate) fn raster_slot_order(&self) -> bool {
-        self.compute_raster.is_some() && self.occlusion_tiles && self.slot_order && self.raster_slots() > 1
+        let several_slots =
+            self.compute_raster.as_ref().and_then(ComputeRaster::slots).is_some_and(|k| k > 1);
+        several_slots && self.occlusion_tiles && self.slot_order
     }
 
     /// Compute rasterizer: `false` draws every strand in one dispatch instead of the front
@@ -926,7 +938,7 @@ impl SceneRenderer {
                 lights,
                 materials,
                 self.compute_raster_loads(),
-                self.raster_slots() > 1,
+                Some(self.frame_slots(ctx)),
             )?);
         }
         Ok(self)
@@ -1571,7 +1583,7 @@ impl SceneRenderer {
             _ => None,
         };
         let raster_buffers = match &self.compute_raster {
-            Some(_) => {
+            Some(cr) => {
                 let boxes = self
                     .characters
                     .iter()
@@ -1589,9 +1601,22 @@ impl SceneRenderer {
                     light_count: self.scene.lights().len(),
                     occluders: !self.occluders.is_empty(),
                     rect,
-                    k: self.raster_slots(),
+                    // What the kernels were specialized for (ComputeRaster::new): one storage
+                    // buffer holds that many at the output size, so at any view's.
+                    k: cr.slots().unwrap_or_else(|| self.frame_slots(ctx)),
                 };
-                Some(RasterBuffers::new(ctx, &mut pool, &desc)?)
+                let buffers = RasterBuffers::new(ctx, &mut pool, &desc)?;
+                if cr.slots().is_some_and(|k| k != buffers.k) {
+                    let k = buffers.k;
+                    buffers.give_back(&mut pool);
+                    return Err(RenderError::InvalidView {
+                        why: format!(
+                            "its pixel buffers hold {k} slots, not the {:?} the kernels expect",
+                            cr.slots()
+                        ),
+                    });
+                }
+                Some(buffers)
             }
             None => None,
         };

@@ -44,7 +44,7 @@ use glam::{Mat4, Vec3};
 use crate::contract::{
     DEPTH_CLIPPING_CONSTANT_ID, GENERATED_RASTER_BINDINGS, LOAD_BY_ADDRESS_CONSTANT_ID,
     ONLY_MATERIAL_CONSTANT_ID, RASTER_BINDINGS, RASTER_SHADE_BINDINGS, RASTER_SPLIT_BINDINGS,
-    RASTER_TILE_BINDINGS, RESOLVE_BINDINGS, SLOT_ORDER_CONSTANT_ID, scene_lights_constant,
+    RASTER_TILE_BINDINGS, RESOLVE_BINDINGS, VISIBILITY_SLOTS_CONSTANT_ID, scene_lights_constant,
 };
 use crate::graph::TransientPool;
 use crate::scene::{Effects, Raster};
@@ -463,21 +463,26 @@ pub struct ComputeRaster {
     /// single-phase dispatches (never read then).
     pub(crate) no_scene_depth: Buffer,
     loads: LoadPath,
+    /// The visibility slots per pixel the kernels were specialized for (`None`: any).
+    slots: Option<u32>,
 }
 
 impl ComputeRaster {
     /// The pipelines for a scene of `lights` lights (at most [`crate::scene::MAX_LIGHTS`]) and
     /// `materials` distinct hair materials, reading as `loads` says (buffer references only
     /// where the device has buffer device addresses: else through the bindings): the shade
-    /// kernel is specialized for the light count and for a single material, the fused raster
-    /// kernel with or without the code that takes a slot order and marks segments
-    /// (`slot_order`: scenes with more than one visibility slot per pixel; `raster_split.comp`).
+    /// kernel is specialized for the light count and for a single material; the raster, tile
+    /// and shade kernels for `slots` visibility slots per pixel when given (what every frame's
+    /// [`RasterBuffers`] then hold: the scene's, [`slots_within`] its output), else they take
+    /// it from their push constants (any K: [`Self::rasterize_stored_words`]). The fused
+    /// raster kernel compiles the code that takes a slot order and marks segments
+    /// (`raster_split.comp`) unless `slots` is 1.
     pub fn new(
         ctx: &Context,
         lights: usize,
         materials: usize,
         loads: LoadPath,
-        slot_order: bool,
+        slots: Option<u32>,
     ) -> gen_gpu::Result<Self> {
         let loads = if ctx.capabilities().buffer_device_address { loads } else { LoadPath::Bindings };
         let by_address = (LOAD_BY_ADDRESS_CONSTANT_ID, u32::from(loads == LoadPath::BufferReferences));
@@ -491,12 +496,12 @@ impl ComputeRaster {
             )
         };
         let push = size_of::<RasterPush>() as u32;
-        let ordered = (SLOT_ORDER_CONSTANT_ID, u32::from(slot_order));
+        let slot_count = (VISIBILITY_SLOTS_CONSTANT_ID, slots.unwrap_or(0));
         let variants = |name: &str, shader, bindings: &[u32]| -> gen_gpu::Result<ClippingVariants> {
             let strand = gen_gpu::strand_bindings(bindings);
             let variant = |clipping: DepthClipping, suffix| {
                 let clips = (DEPTH_CLIPPING_CONSTANT_ID, u32::from(clipping == DepthClipping::Clip));
-                compute(&format!("{name}{suffix}"), shader, &strand, push, &[by_address, clips, ordered])
+                compute(&format!("{name}{suffix}"), shader, &strand, push, &[by_address, clips, slot_count])
             };
             Ok(ClippingVariants {
                 clip: variant(DepthClipping::Clip, ", depth clipping")?,
@@ -520,8 +525,12 @@ impl ComputeRaster {
         let stage = vk::ShaderStageFlags::COMPUTE;
         let shade_bindings = Binding::storage_buffers(&RASTER_SHADE_BINDINGS, stage);
         let only_material = if materials == 1 { 0 } else { u32::MAX };
-        let specialization =
-            [scene_lights_constant(lights), (ONLY_MATERIAL_CONSTANT_ID, only_material), by_address];
+        let specialization = [
+            scene_lights_constant(lights),
+            (ONLY_MATERIAL_CONSTANT_ID, only_material),
+            by_address,
+            slot_count,
+        ];
         let shade = compute(
             "compute raster shade",
             &shaders::RASTER_SHADE_COMP,
@@ -534,7 +543,7 @@ impl ComputeRaster {
             &shaders::RASTER_TILES_COMP,
             &Binding::storage_buffers(&RASTER_TILE_BINDINGS, stage),
             size_of::<TilePush>() as u32,
-            &[],
+            &[slot_count],
         )?;
         let resolve = compute(
             "compute raster resolve",
@@ -544,12 +553,18 @@ impl ComputeRaster {
             &[by_address],
         )?;
         let no_scene_depth = Buffer::new(ctx, "no scene depth", BufferDesc::storage(16))?;
-        Ok(Self { raster, raster_stored, split, shade, tiles, resolve, no_scene_depth, loads })
+        Ok(Self { raster, raster_stored, split, shade, tiles, resolve, no_scene_depth, loads, slots })
     }
 
     /// How the kernels read: what [`Self::new`] was asked for where the device allows it.
     pub fn load_path(&self) -> LoadPath {
         self.loads
+    }
+
+    /// The visibility slots per pixel the kernels were specialized for ([`Self::new`]; `None`:
+    /// any).
+    pub fn slots(&self) -> Option<u32> {
+        self.slots
     }
 
     /// `address` (a device address) for a kernel's push constants when the kernels read
@@ -613,6 +628,14 @@ impl ComputeRaster {
         let pixels = u64::from(width) * u64::from(height);
         let transfer = vk::BufferUsageFlags::TRANSFER_DST | vk::BufferUsageFlags::TRANSFER_SRC;
         let bytes = pixels * pixel_stride(k) * 8;
+        if self.slots.is_some_and(|slots| slots != k) {
+            return Err(gen_gpu::GpuError::BadUpload {
+                name: "visibility + coverage".into(),
+                offset: 0,
+                size: bytes,
+                why: "not the slot count the kernels were specialized for",
+            });
+        }
         let desc = BufferDesc::storage(bytes).usage(transfer);
         let words = match initial {
             Some(initial) if initial.len() as u64 * 8 != bytes => {

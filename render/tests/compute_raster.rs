@@ -148,10 +148,17 @@ struct KernelPair {
 }
 
 impl KernelPair {
+    /// Kernels for any number of visibility slots (they read K from their push constants).
     fn new(ctx: &gen_gpu::Context) -> anyhow::Result<Self> {
+        Self::specialized(ctx, None)
+    }
+
+    /// Kernels specialized for `slots` visibility slots per pixel as frames make them (`None`:
+    /// any).
+    fn specialized(ctx: &gen_gpu::Context, slots: Option<u32>) -> anyhow::Result<Self> {
         let pair = Self {
-            referenced: ComputeRaster::new(ctx, 1, 1, LoadPath::BufferReferences, false)?,
-            bound: ComputeRaster::new(ctx, 1, 1, LoadPath::Bindings, false)?,
+            referenced: ComputeRaster::new(ctx, 1, 1, LoadPath::BufferReferences, slots)?,
+            bound: ComputeRaster::new(ctx, 1, 1, LoadPath::Bindings, slots)?,
         };
         let wanted = if ctx.capabilities().buffer_device_address {
             LoadPath::BufferReferences
@@ -734,6 +741,23 @@ fn main() -> ExitCode {
                 })
                 .collect();
             dense_opaque_vs_port(ctx, &rasters, &inputs, &disc)?;
+            // Kernels specialized for K as frames make them (the loops over the slots of known
+            // length, the code for other K left out) keep the same K nearest, and refuse other
+            // slot counts.
+            let eight = KernelPair::specialized(ctx, Some(8))?;
+            ensure!(eight.referenced.slots() == Some(8), "specialized for 8 slots");
+            k_nearest_vs_port(ctx, &eight, &inputs, &strands, 8)?;
+            k_nearest_vs_port(ctx, &eight, &inputs, &spot, 8)?;
+            let (_, stored) = upload_together(ctx, &inputs, &strands)?;
+            ensure!(
+                eight
+                    .referenced
+                    .rasterize_stored_words(ctx, &stored, &inputs, Mat4::IDENTITY, 3, 4, None, None)
+                    .is_err(),
+                "a kernel specialized for 8 slots must refuse buffers of 4"
+            );
+            let one = KernelPair::specialized(ctx, Some(1))?;
+            dense_opaque_vs_port(ctx, &one, &inputs, &disc)?;
             Ok(())
         }),
         GpuTest::new(
