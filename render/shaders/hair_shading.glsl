@@ -61,10 +61,13 @@ vec3 hair_light(uint i, vec3 p, vec3 t, vec3 n, vec3 v, vec3 t1, vec3 t2, vec3 b
     return lights[i].color.rgb * HAIR_LIGHT_TRANSMITTANCE(i, p) * (diffuse + primary + secondary);
 }
 
-// Premultiplied colour of one hair sample; alpha is its coverage times the strand opacity.
-vec4 shade_hair(HairSample s, HairMaterial m) {
-    vec3 p = (m.model * vec4(s.position, 1.0)).xyz;
-    vec3 t = normalize(mat3(m.model) * s.tangent);
+// Premultiplied colour of one hair sample whose position and tangent are in world space (m's
+// model matrix unused); alpha is its coverage times the strand opacity. The compute
+// rasterizer's shade pass rebuilds world positions: an identity model matrix would still cost
+// two matrix products per fragment there (a product by 0 or 1 is not folded away).
+vec4 shade_hair_world(HairSample s, HairMaterial m) {
+    vec3 p = s.position;
+    vec3 t = normalize(s.tangent);
     vec3 v = normalize(m.eye - p);
     // A normal for the strip: the view direction made perpendicular to the strand.
     vec3 n = normalize(v - t * dot(t, v) + vec3(1e-6));
@@ -84,4 +87,12 @@ vec4 shade_hair(HairSample s, HairMaterial m) {
     color *= clamp(s.occlusion, 0.0, 1.0);
     float alpha = clamp(s.coverage, 0.0, 1.0) * m.opacity;
     return vec4(color * alpha, alpha);
+}
+
+// Premultiplied colour of one hair sample in the character's object space (shade_hair_world
+// after m's model matrix).
+vec4 shade_hair(HairSample s, HairMaterial m) {
+    s.position = (m.model * vec4(s.position, 1.0)).xyz;
+    s.tangent = mat3(m.model) * s.tangent;
+    return shade_hair_world(s, m);
 }

@@ -162,16 +162,23 @@ float ambient_occlusion(RasterMaterial m, vec3 p) {
     return volume_ao_sample(m.volume, (m.world_to_voxel * vec4(p, 1.0)).xyz);
 }
 
-vec3 shade_fragment(VisibleFragment f, vec2 ndc, RasterMaterial m) {
+// The pixel's ray: its unit direction from the eye, over its cosine with the view direction
+// (a point at view depth w lies w times this from the eye). Once per pixel, for all its
+// fragments.
+vec3 pixel_ray(vec2 ndc) {
     vec4 far_point = frame.inv_view_proj * vec4(ndc, 1.0, 1.0);
     vec3 ray = normalize(far_point.xyz / far_point.w - frame.eye.xyz);
-    vec3 position = frame.eye.xyz + ray * (f.w / max(dot(ray, frame.forward.xyz), 1e-6));
+    return ray / max(dot(ray, frame.forward.xyz), 1e-6);
+}
+
+vec3 shade_fragment(VisibleFragment f, vec3 ray, RasterMaterial m) {
+    vec3 position = frame.eye.xyz + ray * f.w;
     // Shaded at full coverage: compositing applies the alpha.
     HairSample s = HairSample(position, f.tau, f.tangent, f.random, 1.0, ambient_occlusion(m, position));
     shading_material = m;
     HairMaterial material = HairMaterial(mat4(1.0), frame.eye.xyz, uint(frame.eye.w), m.hair_color,
                                          m.specular_shift, m.specular_strength, 1.0);
-    return shade_hair(s, material).rgb;
+    return shade_hair_world(s, material).rgb;
 }
 
 void main() {
@@ -199,7 +206,7 @@ void main() {
         }
         return;
     }
-    vec2 ndc = (vec2(xy) + 0.5) / vec2(frame.size.xy) * 2.0 - 1.0;
+    vec3 ray = pixel_ray((vec2(xy) + 0.5) / vec2(frame.size.xy) * 2.0 - 1.0);
     vec3 color = vec3(0.0);
     float transmittance = 1.0;
     vec3 last = vec3(0.0);
@@ -230,7 +237,7 @@ void main() {
             m = frame.materials[min(material, MAX_MATERIALS - 1u)];
         }
         float alpha = min(f.coverage * m.opacity.x, MAX_FRAGMENT_COVERAGE);
-        last = shade_fragment(f, ndc, m);
+        last = shade_fragment(f, ray, m);
         color += transmittance * alpha * last;
         transmittance *= 1.0 - alpha;
     }
