@@ -372,10 +372,36 @@ void raster_segment(RasterVertex a, RasterVertex b, uint material, float random)
     float inv_wp = p.inv_w;
     float inv_wq = q.inv_w;
 #ifndef SHADOW_RASTER
-    if (raster.phase == SLOT_SUBSET_REMAINDER && first <= last &&
-        segment_behind_tiles(first, last, a_major, a_minor, inv_d_major, d_minor, max(hp, hq) * stretch,
-                             max(inv_wp, inv_wq), x_major, size_minor)) {
-        return;
+    if (raster.phase == SLOT_SUBSET_REMAINDER && first <= last) {
+        float h_max = max(hp, hq) * stretch;
+        if (segment_behind_tiles(first, last, a_major, a_minor, inv_d_major, d_minor, h_max, max(inv_wp, inv_wq),
+                                 x_major, size_minor)) {
+            return;
+        }
+        // Then its ends a tile's length of columns at a time, each against its own box and its
+        // own nearest depth (1 / w is linear along the segment: the larger 1 / w of the
+        // chunk's end columns, as the walk computes them), while they lie behind the tiles: a
+        // segment that comes out of the hair's surface is walked only where it does.
+        while (last - first >= int(TILE_SIZE)) {
+            int end = first + int(TILE_SIZE) - 1;
+            float near_first = mix(inv_wp, inv_wq, (float(first) + 0.5 - a_major) * inv_d_major);
+            float near_end = mix(inv_wp, inv_wq, (float(end) + 0.5 - a_major) * inv_d_major);
+            if (!segment_behind_tiles(first, end, a_major, a_minor, inv_d_major, d_minor, h_max,
+                                      max(near_first, near_end), x_major, size_minor)) {
+                break;
+            }
+            first = end + 1;
+        }
+        while (last - first >= int(TILE_SIZE)) {
+            int start = last - int(TILE_SIZE) + 1;
+            float near_start = mix(inv_wp, inv_wq, (float(start) + 0.5 - a_major) * inv_d_major);
+            float near_last = mix(inv_wp, inv_wq, (float(last) + 0.5 - a_major) * inv_d_major);
+            if (!segment_behind_tiles(start, last, a_major, a_minor, inv_d_major, d_minor, h_max,
+                                      max(near_start, near_last), x_major, size_minor)) {
+                break;
+            }
+            last = start - 1;
+        }
     }
 #endif
     float zp = p.z;

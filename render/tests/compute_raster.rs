@@ -952,17 +952,32 @@ fn main() -> ExitCode {
             // segments behind them (segment_behind_tiles): without the tiles every fragment is
             // drawn, and the images must be the same. (Verified to fail when the segment test
             // skips behind any closed square whatever its depth; the small crowd's and Sintel's
-            // sub-pixel strands close too few tiles to tell.)
+            // sub-pixel strands close too few tiles to tell.) Also with a strong vertex LOD,
+            // whose few long segments (up to about 40 pixels here) reach out of the hair's
+            // surface: the rest phase trims their ends a tile's length at a time where they lie
+            // behind the tiles (verified to fail when the trimmed chunks' depth is taken 10 %
+            // too far).
             let dir = tempfile::tempdir()?;
-            for transparency in ["opaque", "oit"] {
+            let strong_lod = serde_json::json!({ "enabled": true, "strand_alpha": 1, "vertex_alpha": 2000, "vertex_error_pixels": 0 });
+            for (transparency, lod) in
+                [("opaque", None), ("oit", None), ("opaque", Some(&strong_lod)), ("oit", Some(&strong_lod))]
+            {
                 let effects =
                     serde_json::json!({ "transparency": transparency, "oit_k": 4, "raster": "compute" });
                 let path = scene_with_edit(dir.path(), "one_character", 256, 192, effects, |json| {
                     for c in json["characters"].as_array_mut().context("characters")? {
                         c["style"] = serde_json::json!({ "width": 0.006 });
                     }
+                    if let Some(lod) = lod {
+                        json["lod"] = lod.clone();
+                    }
                     Ok(())
                 })?;
+                let transparency = if lod.is_some() {
+                    format!("{transparency}, strong vertex LOD")
+                } else {
+                    transparency.to_owned()
+                };
                 let scene = load_scene(&path)?;
                 let (tiled, single) = with_and_without_tiles(ctx, &scene)?;
                 ensure!(
@@ -972,7 +987,10 @@ fn main() -> ExitCode {
                     tiled.passes
                 );
                 render::output::write_png(
-                    &output_dir().join(format!("raster-wide-close-up-{transparency}.png")),
+                    &output_dir().join(format!(
+                        "raster-wide-close-up-{}.png",
+                        transparency.replace(", strong vertex LOD", "-lod")
+                    )),
                     &tiled.image,
                 )?;
                 // Dense hair: most of the frame opaque.
