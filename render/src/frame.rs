@@ -1606,13 +1606,12 @@ impl SceneRenderer {
                     k: cr.slots().unwrap_or_else(|| self.frame_slots(ctx)),
                 };
                 let buffers = RasterBuffers::new(ctx, &mut pool, &desc)?;
-                if cr.slots().is_some_and(|k| k != buffers.k) {
+                if let Some(expected) = cr.slots().filter(|&k| k != buffers.k) {
                     let k = buffers.k;
                     buffers.give_back(&mut pool);
                     return Err(RenderError::InvalidView {
                         why: format!(
-                            "its pixel buffers hold {k} slots, not the {:?} the kernels expect",
-                            cr.slots()
+                            "its pixel buffers hold {k} slots, not the {expected} the kernels expect"
                         ),
                     });
                 }
