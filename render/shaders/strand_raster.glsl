@@ -317,6 +317,17 @@ bool segment_behind_tiles(int first, int last, float a_major, float a_minor, flo
 }
 #endif
 
+#ifndef SHADOW_RASTER
+// The larger 1 / w of columns c0 and c1 of a segment (its ends' 1 / w, the columns' centres
+// i + 0.5 along the major axis from a_major), computed as the walk computes each column's:
+// 1 / w is linear along the segment, so no column between them lies nearer.
+float columns_nearest_inv_w(int c0, int c1, float a_major, float inv_d_major, float inv_wp, float inv_wq) {
+    float at_c0 = mix(inv_wp, inv_wq, (float(c0) + 0.5 - a_major) * inv_d_major);
+    float at_c1 = mix(inv_wp, inv_wq, (float(c1) + 0.5 - a_major) * inv_d_major);
+    return max(at_c0, at_c1);
+}
+#endif
+
 void raster_segment(RasterVertex a, RasterVertex b, uint material, float random) {
     RasterVertex p = a;
     RasterVertex q = b;
@@ -384,20 +395,18 @@ void raster_segment(RasterVertex a, RasterVertex b, uint material, float random)
         // segment that comes out of the hair's surface is walked only where it does.
         while (last - first >= int(TILE_SIZE)) {
             int end = first + int(TILE_SIZE) - 1;
-            float near_first = mix(inv_wp, inv_wq, (float(first) + 0.5 - a_major) * inv_d_major);
-            float near_end = mix(inv_wp, inv_wq, (float(end) + 0.5 - a_major) * inv_d_major);
-            if (!segment_behind_tiles(first, end, a_major, a_minor, inv_d_major, d_minor, h_max,
-                                      max(near_first, near_end), x_major, size_minor)) {
+            float nearest = columns_nearest_inv_w(first, end, a_major, inv_d_major, inv_wp, inv_wq);
+            if (!segment_behind_tiles(first, end, a_major, a_minor, inv_d_major, d_minor, h_max, nearest, x_major,
+                                      size_minor)) {
                 break;
             }
             first = end + 1;
         }
         while (last - first >= int(TILE_SIZE)) {
             int start = last - int(TILE_SIZE) + 1;
-            float near_start = mix(inv_wp, inv_wq, (float(start) + 0.5 - a_major) * inv_d_major);
-            float near_last = mix(inv_wp, inv_wq, (float(last) + 0.5 - a_major) * inv_d_major);
-            if (!segment_behind_tiles(start, last, a_major, a_minor, inv_d_major, d_minor, h_max,
-                                      max(near_start, near_last), x_major, size_minor)) {
+            float nearest = columns_nearest_inv_w(start, last, a_major, inv_d_major, inv_wp, inv_wq);
+            if (!segment_behind_tiles(start, last, a_major, a_minor, inv_d_major, d_minor, h_max, nearest, x_major,
+                                      size_minor)) {
                 break;
             }
             last = start - 1;

@@ -973,10 +973,9 @@ fn main() -> ExitCode {
                     }
                     Ok(())
                 })?;
-                let transparency = if lod.is_some() {
-                    format!("{transparency}, strong vertex LOD")
-                } else {
-                    transparency.to_owned()
+                let (what, file) = match lod {
+                    Some(_) => (format!("{transparency}, strong vertex LOD"), format!("{transparency}-lod")),
+                    None => (transparency.to_owned(), transparency.to_owned()),
                 };
                 let scene = load_scene(&path)?;
                 let (tiled, single) = with_and_without_tiles(ctx, &scene)?;
@@ -987,17 +986,14 @@ fn main() -> ExitCode {
                     tiled.passes
                 );
                 render::output::write_png(
-                    &output_dir().join(format!(
-                        "raster-wide-close-up-{}.png",
-                        transparency.replace(", strong vertex LOD", "-lod")
-                    )),
+                    &output_dir().join(format!("raster-wide-close-up-{file}.png")),
                     &tiled.image,
                 )?;
                 // Dense hair: most of the frame opaque.
-                ensure!(mean_alpha(&tiled) > 0.4, "{transparency}: mean alpha {}", mean_alpha(&tiled));
+                ensure!(mean_alpha(&tiled) > 0.4, "{what}: mean alpha {}", mean_alpha(&tiled));
                 ensure!(
                     tiled.linear == single.linear,
-                    "{transparency}: skipping segments behind the occlusion tiles changes the image"
+                    "{what}: skipping segments behind the occlusion tiles changes the image"
                 );
             }
             Ok(())
