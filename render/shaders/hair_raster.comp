@@ -65,6 +65,20 @@ bool point_needed(uint walk, uint j, uint segments) {
     return (walk & range) != 0u;
 }
 
+// The strand a bundle's local slot j draws (a bijection of the bundle's n live strands): its
+// sparse slots (every SPARSE_SLOT_STRIDE-th of all, the front phase's) take the bundle's first
+// strands, whose roots are a blue-noise subset of its root set (any prefix of it is), and the
+// others the rest in order.
+uint front_first_strand(uint j, uint offset, uint n) {
+    uint r = (SPARSE_SLOT_STRIDE - offset % SPARSE_SLOT_STRIDE) % SPARSE_SLOT_STRIDE;
+    uint sparse = n > r ? (n - r + SPARSE_SLOT_STRIDE - 1u) / SPARSE_SLOT_STRIDE : 0u;
+    if (j >= r && (j - r) % SPARSE_SLOT_STRIDE == 0u) {
+        return (j - r) / SPARSE_SLOT_STRIDE;
+    }
+    uint before = j > r ? (j - r + SPARSE_SLOT_STRIDE - 1u) / SPARSE_SLOT_STRIDE : 0u;
+    return sparse + j - before;
+}
+
 void main() {
     // The phase's slots, one per invocation: from the character's slot order with the strand's
     // marks (dispatched with its arguments, raster_split.comp), or the phase's slot subset,
@@ -80,8 +94,8 @@ void main() {
         return;
     }
     uint bundle = slot_bundle(slot);
-    uint strand = slot - offsets[bundle];
     BundleLod l = lods[bundle];
+    uint strand = front_first_strand(slot - offsets[bundle], offsets[bundle], l.strands);
     // Every strand from its control data, short ones too: the generator samples strands of
     // fewer than 17 vertices per vertex (so its compute and mesh paths agree), which equals this
     // to f32 rounding and costs more (measured: the LOD'd crowd 15 % faster this way).
