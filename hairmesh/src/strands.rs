@@ -42,6 +42,18 @@ pub struct StrandSet {
 }
 
 impl StrandSet {
+    /// Generated strands (the CPU reference's, `HairAsset::generate_reference`) as a strand set
+    /// in f32, strand after strand: what a stored-strand renderer draws in their place.
+    pub fn from_reference(strands: &[crate::reference::Strand]) -> Self {
+        Self {
+            format: "hairkit reference strands".into(),
+            points: strands.iter().flat_map(|s| s.positions.iter().map(|p| p.as_vec3())).collect(),
+            strand_points: strands.iter().map(|s| s.positions.len() as u32).collect(),
+            thickness: None,
+            root_uv: None,
+        }
+    }
+
     pub fn strand_count(&self) -> usize {
         self.strand_points.len()
     }

@@ -184,3 +184,26 @@ fn sintel_roots_match_the_artist_groom() {
 
 /// The documented Sintel scalp selection (README).
 const SINTEL_SCALP: &str = "above:0,0.9138,-0.4061,32";
+
+#[test]
+fn reference_strands_become_a_strand_set_in_order() {
+    use glam::{DVec3, Vec3};
+    use hairmesh::reference::Strand;
+    use hairmesh::strands::StrandSet;
+    let strand = |index: u32, points: &[[f64; 3]]| Strand {
+        bundle: 0,
+        index,
+        positions: points.iter().map(|&p| DVec3::from(p)).collect(),
+        tangents: vec![DVec3::Y; points.len()],
+        widths: vec![0.001; points.len()],
+    };
+    let set = StrandSet::from_reference(&[
+        strand(0, &[[0.0, 0.0, 0.0], [0.0, 1.0, 0.0]]),
+        strand(1, &[[1.0, 0.0, 0.0], [1.0, 0.5, 0.0], [1.0, 1.0, 0.25]]),
+    ]);
+    assert_eq!(set.strand_points, vec![2, 3]);
+    assert_eq!(set.strand_count(), 2);
+    assert_eq!(set.points[4], Vec3::new(1.0, 1.0, 0.25));
+    assert_eq!(set.roots(), vec![Vec3::ZERO, Vec3::X]);
+    assert!(set.thickness.is_none() && set.root_uv.is_none());
+}

@@ -576,13 +576,7 @@ fn fused_against_stored(ctx: &gen_gpu::Context) -> anyhow::Result<()> {
     let lod_off =
         hairmesh::reference::LodParams { enabled: false, ..hairmesh::reference::LodParams::default() };
     let reference = hair.generate_reference(&inputs.view, &lod_off);
-    let set = hairmesh::strands::StrandSet {
-        format: "hairkit reference strands".into(),
-        points: reference.iter().flat_map(|s| s.positions.iter().map(|p| p.as_vec3())).collect(),
-        strand_points: reference.iter().map(|s| s.positions.len() as u32).collect(),
-        thickness: None,
-        root_uv: None,
-    };
+    let set = hairmesh::strands::StrandSet::from_reference(&reference);
     let json = serde_json::json!({
         "output": { "width": width, "height": height },
         "camera": { "eye": eye.to_array(), "target": [0.0, 1.55, 0.0], "fov_y_degrees": 45 },

@@ -647,13 +647,7 @@ fn stored_compute_raster_table(
         let inputs = gen_gpu::FrameInputs::looking_at(&hair, camera.eye, width, height);
         let reference =
             hair.generate_reference(&inputs.view, &LodParams { enabled: false, ..LodParams::default() });
-        let set = hairmesh::strands::StrandSet {
-            format: "hairkit reference strands".into(),
-            points: reference.iter().flat_map(|s| s.positions.iter().map(|p| p.as_vec3())).collect(),
-            strand_points: reference.iter().map(|s| s.positions.len() as u32).collect(),
-            thickness: None,
-            root_uv: None,
-        };
+        let set = hairmesh::strands::StrandSet::from_reference(&reference);
         let width_at_root = hair.style.width as f32;
         // A warmed-up renderer per kind; their frames alternate, so drift of the machine's speed
         // falls on both alike.
