@@ -267,14 +267,7 @@ void raster_fragment(uint pixel, float coverage, float ndc_z, inout ColumnAttrib
             claim_and_cover(first, k, v, add);
             return;
         }
-        if (k == 1u) {
-            // The slot word is the threshold just loaded: no second load before the atomic.
-            if (v < threshold) {
-                atomicMin(pixel_words[first], v);
-            }
-        } else {
-            insert_visibility(first, k, v);
-        }
+        insert_visibility(first, k, v);
     }
     if (add > 0u) {
         atomicAdd(pixel_words[first + k], ~uint64_t(add) + 1UL);
