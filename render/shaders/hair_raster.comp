@@ -65,18 +65,24 @@ bool point_needed(uint walk, uint j, uint segments) {
     return (walk & range) != 0u;
 }
 
-// The strand a bundle's local slot j draws (a bijection of the bundle's n live strands): its
-// sparse slots (every SPARSE_SLOT_STRIDE-th of all, the front phase's) take the bundle's first
-// strands, whose roots are a blue-noise subset of its root set (any prefix of it is), and the
-// others the rest in order.
-uint front_first_strand(uint j, uint offset, uint n) {
+// The strand a bundle's local slot j draws (NO_STRAND: none) in the phase whose strand part is
+// `part` (render/src/raster.rs RasterPhase), over the bundle's n live strands, m of whose slots
+// are sparse (every SPARSE_SLOT_STRIDE-th of all): its sparse slots take its first m strands in
+// part 0 (the front phase; their roots are a blue-noise subset of its root set, as any prefix
+// of it is) and the next m in part 1; its other slots the strands after the `part` fronts drawn
+// before them, in order. Over the phases of a frame every strand is drawn once.
+const uint NO_STRAND = 0xffffffffu;
+uint front_first_strand(uint j, uint offset, uint n, uint part) {
     uint r = (SPARSE_SLOT_STRIDE - offset % SPARSE_SLOT_STRIDE) % SPARSE_SLOT_STRIDE;
     uint sparse = n > r ? (n - r + SPARSE_SLOT_STRIDE - 1u) / SPARSE_SLOT_STRIDE : 0u;
+    uint strand;
     if (j >= r && (j - r) % SPARSE_SLOT_STRIDE == 0u) {
-        return (j - r) / SPARSE_SLOT_STRIDE;
+        strand = part * sparse + (j - r) / SPARSE_SLOT_STRIDE;
+    } else {
+        uint before = j > r ? (j - r + SPARSE_SLOT_STRIDE - 1u) / SPARSE_SLOT_STRIDE : 0u;
+        strand = max(part, 1u) * sparse + j - before;
     }
-    uint before = j > r ? (j - r + SPARSE_SLOT_STRIDE - 1u) / SPARSE_SLOT_STRIDE : 0u;
-    return sparse + j - before;
+    return strand < n ? strand : NO_STRAND;
 }
 
 void main() {
@@ -95,7 +101,10 @@ void main() {
     }
     uint bundle = slot_bundle(slot);
     BundleLod l = lods[bundle];
-    uint strand = front_first_strand(slot - offsets[bundle], offsets[bundle], l.strands);
+    uint strand = front_first_strand(slot - offsets[bundle], offsets[bundle], l.strands, raster.strand_part);
+    if (strand == NO_STRAND) {
+        return;
+    }
     // Every strand from its control data, short ones too: the generator samples strands of
     // fewer than 17 vertices per vertex (so its compute and mesh paths agree), which equals this
     // to f32 rounding and costs more (measured: the LOD'd crowd 15 % faster this way).

@@ -38,7 +38,7 @@ layout(push_constant) uniform RasterParams {
     uint k;               // visibility slots per pixel
     float opacity;        // of one strand (its material's)
     float volume_fraction; // transition band: pixels whose dither is below it are the volume's
-    uint pad;             // (the addresses are 8-byte aligned)
+    uint strand_part;     // fused generation: the phase's part of each bundle's strands (front_first_strand)
     // Device addresses of pixel_words, tile_depth and scene_depth, for the plain loads when
     // LOAD_BY_ADDRESS (raster_common.glsl; else unused): CPU devices (llvmpipe) gather loads
     // through a buffer reference with vector instructions, where a storage-buffer load of a
@@ -62,6 +62,13 @@ const uint SLOT_ORDER = uint(VISIBILITY_SLOTS != 1u);
 // (RASTER_MARKS below).
 const uint RASTER_FLAG_SLOT_ORDER = 2u;
 const uint RASTER_FLAG_MARK = 4u;
+// raster.flags bit 3: the phase skips what lies behind the occlusion tiles made before it (the
+// rest, and a second front eighth: render/src/raster.rs RasterPhase::tile_culled).
+const uint RASTER_FLAG_TILES = 8u;
+
+bool tile_culled() {
+    return (raster.flags & RASTER_FLAG_TILES) != 0u;
+}
 
 layout(buffer_reference, std430, buffer_reference_align = 8) readonly buffer PixelWordsRef { uint64_t words[]; };
 layout(buffer_reference, std430, buffer_reference_align = 4) readonly buffer TileWordsRef { uint words[]; };
@@ -121,10 +128,12 @@ float load_scene_depth(uint pixel) {
     return LOAD_BY_ADDRESS != 0u ? SceneDepthRef(raster.scene_depth_address).depth[pixel] : scene_depth[pixel];
 }
 
-// Which strands a dispatch draws: all of them, or in two phases around the tile pass: first a
-// front subset spread over the whole hair, then the rest, skipping the columns that lie behind
-// opaque tiles. The phases are gen-gpu's slot subsets (every eighth slot, then the others:
-// SLOT_SUBSET_SPARSE, SLOT_SUBSET_REMAINDER: raster.phase), each dispatched over its own slots.
+// Which strands a dispatch draws: all of them, or in phases with a tile pass before each but the
+// first: a front subset spread over the whole hair, then the rest, skipping the columns that
+// lie behind opaque tiles (with fused generation and no slot order a second front subset in
+// between, tile-culled too). The phases are gen-gpu's slot subsets (every eighth slot, then the
+// others: SLOT_SUBSET_SPARSE, SLOT_SUBSET_REMAINDER: raster.phase), each dispatched over its
+// own slots, and for fused generation a part of each bundle's strands (raster.strand_part).
 
 #endif
 
@@ -362,7 +371,7 @@ WalkColumn walk_column(int i, bool within, float a_major, float inv_d_major, flo
     c.j0 = max(floor_int(c.m - c.h), 0);
     c.j1 = within ? min(floor_int(c.m + c.h), size_minor - 1) : -1;
 #ifndef SHADOW_RASTER
-    if (raster.phase == SLOT_SUBSET_REMAINDER && c.j0 <= c.j1) {
+    if (tile_culled() && c.j0 <= c.j1) {
         // The column's end pixels' tiles (and the two others of their square when it spans
         // two tiles): strictly behind all of them, it changes nothing.
         uvec2 e0 = uvec2(x_major ? ivec2(i, c.j0) : ivec2(c.j0, i)) / TILE_SIZE;
@@ -447,7 +456,7 @@ void raster_segment(RasterVertex a, RasterVertex b, uint material, float random)
     float inv_wp = p.inv_w;
     float inv_wq = q.inv_w;
 #ifndef SHADOW_RASTER
-    if (raster.phase == SLOT_SUBSET_REMAINDER && first <= last) {
+    if (tile_culled() && first <= last) {
         float h_max = max(hp, hq) * stretch;
         if (segment_behind_tiles(first, last, a_major, a_minor, inv_d_major, d_minor, h_max, max(inv_wp, inv_wq),
                                  x_major, size_minor)) {

@@ -136,7 +136,9 @@ pub(crate) struct RasterPush {
     pub(crate) opacity: f32,
     /// The character's share of the transition band drawn by its volume ([`crate::volume`]).
     pub(crate) volume_fraction: f32,
-    pub(crate) pad: u32,
+    /// Fused generation: which of each bundle's strands the phase's slots draw
+    /// ([`RasterPhase::part`]; `front_first_strand` in `hair_raster.comp`).
+    pub(crate) strand_part: u32,
     /// Device addresses of the visibility + coverage words, of the occlusion tiles and of the
     /// occluders' depth: the kernel's plain loads read through them (0: through the bindings).
     pub(crate) words_address: u64,
@@ -349,6 +351,47 @@ pub(crate) const FLAG_SLOT_ORDER: u32 = 2;
 /// `RasterParams.flags`: the fused kernel marks the segments that reach the image
 /// (`strand_raster.glsl` `mark_segment`; [`SlotOrderHistory`]).
 pub(crate) const FLAG_MARK: u32 = 4;
+/// `RasterParams.flags`: the phase skips what lies behind the occlusion tiles made before it
+/// ([`RasterPhase::tile_culled`]).
+pub(crate) const FLAG_TILES: u32 = 8;
+
+/// One raster dispatch of a frame's strands: the slots it takes, and with generation fused into
+/// the kernel which of each bundle's strands those draw. A bundle's sparse slots (every
+/// `SPARSE_SLOT_STRIDE`-th, an eighth) draw its first strands in part 0 (the front phase: any
+/// prefix of a bundle's root set is blue noise, so a front eighth covers every bundle evenly)
+/// and its next eighth in part 1; its other slots (the remainder) draw the strands after the
+/// `part` eighths drawn before them (at least one), so that every live strand is drawn once.
+/// With a slot order (`raster_split.comp`) a slot comes in either phase by its marks and draws
+/// the strand part 0 gives it; such frames have two phases.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct RasterPhase {
+    pub subset: SlotSubset,
+    pub part: u32,
+}
+
+impl RasterPhase {
+    /// Every strand in one dispatch (no occlusion tiles).
+    pub const ALL: Self = Self { subset: SlotSubset::All, part: 0 };
+
+    /// The phases of a frame: with occlusion tiles the front eighth, then with `fused_parts` = 2
+    /// (fused generation, where each phase's tiles pay for themselves) a second eighth against
+    /// the tiles the first made, then the rest against tiles made again; else one phase.
+    pub fn sequence(occlusion_tiles: bool, fused_parts: u32) -> Vec<Self> {
+        if !occlusion_tiles {
+            return vec![Self::ALL];
+        }
+        let fronts = fused_parts.clamp(1, 2);
+        (0..fronts)
+            .map(|part| Self { subset: SlotSubset::Sparse, part })
+            .chain([Self { subset: SlotSubset::Remainder, part: fronts }])
+            .collect()
+    }
+
+    /// Whether the dispatch skips what lies behind the occlusion tiles, made just before it.
+    pub fn tile_culled(self) -> bool {
+        self.subset == SlotSubset::Remainder || (self.subset == SlotSubset::Sparse && self.part >= 1)
+    }
+}
 
 /// `RasterMaterial` of `raster_frame.glsl`.
 #[repr(C)]
@@ -915,14 +958,15 @@ pub(crate) fn raster_push(
         },
         material,
         slots,
-        flags: if occluders { FLAG_SCENE_DEPTH } else { 0 },
+        flags: if occluders { FLAG_SCENE_DEPTH } else { 0 }
+            | if phase == SlotSubset::Remainder { FLAG_TILES } else { 0 },
         max_half_width: MAX_HALF_WIDTH_PIXELS,
         phase: phase as u32,
         tiles_x,
         k,
         opacity,
         volume_fraction: 0.0,
-        pad: 0,
+        strand_part: 0,
         words_address: 0,
         tiles_address: 0,
         scene_depth_address: 0,
@@ -1371,6 +1415,25 @@ mod tests {
         // Too small for two slots and their two words: one slot (two words), or one anyway.
         assert_eq!(slots_within(8, pixels, (pixels * 3 * 8) as u32), 1);
         assert_eq!(slots_within(8, pixels, 8), 1);
+    }
+
+    #[test]
+    fn fused_frames_draw_a_second_eighth_between_the_front_and_the_rest() {
+        use super::RasterPhase;
+        use gen_gpu::SlotSubset::{All, Remainder, Sparse};
+        let phase = |subset, part| RasterPhase { subset, part };
+        assert_eq!(RasterPhase::sequence(false, 2), vec![phase(All, 0)]);
+        assert_eq!(RasterPhase::sequence(true, 1), vec![phase(Sparse, 0), phase(Remainder, 1)]);
+        assert_eq!(
+            RasterPhase::sequence(true, 2),
+            vec![phase(Sparse, 0), phase(Sparse, 1), phase(Remainder, 2)]
+        );
+        // At most two fronts: each bundle's sparse slots hold an eighth of its strands.
+        assert_eq!(RasterPhase::sequence(true, 5).len(), 3);
+        let culled: Vec<bool> =
+            RasterPhase::sequence(true, 2).into_iter().map(RasterPhase::tile_culled).collect();
+        assert_eq!(culled, [false, true, true], "every phase after the front meets the tiles");
+        assert!(!RasterPhase::ALL.tile_culled());
     }
 
     #[test]

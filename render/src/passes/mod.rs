@@ -53,7 +53,7 @@ pub enum ScenePass {
     OccluderDepthCopy,
     /// Compute rasterizer: one batch's characters (and the stored strands on the last), one
     /// phase.
-    ComputeRaster(gen_gpu::SlotSubset),
+    ComputeRaster(crate::raster::RasterPhase),
     /// Compute rasterizer: one batch's characters' slot orders (the strands visible last frame
     /// first).
     RasterSlotOrder,
