@@ -324,6 +324,9 @@ pub(crate) struct FrameIds {
     pub(crate) final_depth: Res,
     /// Per uploaded hair: its asset.
     pub(crate) hair_uploads: Vec<Res>,
+    /// Per generated character: whether its strands get a second front eighth in the compute
+    /// rasterizer ([`crate::raster::second_front_pays`]).
+    pub(crate) second_front: Vec<bool>,
     /// Hair volumes (with `"ao"`, `"volume_shadows"` or `"volume_lod"`).
     pub(crate) volumes: Option<VolumeIds>,
     /// Per generated character: its hair asset, LOD result and strands.
@@ -1100,6 +1103,20 @@ impl SceneRenderer {
             .as_ref()
             .map(|_| crate::passes::shadow::declare(self, &mut g, &character_hair, &stored));
         let (volumes, volume_characters) = self.plan_volumes(&mut g, &view);
+        let inputs: Vec<FrameInputs> = self
+            .characters
+            .iter()
+            .map(|c| {
+                let character = Character { hair: c.hair, transform: c.transform };
+                character_inputs(&view.camera, &character, view.width, view.height, view.lod)
+            })
+            .collect();
+        let second_front = self
+            .characters
+            .iter()
+            .zip(&inputs)
+            .map(|(c, inputs)| crate::raster::second_front_pays(&self.hairs[c.hair].asset, inputs))
+            .collect();
         let ids = FrameIds {
             color,
             depth,
@@ -1122,6 +1139,7 @@ impl SceneRenderer {
             stored,
             shadow,
             hair_uploads: hair,
+            second_front,
             volumes,
         };
         // Staged uploads go first in the frame's first submission: the shadow maps' when they
@@ -1133,14 +1151,6 @@ impl SceneRenderer {
         if let Some(s) = &ids.shadow {
             crate::passes::shadow::plan(self, &mut g, &ids, s, shadow_cached);
         }
-        let inputs: Vec<FrameInputs> = self
-            .characters
-            .iter()
-            .map(|c| {
-                let character = Character { hair: c.hair, transform: c.transform };
-                character_inputs(&view.camera, &character, view.width, view.height, view.lod)
-            })
-            .collect();
         let volume_only: Vec<usize> = ids
             .volumes
             .as_ref()

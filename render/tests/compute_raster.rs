@@ -626,6 +626,74 @@ fn fused_against_stored(ctx: &gen_gpu::Context) -> anyhow::Result<()> {
     Ok(())
 }
 
+/// Two characters with a scene-wide strand LOD α of 8, one near the camera (its LOD keeps every
+/// strand: a second front eighth) and one far away (its bundles keep a few widened strands: no
+/// second eighth, its rest drawn after the first front), drawn with and without the occlusion
+/// tiles: the same image, so each character's strands are drawn once whichever phases it takes
+/// (`raster::second_front_pays`, the strand part per character in `record_raster`; verified to
+/// fail when the far character's rest is drawn as if it had had a second eighth).
+fn second_front_for_some_characters(ctx: &gen_gpu::Context) -> anyhow::Result<()> {
+    use hairmesh::asset::{AssetParams, HairAsset, StrandCount};
+    use hairmesh::{ExtrudeParams, HairMesh};
+    use render::camera::{Camera, Character, character_inputs};
+    let scalp = hairmesh::procedural::head_cap(6, 24);
+    let mesh =
+        HairMesh::extrude(&scalp, &ExtrudeParams { layers: 4, length: 0.25, ..ExtrudeParams::default() })?;
+    let params = AssetParams { strands: StrandCount::Total(3000), seed: 3, ..AssetParams::default() };
+    let style = hairmesh::style::Style { width: 0.004, ..hairmesh::style::Style::default() };
+    let hair = std::sync::Arc::new(HairAsset::build(&mesh, &params, style)?);
+    let (width, height) = (192, 128);
+    let eye = Vec3::new(0.0, 1.7, 1.2);
+    let target = Vec3::new(0.0, 1.55, 0.0);
+    let placements = [Mat4::IDENTITY, Mat4::from_translation(Vec3::new(2.0, 0.0, -4.0))];
+    let json = serde_json::json!({
+        "output": { "width": width, "height": height },
+        "camera": { "eye": eye.to_array(), "target": target.to_array(), "fov_y_degrees": 45 },
+        "lights": [ { "directional": { "direction": [0.5, 0.8, 0.6] } } ],
+        "characters": [],
+        "effects": { "transparency": "opaque", "raster": "compute" },
+        "lod": { "enabled": true, "strand_alpha": 8, "vertex_alpha": 1 }
+    });
+    let settings = LoadedScene { path: "second-front.json".into(), scene: serde_json::from_value(json)? };
+    settings.validate_settings()?;
+    let mut instance = render::instance::SceneInstance::new(settings.clone());
+    for (k, &transform) in placements.iter().enumerate() {
+        instance.characters.push(render::instance::CharacterInstance {
+            key: format!("hair {k}"),
+            hair: render::instance::CharacterHair::Generated(hair.clone()),
+            transform,
+            color: render::scene::DEFAULT_HAIR_COLOR,
+            color_variation: 0.0,
+            occluder: None,
+        });
+    }
+    let camera = Camera { eye, target, fov_y: 45f32.to_radians() };
+    let lod = settings.scene.lod.params();
+    let second: Vec<bool> = placements
+        .iter()
+        .map(|&transform| {
+            let inputs = character_inputs(&camera, &Character { hair: 0, transform }, width, height, lod);
+            render::raster::second_front_pays(&hair, &inputs)
+        })
+        .collect();
+    ensure!(
+        second == [true, false],
+        "the near character should get a second eighth, the far one not: {second:?}"
+    );
+    let tiled = SceneRenderer::from_instance(ctx, &instance, GenerationPath::Compute)?.render(ctx)?;
+    let single = SceneRenderer::from_instance(ctx, &instance, GenerationPath::Compute)?
+        .with_occlusion_tiles(false)
+        .render(ctx)?;
+    ensure!(
+        tiled.passes.iter().any(|p| p.ends_with(": second eighth, tile-culled")),
+        "no second eighth: {:?}",
+        tiled.passes
+    );
+    ensure!(mean_alpha(&tiled) > 0.05, "too little hair on screen (mean alpha {})", mean_alpha(&tiled));
+    ensure!(tiled.linear == single.linear, "the phases draw another image than one phase");
+    Ok(())
+}
+
 fn main() -> ExitCode {
     run_gpu_tests(vec![
         GpuTest::new("the_shadow_kernel_matches_its_cpu_port", Requirements::INT64_ATOMICS, |ctx| {
@@ -898,6 +966,11 @@ fn main() -> ExitCode {
             }
             Ok(())
         }),
+        GpuTest::new(
+            "a_second_front_for_some_characters_draws_each_strand_once",
+            Requirements::INT64_ATOMICS,
+            second_front_for_some_characters,
+        ),
         GpuTest::new(
             "fused_generation_draws_every_strand_once",
             Requirements::INT64_ATOMICS,

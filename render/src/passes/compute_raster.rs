@@ -45,11 +45,14 @@ pub(crate) fn plan_raster(
 ) {
     let ordered = r.raster_slot_order() && !batch.is_empty();
     // A second front eighth where the batch generates its strands in the kernel and takes them
-    // in the phases' subsets (with a slot order the front is the strands seen last frame):
-    // the rest then meets tiles closed by a quarter of the strands, the second eighth those of
-    // the first (the 100k-strand close-up's frame 5-7 % faster, the far character's 3-6 %, for
-    // one more tile pass and dispatch). Stored strands are drawn in the first and last phase.
-    let fused_parts = if ordered || batch.is_empty() { 1 } else { 2 };
+    // in the phases' subsets (with a slot order the front is the strands seen last frame), for
+    // its characters whose strand LOD keeps most strands (raster::second_front_pays; the others
+    // skip the phase): the rest then meets tiles closed by a quarter of the strands, the second
+    // eighth those of the first (the 100k-strand close-up's frame 2-3 % faster in paired runs,
+    // for one more tile pass and dispatch; a third eighth gained nothing more). Stored strands
+    // are drawn in the first and last phase.
+    let second = batch.iter().any(|&i| ids.second_front.get(i).copied().unwrap_or(false));
+    let fused_parts = if ordered || !second { 1 } else { 2 };
     let phases = RasterPhase::sequence(r.occlusion_tiles, fused_parts);
     if ordered {
         let mut pass = g.pass("strand slot order (compute raster)");
@@ -246,6 +249,12 @@ pub(crate) fn record_raster(
     let clipping = r.raster_depth_clipping(&state.plan.view);
     let mut bound = None;
     for (i, frame) in state.frames {
+        // A character without a second front eighth skips that phase and draws its rest after
+        // the first front (strand part 1).
+        let second_front = state.plan.ids.second_front.get(*i).copied().unwrap_or(false);
+        if phase.subset == SlotSubset::Sparse && phase.part >= 1 && !second_front {
+            continue;
+        }
         let c = &r.characters[*i];
         let hair = &r.hairs[c.hair];
         let clipping = clipping[*i];
@@ -277,7 +286,11 @@ pub(crate) fn record_raster(
         push.volume_fraction = state.plan.volume_fraction(*i);
         // A slot order puts a slot in either phase, by its marks: each slot then draws the strand
         // the front's part gives it (the slot order's phases are two: no second eighth).
-        push.strand_part = if order.is_some() { 0 } else { phase.part };
+        push.strand_part = match order {
+            Some(_) => 0,
+            None if second_front => phase.part,
+            None => phase.part.min(1),
+        };
         if phase.tile_culled() {
             push.flags |= FLAG_TILES;
         }

@@ -777,9 +777,9 @@ fn submissions_ms(frame: &render::frame::RenderedFrame, names: &[&str]) -> f64 {
         .fold(0.0, |sum, ms| sum + ms)
 }
 
-/// The compute rasterizer's frame in parts (ms): the front raster phase, the rest phase (the
-/// only one where tiles are off), shade, resolve — summed over a crowd's batches; zeros on the
-/// triangle raster.
+/// The compute rasterizer's frame in parts (ms): the front raster phase, the phases after it
+/// (with a second front eighth where the scene has one; the only phase where tiles are off),
+/// shade, resolve — summed over a crowd's batches; zeros on the triangle raster.
 fn compute_raster_parts(frame: &render::frame::RenderedFrame) -> [f64; 4] {
     let mut parts = [0.0; 4];
     for p in frame.timings.passes.iter().filter(|p| p.depth == 1) {
@@ -1001,7 +1001,7 @@ fn raster_table(setup: &Setup<'_>, progress: &indicatif::ProgressBar) -> Result<
     }
     let _ = writeln!(
         md,
-        "\nWhere the compute rasterizer's frame goes (the same frames; medians per column, so the parts need not add up to the frame's median exactly): the *front phase* generates and draws the first subset of strands (every {}th slot), the *rest phase* the others against the occlusion tiles made between them (one phase where tiles are off); *shade* composites each pixel's nearest fragments, *resolve* filters and writes them; *the rest*: every other pass (LOD, clears, occluders, shadow maps, tiles, copies).\n\n{breakdown}",
+        "\nWhere the compute rasterizer's frame goes (the same frames; medians per column, so the parts need not add up to the frame's median exactly): the *front phase* generates and draws the first subset of strands (every {}th slot), the *rest phase* the others against the occlusion tiles made before them (with fused generation and one slot per pixel a second eighth of each bundle, then the rest, each after its own tile pass; one phase where tiles are off); *shade* composites each pixel's nearest fragments, *resolve* filters and writes them; *the rest*: every other pass (LOD, clears, occluders, shadow maps, tiles, copies).\n\n{breakdown}",
         gen_gpu::contract::SPARSE_SLOT_STRIDE
     );
     if !overflows.is_empty() {
