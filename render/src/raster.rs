@@ -359,22 +359,34 @@ pub(crate) const FLAG_TILES: u32 = 8;
 /// ([`second_front_pays`]).
 pub const SECOND_FRONT_MIN_DETAIL: f64 = 0.5;
 
+/// The live strands per bundle below which a character gets no second front eighth
+/// ([`second_front_pays`]): measured faster with it at 69 (the 100k-strand character), slower
+/// at 7 (the 10k-strand one); this lies between.
+pub const SECOND_FRONT_MIN_STRANDS: f64 = 32.0;
+
 /// Whether a character's strands, generated in the raster kernel, get a second front eighth
 /// ([`RasterPhase::sequence`]): when strand LOD keeps at least half of them
 /// ([`SECOND_FRONT_MIN_DETAIL`]; LOD off, or the detail level of the asset's mean bundle face
-/// at its bounds' centre). Measured: single characters at full detail 2-3 % faster with it (the
-/// 100k-strand close-up and far), the 100-head crowd at strand α 64, whose bundles keep a few
+/// at its bounds' centre) and its bundles keep [`SECOND_FRONT_MIN_STRANDS`] on average.
+/// Measured with it: the 100k-strand close-up 2-3 % faster; the 10k-strand close-up (7 strands
+/// per bundle) 3.5 % slower; the 100-head crowd at strand α 64, whose bundles keep a few
 /// widened strands, 10 % slower.
 pub fn second_front_pays(asset: &hairmesh::asset::HairAsset, inputs: &gen_gpu::FrameInputs) -> bool {
     let lod = &inputs.lod;
-    if !lod.enabled || asset.bundles.is_empty() {
-        return true;
+    let bundles = asset.bundles.len() as f64;
+    if asset.bundles.is_empty() {
+        return false;
     }
-    let face = asset.bundles.iter().map(|b| b.face_size()).sum::<f64>() / asset.bundles.len() as f64;
-    let (lo, hi) = asset.bounds();
-    let distance = inputs.view.eye.distance(0.5 * (lo + hi));
-    hairmesh::reference::detail_level(face, distance, lod.strand_alpha, &inputs.view)
-        >= SECOND_FRONT_MIN_DETAIL
+    let strands = asset.bundles.iter().map(|b| f64::from(b.strands)).sum::<f64>() / bundles;
+    let detail = if lod.enabled {
+        let face = asset.bundles.iter().map(|b| b.face_size()).sum::<f64>() / bundles;
+        let (lo, hi) = asset.bounds();
+        let distance = inputs.view.eye.distance(0.5 * (lo + hi));
+        hairmesh::reference::detail_level(face, distance, lod.strand_alpha, &inputs.view)
+    } else {
+        1.0
+    };
+    detail >= SECOND_FRONT_MIN_DETAIL && detail * strands >= SECOND_FRONT_MIN_STRANDS
 }
 
 /// One raster dispatch of a frame's strands: the slots it takes, and with generation fused into
@@ -1447,7 +1459,7 @@ mod tests {
         use hairmesh::{ExtrudeParams, HairMesh};
         let scalp = hairmesh::procedural::head_cap(6, 24);
         let mesh = HairMesh::extrude(&scalp, &ExtrudeParams::default()).expect("the head cap extrudes");
-        let params = AssetParams { strands: StrandCount::Total(2000), ..AssetParams::default() };
+        let params = AssetParams { strands: StrandCount::Total(20_000), ..AssetParams::default() };
         let asset =
             HairAsset::build(&mesh, &params, hairmesh::style::Style::default()).expect("the asset builds");
         let character = Character { hair: 0, transform: Mat4::IDENTITY };
@@ -1463,6 +1475,15 @@ mod tests {
         assert!(pays(0.6, strand_alpha(1.0)), "a close-up at full detail");
         assert!(pays(40.0, LodParams { enabled: false, ..LodParams::default() }), "LOD off: every strand");
         assert!(!pays(10.0, strand_alpha(64.0)), "a crowd's character whose bundles keep a few strands");
+        let sparse_params = AssetParams { strands: StrandCount::Total(1000), ..AssetParams::default() };
+        let sparse = HairAsset::build(&mesh, &sparse_params, hairmesh::style::Style::default())
+            .expect("the asset builds");
+        let camera = Camera { eye: Vec3::new(0.0, 1.6, 0.6), target: Vec3::new(0.0, 1.6, 0.0), fov_y: 0.8 };
+        let inputs = character_inputs(&camera, &character, 1280, 720, strand_alpha(1.0));
+        assert!(
+            !super::second_front_pays(&sparse, &inputs),
+            "bundles of a few strands each, even at full detail"
+        );
     }
 
     #[test]

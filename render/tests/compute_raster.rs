@@ -548,16 +548,17 @@ fn with_and_without_tiles(
     Ok((tiled, single))
 }
 
-/// A 3000-strand character generated inside the compute rasterizer's kernel (three phases with
-/// the occlusion tiles before the second and the third, LOD off) against its CPU reference
-/// strands drawn as stored strands (two phases) through the same rasterizer: the same strands,
-/// so the same image but for f32 rounding. The fused kernel maps each phase's slots to strands
-/// (the front's to each bundle's first eighth, the second phase's to its next eighth, the rest's
-/// to the others: `front_first_strand` in `hair_raster.comp`); a mapping that drew some strand
-/// twice and another never would show (verified: drawing each bundle's second strand in place of
-/// its first fails, mean FLIP 0.021 and its 99th percentile 0.43 against 0.009 and 0.06; drawing
-/// half of each bundle's strands twice fails the density by 5 %; the second phase drawing the
-/// front's strands again instead of the next eighth fails it by 1.3 %).
+/// A 6000-strand character (45 strands per bundle) generated inside the compute rasterizer's
+/// kernel (three phases with the occlusion tiles before the second and the third, LOD off)
+/// against its CPU reference strands drawn as stored strands (two phases) through the same
+/// rasterizer: the same strands, so the same image but for f32 rounding (mean FLIP 0.0095). The
+/// fused kernel maps each phase's slots to strands (the front's to each bundle's first eighth,
+/// the second phase's to its next eighth, the rest's to the others: `front_first_strand` in
+/// `hair_raster.comp`); a mapping that drew some strand twice and another never would show
+/// (verified: the second phase drawing the front's strands again instead of the next eighth
+/// fails the density by 1.5 %; with 3000 strands and two phases, drawing each bundle's second
+/// strand in place of its first failed at mean FLIP 0.021 and its 99th percentile 0.43 against
+/// 0.009 and 0.06, and drawing half of each bundle's strands twice the density by 5 %).
 fn fused_against_stored(ctx: &gen_gpu::Context) -> anyhow::Result<()> {
     use hairmesh::asset::{AssetParams, HairAsset, StrandCount};
     use hairmesh::style::Style;
@@ -570,7 +571,7 @@ fn fused_against_stored(ctx: &gen_gpu::Context) -> anyhow::Result<()> {
     // The stored strands taper to 0.3 of their root width, as the style here.
     let style = Style { width: 0.003, tip_width: 0.3, ..Style::default() };
     let params =
-        AssetParams { strands: StrandCount::Total(3000), sample_sets: 1, seed: 5, ..AssetParams::default() };
+        AssetParams { strands: StrandCount::Total(6000), sample_sets: 1, seed: 5, ..AssetParams::default() };
     let hair = HairAsset::build(&mesh, &params, style)?;
     let (width, height) = (256, 192);
     let eye = Vec3::new(0.0, 1.82, 0.62);
@@ -626,7 +627,7 @@ fn fused_against_stored(ctx: &gen_gpu::Context) -> anyhow::Result<()> {
     Ok(())
 }
 
-/// Two characters with a scene-wide strand LOD α of 8, one near the camera (its LOD keeps every
+/// Two characters with a scene-wide strand LOD α of 2, one near the camera (its LOD keeps every
 /// strand: a second front eighth) and one far away (its bundles keep a few widened strands: no
 /// second eighth, its rest drawn after the first front), drawn with and without the occlusion
 /// tiles: the same image, so each character's strands are drawn once whichever phases it takes
@@ -639,20 +640,20 @@ fn second_front_for_some_characters(ctx: &gen_gpu::Context) -> anyhow::Result<()
     let scalp = hairmesh::procedural::head_cap(6, 24);
     let mesh =
         HairMesh::extrude(&scalp, &ExtrudeParams { layers: 4, length: 0.25, ..ExtrudeParams::default() })?;
-    let params = AssetParams { strands: StrandCount::Total(3000), seed: 3, ..AssetParams::default() };
+    let params = AssetParams { strands: StrandCount::Total(6000), seed: 3, ..AssetParams::default() };
     let style = hairmesh::style::Style { width: 0.004, ..hairmesh::style::Style::default() };
     let hair = std::sync::Arc::new(HairAsset::build(&mesh, &params, style)?);
     let (width, height) = (192, 128);
     let eye = Vec3::new(0.0, 1.7, 1.2);
     let target = Vec3::new(0.0, 1.55, 0.0);
-    let placements = [Mat4::IDENTITY, Mat4::from_translation(Vec3::new(2.0, 0.0, -4.0))];
+    let placements = [Mat4::IDENTITY, Mat4::from_translation(Vec3::new(3.5, 0.0, -10.0))];
     let json = serde_json::json!({
         "output": { "width": width, "height": height },
         "camera": { "eye": eye.to_array(), "target": target.to_array(), "fov_y_degrees": 45 },
         "lights": [ { "directional": { "direction": [0.5, 0.8, 0.6] } } ],
         "characters": [],
         "effects": { "transparency": "opaque", "raster": "compute" },
-        "lod": { "enabled": true, "strand_alpha": 8, "vertex_alpha": 1 }
+        "lod": { "enabled": true, "strand_alpha": 2, "vertex_alpha": 1 }
     });
     let settings = LoadedScene { path: "second-front.json".into(), scene: serde_json::from_value(json)? };
     settings.validate_settings()?;
@@ -676,9 +677,11 @@ fn second_front_for_some_characters(ctx: &gen_gpu::Context) -> anyhow::Result<()
             render::raster::second_front_pays(&hair, &inputs)
         })
         .collect();
+    let per_bundle =
+        hair.bundles.iter().map(|b| f64::from(b.strands)).sum::<f64>() / hair.bundles.len() as f64;
     ensure!(
         second == [true, false],
-        "the near character should get a second eighth, the far one not: {second:?}"
+        "the near character should get a second eighth, the far one not: {second:?} ({per_bundle:.1} strands per bundle)"
     );
     let tiled = SceneRenderer::from_instance(ctx, &instance, GenerationPath::Compute)?.render(ctx)?;
     let single = SceneRenderer::from_instance(ctx, &instance, GenerationPath::Compute)?

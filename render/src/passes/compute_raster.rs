@@ -46,7 +46,7 @@ pub(crate) fn plan_raster(
     let ordered = r.raster_slot_order() && !batch.is_empty();
     // A second front eighth where the batch generates its strands in the kernel and takes them
     // in the phases' subsets (with a slot order the front is the strands seen last frame), for
-    // its characters whose strand LOD keeps most strands (raster::second_front_pays; the others
+    // its characters whose bundles keep many strands (raster::second_front_pays; the others
     // skip the phase): the rest then meets tiles closed by a quarter of the strands, the second
     // eighth those of the first (the 100k-strand close-up's frame 2-3 % faster in paired runs,
     // for one more tile pass and dispatch; a third eighth gained nothing more). Stored strands
