@@ -1001,7 +1001,7 @@ fn raster_table(setup: &Setup<'_>, progress: &indicatif::ProgressBar) -> Result<
     }
     let _ = writeln!(
         md,
-        "\nWhere the compute rasterizer's frame goes (the same frames; medians per column, so the parts need not add up to the frame's median exactly): the *front phase* generates and draws the first subset of strands (every {}th slot), the *rest phase* the others against the occlusion tiles made before them (with fused generation and one slot per pixel a second eighth of each bundle, then the rest, each after its own tile pass; one phase where tiles are off); *shade* composites each pixel's nearest fragments, *resolve* filters and writes them; *the rest*: every other pass (LOD, clears, occluders, shadow maps, tiles, copies).\n\n{breakdown}",
+        "\nWhere the compute rasterizer's frame goes (the same frames; medians per column, so the parts need not add up to the frame's median exactly): the *front phase* generates and draws the first subset of strands (every {}th slot), the *rest phase* the others against the occlusion tiles made before them (with fused generation and one slot per pixel, for characters whose bundles keep many strands, a second eighth of each bundle, then the rest, each after its own tile pass; one phase where tiles are off); *shade* composites each pixel's nearest fragments, *resolve* filters and writes them; *the rest*: every other pass (LOD, clears, occluders, shadow maps, tiles, copies).\n\n{breakdown}",
         gen_gpu::contract::SPARSE_SLOT_STRIDE
     );
     if !overflows.is_empty() {
