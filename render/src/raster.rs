@@ -377,7 +377,7 @@ pub fn second_front_pays(asset: &hairmesh::asset::HairAsset, inputs: &gen_gpu::F
     if asset.bundles.is_empty() {
         return false;
     }
-    let strands = asset.bundles.iter().map(|b| f64::from(b.strands)).sum::<f64>() / bundles;
+    let strands = asset.total_strands() as f64 / bundles;
     let detail = if lod.enabled {
         let face = asset.bundles.iter().map(|b| b.face_size()).sum::<f64>() / bundles;
         let (lo, hi) = asset.bounds();
@@ -751,7 +751,7 @@ impl ComputeRaster {
                 SlotSubset::All,
                 |rec, chunk| {
                     let mut push =
-                        raster_push(model, material, chunk.slots, false, SlotSubset::All, 1, k, 1.0);
+                        raster_push(model, material, chunk.slots, false, RasterPhase::ALL, 1, k, 1.0);
                     push.words_address = self.buffer_address(&words);
                     push.vertices_address = self.load_address(chunk.vertices_address);
                     // (Neither read with all slots in one phase and no occluders.)
@@ -973,14 +973,15 @@ pub(crate) struct ShadePush {
     pub(crate) occluder_depth_address: u64,
 }
 
-/// The push constants of one character's raster dispatch.
+/// The push constants of one character's raster dispatch in `phase` (its slot subset, its
+/// strand part, and the tile test when the phase is tile-culled).
 #[allow(clippy::too_many_arguments, reason = "one field each of the push constants")]
 pub(crate) fn raster_push(
     transform: Mat4,
     material: u32,
     slots: u32,
     occluders: bool,
-    phase: SlotSubset,
+    phase: RasterPhase,
     tiles_x: u32,
     k: u32,
     opacity: f32,
@@ -993,14 +994,14 @@ pub(crate) fn raster_push(
         material,
         slots,
         flags: if occluders { FLAG_SCENE_DEPTH } else { 0 }
-            | if phase == SlotSubset::Remainder { FLAG_TILES } else { 0 },
+            | if phase.tile_culled() { FLAG_TILES } else { 0 },
         max_half_width: MAX_HALF_WIDTH_PIXELS,
-        phase: phase as u32,
+        phase: phase.subset as u32,
         tiles_x,
         k,
         opacity,
         volume_fraction: 0.0,
-        strand_part: 0,
+        strand_part: phase.part,
         words_address: 0,
         tiles_address: 0,
         scene_depth_address: 0,

@@ -677,8 +677,7 @@ fn second_front_for_some_characters(ctx: &gen_gpu::Context) -> anyhow::Result<()
             render::raster::second_front_pays(&hair, &inputs)
         })
         .collect();
-    let per_bundle =
-        hair.bundles.iter().map(|b| f64::from(b.strands)).sum::<f64>() / hair.bundles.len() as f64;
+    let per_bundle = hair.total_strands() as f64 / hair.bundles.len() as f64;
     ensure!(
         second == [true, false],
         "the near character should get a second eighth, the far one not: {second:?} ({per_bundle:.1} strands per bundle)"

@@ -10,8 +10,8 @@ use crate::contract::binding;
 use crate::frame::{FrameIds, FrameState, SceneRenderer};
 use crate::graph::{Access, FrameGraph};
 use crate::raster::{
-    FLAG_MARK, FLAG_SLOT_ORDER, FLAG_TILES, RasterPhase, ResolvePush, SLOT_ORDER_REST_DISPATCH, ShadePush,
-    SplitPush, TilePush, raster_push, stored_group_size, tile_grid,
+    FLAG_MARK, FLAG_SLOT_ORDER, RasterPhase, ResolvePush, SLOT_ORDER_REST_DISPATCH, ShadePush, SplitPush,
+    TilePush, raster_push, stored_group_size, tile_grid,
 };
 use crate::shaders;
 
@@ -281,7 +281,7 @@ pub(crate) fn record_raster(
         r.generator.bind_frame(rec, pipeline, hair, frame, &extra);
         let material = state.materials[*i];
         let opacity = r.raster_opacity(material);
-        let mut push = raster_push(c.transform, material, 0, occluders, phase.subset, tiles_x, b.k, opacity);
+        let mut push = raster_push(c.transform, material, 0, occluders, phase, tiles_x, b.k, opacity);
         (push.words_address, push.tiles_address, push.scene_depth_address) = addresses;
         push.volume_fraction = state.plan.volume_fraction(*i);
         // A slot order puts a slot in either phase, by its marks: each slot then draws the strand
@@ -291,9 +291,6 @@ pub(crate) fn record_raster(
             None if second_front => phase.part,
             None => phase.part.min(1),
         };
-        if phase.tile_culled() {
-            push.flags |= FLAG_TILES;
-        }
         if order.is_some() {
             push.flags |= FLAG_SLOT_ORDER | if marking { FLAG_MARK } else { 0 };
             push.final_depth_address = cr.buffer_address(final_depth);
@@ -328,16 +325,8 @@ pub(crate) fn record_raster(
             stored_group_size(),
             phase.subset,
             |rec, chunk| {
-                let mut push = raster_push(
-                    c.transform,
-                    material,
-                    chunk.slots,
-                    occluders,
-                    phase.subset,
-                    tiles_x,
-                    b.k,
-                    opacity,
-                );
+                let mut push =
+                    raster_push(c.transform, material, chunk.slots, occluders, phase, tiles_x, b.k, opacity);
                 (push.words_address, push.tiles_address, push.scene_depth_address) = addresses;
                 push.vertices_address = cr.load_address(chunk.vertices_address);
                 push.volume_fraction = volume_fraction;
