@@ -987,9 +987,10 @@ bool strand_stream_walking(StrandStream s) {
 // On CPU devices (llvmpipe) every value a loop carries is written back under the SIMD lanes'
 // mask at each turn: carried by the one loop over all steps, the segment's 38 control values
 // were written back at every vertex; carried by the outer loop, once per segment (the
-// 10k-strand generate pass about 6 % faster in paired runs; the fused raster kernels, whose
-// column walk carries more, measured 1-2 % slower this way and enter segments step by step
-// inside one loop). Returns the segment entered (-1: the steps past the last point).
+// 10k-strand generate pass about 6 % faster in paired runs; render's fused raster kernel
+// walks its strands of 16 segments or more this way too, and enters segments step by step
+// inside one loop where strands are short or walked in part: hair_raster.comp). Returns the
+// segment entered (-1: the steps past the last point).
 //
 //     while (strand_stream_walking(s)) {
 //         int segment = strand_stream_enter(s);
