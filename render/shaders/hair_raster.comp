@@ -121,8 +121,8 @@ void main() {
     // its steps. On CPU devices (llvmpipe) every value a loop carries is written back under
     // the SIMD lanes' mask at each turn; the inner loop only reads the segment's 38 control
     // values, so they are written back once per curve segment instead of at every vertex
-    // (paired runs, the same images: the far character's frame 4-5 % faster, the 100k-strand
-    // close-up's 3-8 %). Strands of a few segments, as in a crowd under LOD, enter a curve
+    // (paired runs, the same images: the far character's frame 4-5 % faster; the 100k-strand
+    // close-up's within 1 %). Strands of a few segments, as in a crowd under LOD, enter a curve
     // segment every step or two: that way the crowd measured 2 % slower, so they and the slot
     // order's walks keep the one loop below.
     if (SLOT_ORDER == 0u && s.segments >= 16u) {
