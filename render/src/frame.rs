@@ -338,6 +338,11 @@ pub(crate) struct FrameIds {
 }
 
 impl FrameIds {
+    /// Whether generated character `i` gets a second front eighth this frame.
+    pub(crate) fn second_front(&self, i: usize) -> bool {
+        self.second_front.get(i).copied().unwrap_or(false)
+    }
+
     /// What a pass that shades with the scene's lights reads: the light table, and the shadow
     /// maps when the scene has them.
     pub(crate) fn shading_reads(&self) -> Vec<(Res, Access)> {

@@ -423,7 +423,13 @@ impl RasterPhase {
 
     /// Whether the dispatch skips what lies behind the occlusion tiles, made just before it.
     pub fn tile_culled(self) -> bool {
-        self.subset == SlotSubset::Remainder || (self.subset == SlotSubset::Sparse && self.part >= 1)
+        self.subset == SlotSubset::Remainder || self.later_front()
+    }
+
+    /// Whether this is a front eighth after the first (fused generation only: characters
+    /// without a second eighth and stored strands skip it).
+    pub fn later_front(self) -> bool {
+        self.subset == SlotSubset::Sparse && self.part >= 1
     }
 }
 

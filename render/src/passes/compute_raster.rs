@@ -51,7 +51,7 @@ pub(crate) fn plan_raster(
     // eighth those of the first (the 100k-strand close-up's frame 2-3 % faster in paired runs,
     // for one more tile pass and dispatch; a third eighth gained nothing more). Stored strands
     // are drawn in the first and last phase.
-    let second = batch.iter().any(|&i| ids.second_front.get(i).copied().unwrap_or(false));
+    let second = batch.iter().any(|&i| ids.second_front(i));
     let fused_parts = if ordered || !second { 1 } else { 2 };
     let phases = RasterPhase::sequence(r.occlusion_tiles, fused_parts);
     if ordered {
@@ -251,8 +251,8 @@ pub(crate) fn record_raster(
     for (i, frame) in state.frames {
         // A character without a second front eighth skips that phase and draws its rest after
         // the first front (strand part 1).
-        let second_front = state.plan.ids.second_front.get(*i).copied().unwrap_or(false);
-        if phase.subset == SlotSubset::Sparse && phase.part >= 1 && !second_front {
+        let second_front = state.plan.ids.second_front(*i);
+        if phase.later_front() && !second_front {
             continue;
         }
         let c = &r.characters[*i];
@@ -302,7 +302,7 @@ pub(crate) fn record_raster(
             None => Generator::record_fused_subset_dispatch(rec, frame, phase.subset),
         }
     }
-    if phase.subset == SlotSubset::Sparse && phase.part >= 1 {
+    if phase.later_front() {
         // Stored strands have no second eighth: they are drawn in the first and the last phase.
         return Ok(());
     }
