@@ -342,6 +342,45 @@ fn main() -> ExitCode {
             let json: serde_json::Value = serde_json::from_slice(&std::fs::read(&stats)?)?;
             ensure!(json["passes"].as_array().is_some_and(|p| p.len() >= 4), "{json}");
             ensure!(json["strands"].as_u64().is_some_and(|s| s > 0), "{json}");
+            ensure!(json["repeated"].is_null(), "no --repeat, no summary: {json}");
+            // --repeat: the frame again, each pass's median and quartiles over the repeats.
+            let repeat_stats = dir.path().join("repeat.json");
+            let (ok, stdout, stderr) = hair_render_output(&[
+                scene.to_str().context("utf-8")?,
+                "-o",
+                out.to_str().context("utf-8")?,
+                "--stats",
+                "--stats-json",
+                repeat_stats.to_str().context("utf-8")?,
+                "--repeat",
+                "3",
+            ]);
+            ensure!(ok, "{stderr}");
+            ensure!(stdout.contains("over 3 frames: median"), "{stdout}");
+            let json: serde_json::Value = serde_json::from_slice(&std::fs::read(&repeat_stats)?)?;
+            let repeated = &json["repeated"];
+            ensure!(repeated["frames"].as_u64() == Some(3), "{json}");
+            let passes = repeated["passes"].as_array().context("repeated.passes")?;
+            let timed = json["passes"].as_array().is_some_and(|p| p.iter().any(|p| p["gpu_ms"].is_number()));
+            ensure!(!timed || passes.len() >= 4, "{json}");
+            for pass in passes {
+                let ms = |key: &str| pass[key].as_f64().with_context(|| format!("{key}: {pass}"));
+                ensure!(
+                    ms("gpu_ms_q1")? <= ms("gpu_ms_median")? && ms("gpu_ms_median")? <= ms("gpu_ms_q3")?,
+                    "{pass}"
+                );
+                ensure!(pass["frames"].as_u64().is_some_and(|n| (1..=3).contains(&n)), "{pass}");
+            }
+            // Refused before anything renders: repeats nothing reports, and no repeats.
+            for (args, expected) in [
+                (vec!["--repeat", "2"], "add --stats"),
+                (vec!["--repeat", "0", "--stats"], "0 is not in 1..=1000"),
+            ] {
+                let mut all = vec![scene.to_str().context("utf-8")?, "-o", out.to_str().context("utf-8")?];
+                all.extend(args);
+                let (ok, stderr) = hair_render(&all);
+                ensure!(!ok && stderr.contains(expected), "{all:?}: {stderr}");
+            }
             Ok(())
         }),
         GpuTest::new("hair_render_warns_when_the_oit_pool_overflows", Requirements::NONE, |_| {

@@ -21,7 +21,7 @@ mod stored;
 
 pub use ash::vk;
 pub use backend::caps::{Capabilities, MeshShaderLimits};
-pub use backend::command::{Attachments, FrameTimings, PassTiming, Recorder};
+pub use backend::command::{Attachments, FrameTimings, PassSummary, PassTiming, Recorder, TimingSummary};
 pub use backend::context::{Context, ContextDesc, Validation, ValidationMessage};
 pub use backend::pipeline::{
     Binding, Blend, ComputePipeline, ComputePipelineDesc, GraphicsPipeline, GraphicsPipelineDesc,

@@ -5,7 +5,7 @@
 //!             [--simulate] [--sim-cache FILE]
 //!             [--path auto|mesh|compute] [--raster auto|triangles|compute]
 //!             [--device SEL] [--print-graph]
-//!             [--stats] [--stats-json FILE] [--validation]
+//!             [--stats] [--stats-json FILE] [--repeat N] [--validation]
 //! ```
 //!
 //! `.png` output is 8-bit sRGB; `.exr` output is linear half-float RGB with an optional `A`
@@ -16,6 +16,10 @@
 //! dynamics, `--simulate` writes the simulation cache (`SCENE.sim` unless `--sim-cache`) that
 //! every process rendering a range then reads (without it, a process simulates from frame 0 in
 //! memory, with the same result).
+//!
+//! Timing: `--stats` prints the last frame's per-pass GPU times; `--repeat N` renders that frame
+//! N more times (the first frame pays shader compilation and cache fills; on a CPU device frames
+//! vary by 5–10 %) and reports each pass's median and quartiles over those N instead.
 
 use std::path::PathBuf;
 
@@ -57,6 +61,11 @@ struct Cli {
     /// Write per-pass GPU times and counts as JSON.
     #[arg(long)]
     stats_json: Option<PathBuf>,
+    /// Render the last frame N more times and report each pass's median GPU time and quartiles
+    /// over those frames (with --stats and/or --stats-json): the first frame pays shader
+    /// compilation and cache fills, and frames vary from one to the next.
+    #[arg(long, value_parser = clap::value_parser!(u32).range(1..=MAX_REPEAT as i64))]
+    repeat: Option<u32>,
     /// Enable the Khronos validation layer (also HAIRKIT_VALIDATION=1).
     #[arg(long)]
     validation: bool,
@@ -74,6 +83,9 @@ struct Cli {
     #[arg(long)]
     sim_cache: Option<PathBuf>,
 }
+
+/// Most frames `--repeat` renders (a bound on a typo's cost, not on what is useful).
+const MAX_REPEAT: u32 = 1000;
 
 /// `N` or `START..END` (half-open).
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -178,6 +190,9 @@ fn run(cli: &Cli) -> Result<()> {
             started.elapsed().as_secs_f64() * 1e3
         );
     }
+    if cli.repeat.is_some() && !cli.stats && cli.stats_json.is_none() {
+        anyhow::bail!("--repeat times frames that nothing would report: add --stats and/or --stats-json");
+    }
     if cli.out.is_none() && !cli.print_graph {
         if cli.simulate {
             return Ok(());
@@ -230,8 +245,10 @@ fn run(cli: &Cli) -> Result<()> {
     let mut live = animation.start();
     let mut player = render::animation::Player::new(&animation);
     let mut last = None;
+    let mut last_camera = None;
     for i in cli.frames.start..cli.frames.end {
         let (frame_eye, frame_target) = scene.frame_camera(i, length);
+        last_camera = Some((i, frame_eye, frame_target));
         let update = if animation.moves() {
             let simulated;
             let positions = match &cache {
@@ -281,8 +298,23 @@ fn run(cli: &Cli) -> Result<()> {
         last = Some(frame);
     }
     let Some(frame) = last else { return Ok(()) };
+    // The last frame again, as it was (its camera, its animation state), timed only.
+    let repeated = match (cli.repeat, last_camera) {
+        (Some(n), Some((i, eye, target))) => {
+            eprintln!("hair-render: timing frame {i} {n} more time{}", if n == 1 { "" } else { "s" });
+            let mut timings = Vec::with_capacity(n as usize);
+            for _ in 0..n {
+                timings.push(renderer.render_camera(&ctx, eye, target)?.timings);
+            }
+            Some(gen_gpu::TimingSummary::of(&timings))
+        }
+        _ => None,
+    };
     if cli.stats {
-        println!("{}", frame.timings);
+        match &repeated {
+            Some(summary) => println!("{summary}"),
+            None => println!("{}", frame.timings),
+        }
         println!(
             "strands {}, vertices {}, bundles culled {} of {}; {} characters as volumes, {} hairs voxelized",
             frame.stats.strands,
@@ -325,6 +357,18 @@ fn run(cli: &Cli) -> Result<()> {
             "oit_pool": frame.oit_pool,
             "raster_overflow": frame.raster_overflow,
             "raster_slots": frame.raster_slots,
+            "repeated": repeated.as_ref().map(|r| serde_json::json!({
+                "frames": r.frames,
+                "wall_ms_median": r.wall_median_ms,
+                "passes": r.passes.iter().map(|p| serde_json::json!({
+                    "name": p.name,
+                    "depth": p.depth,
+                    "frames": p.frames,
+                    "gpu_ms_median": p.median_ms,
+                    "gpu_ms_q1": p.q1_ms,
+                    "gpu_ms_q3": p.q3_ms,
+                })).collect::<Vec<_>>(),
+            })),
         });
         let text = serde_json::to_string_pretty(&json)?;
         hairmesh::atomic::write_file_atomic(json_path, |w| w.write_all(text.as_bytes()))
