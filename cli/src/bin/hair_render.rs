@@ -301,11 +301,18 @@ fn run(cli: &Cli) -> Result<()> {
     // The last frame again, as it was (its camera, its animation state), timed only.
     let repeated = match (cli.repeat, last_camera) {
         (Some(n), Some((i, eye, target))) => {
-            eprintln!("hair-render: timing frame {i} {n} more time{}", if n == 1 { "" } else { "s" });
+            let bar = indicatif::ProgressBar::new(u64::from(n)).with_style(
+                indicatif::ProgressStyle::with_template(&format!(
+                    "timing frame {i} [{{bar:30}}] {{pos}}/{{len}} {{elapsed}}"
+                ))
+                .unwrap_or_else(|_| indicatif::ProgressStyle::default_bar()),
+            );
             let mut timings = Vec::with_capacity(n as usize);
             for _ in 0..n {
                 timings.push(renderer.render_camera(&ctx, eye, target)?.timings);
+                bar.inc(1);
             }
+            bar.finish_and_clear();
             Some(gen_gpu::TimingSummary::of(&timings))
         }
         _ => None,
