@@ -245,10 +245,8 @@ fn run(cli: &Cli) -> Result<()> {
     let mut live = animation.start();
     let mut player = render::animation::Player::new(&animation);
     let mut last = None;
-    let mut last_camera = None;
     for i in cli.frames.start..cli.frames.end {
         let (frame_eye, frame_target) = scene.frame_camera(i, length);
-        last_camera = Some((i, frame_eye, frame_target));
         let update = if animation.moves() {
             let simulated;
             let positions = match &cache {
@@ -299,8 +297,10 @@ fn run(cli: &Cli) -> Result<()> {
     }
     let Some(frame) = last else { return Ok(()) };
     // The last frame again, as it was (its camera, its animation state), timed only.
-    let repeated = match (cli.repeat, last_camera) {
-        (Some(n), Some((i, eye, target))) => {
+    let repeated = match cli.repeat {
+        Some(n) => {
+            let i = cli.frames.end - 1;
+            let (eye, target) = scene.frame_camera(i, length);
             let bar = indicatif::ProgressBar::new(u64::from(n)).with_style(
                 indicatif::ProgressStyle::with_template(&format!(
                     "timing frame {i} [{{bar:30}}] {{pos}}/{{len}} {{elapsed}}"

@@ -92,32 +92,34 @@ fn quantile(sorted: &[f64], p: f64) -> f64 {
 impl TimingSummary {
     /// The summary of `frames` (in any order).
     pub fn of(frames: &[FrameTimings]) -> Self {
-        // (name, depth, occurrence) -> times, keys in order of first appearance.
-        let mut keys: Vec<(String, u32, usize)> = Vec::new();
+        // (name, depth, occurrence) -> its index in `keys` and `times`, in order of first
+        // appearance.
+        let mut index: std::collections::HashMap<(&str, u32, usize), usize> =
+            std::collections::HashMap::new();
+        let mut keys: Vec<(&str, u32)> = Vec::new();
         let mut times: Vec<Vec<f64>> = Vec::new();
         for frame in frames {
             let mut seen: std::collections::HashMap<(&str, u32), usize> = std::collections::HashMap::new();
             for pass in &frame.passes {
                 let occurrence = seen.entry((pass.name.as_str(), pass.depth)).or_insert(0);
-                let key = (pass.name.clone(), pass.depth, *occurrence);
+                let key = (pass.name.as_str(), pass.depth, *occurrence);
                 *occurrence += 1;
                 let Some(ms) = pass.gpu_ms.filter(|ms| ms.is_finite()) else { continue };
-                match keys.iter().position(|k| *k == key) {
-                    Some(i) => times[i].push(ms),
-                    None => {
-                        keys.push(key);
-                        times.push(vec![ms]);
-                    }
-                }
+                let i = *index.entry(key).or_insert_with(|| {
+                    keys.push((key.0, key.1));
+                    times.push(Vec::new());
+                    keys.len() - 1
+                });
+                times[i].push(ms);
             }
         }
         let passes = keys
             .into_iter()
             .zip(times)
-            .map(|((name, depth, _), mut t)| {
+            .map(|((name, depth), mut t)| {
                 t.sort_by(f64::total_cmp);
                 PassSummary {
-                    name,
+                    name: name.to_owned(),
                     depth,
                     frames: t.len(),
                     median_ms: quantile(&t, 0.5),
@@ -129,11 +131,6 @@ impl TimingSummary {
         let mut wall: Vec<f64> = frames.iter().map(|f| f.cpu_wait_ms).filter(|ms| ms.is_finite()).collect();
         wall.sort_by(f64::total_cmp);
         Self { frames: frames.len(), passes, wall_median_ms: quantile(&wall, 0.5) }
-    }
-
-    /// The median GPU time of the first pass named `name`.
-    pub fn pass_median_ms(&self, name: &str) -> Option<f64> {
-        self.passes.iter().find(|p| p.name == name).map(|p| p.median_ms)
     }
 }
 
@@ -1043,7 +1040,6 @@ mod tests {
         assert_eq!((s.passes[0].q1_ms, s.passes[0].q3_ms), (15.0, 25.0));
         // The first character's raster pass is not mixed with the second's.
         assert_eq!((s.passes[2].median_ms, s.passes[3].median_ms), (2.0, 4.0));
-        assert_eq!(s.pass_median_ms("raster"), Some(2.0));
         assert_eq!(s.wall_median_ms, 21.0);
         let text = s.to_string();
         assert!(text.contains("over 3 frames") && text.contains("7.000–7.000, 1 frame)"), "{text}");
