@@ -2,7 +2,7 @@
 
 use std::process::{Command, ExitCode};
 
-use anyhow::ensure;
+use anyhow::{Context as _, ensure};
 use hairkit_tests::harness::{GpuTest, Requirements, run_gpu_tests};
 
 fn hairkit(args: &[&str]) -> anyhow::Result<(bool, String, String)> {
@@ -147,6 +147,16 @@ fn main() -> ExitCode {
                     // The rest phase draws every strand the front phase leaves: never nothing.
                     ensure!(values[8] > 0.0, "bench-raster.csv: {row}");
                 }
+                // The far character timed again with straight strands: a positive time per far row.
+                let straight = report
+                    .lines()
+                    .find(|l| l.starts_with("What generation costs inside the fused kernel"))
+                    .context("the raster section has no straight-strand timing")?;
+                let times: Vec<f64> = straight
+                    .split(" ms with straight strands")
+                    .filter_map(|part| part.rsplit(' ').next()?.parse().ok())
+                    .collect();
+                ensure!(!times.is_empty() && times.iter().all(|t| t.is_finite() && *t > 0.0), "{straight}");
             }
             // The compute path's rows time generation alone too.
             for row in std::fs::read_to_string(dir.path().join("bench-generation.csv"))?.lines().skip(1) {

@@ -12,6 +12,11 @@
 
 layout(local_size_x = 32) in;
 
+// What the kernel draws of each strand (render/src/raster.rs FusedStrands): the generated
+// strands, or (HK_FUSED_STRANDS_STRAIGHT, benchmarks) each as a straight line from its root to
+// its tip.
+layout(constant_id = HK_FUSED_STRANDS_CONSTANT_ID) const uint FUSED_STRANDS = 0u;
+
 // Per slot the segments of its strand marked this frame (raster_split.comp cleared them).
 layout(std430, set = 0, binding = HK_BINDING_RASTER_MARKS) buffer MarkBuffer { uint marks[]; };
 
@@ -116,6 +121,38 @@ void main() {
         walk = raster.phase == SLOT_SUBSET_SPARSE ? marked : ~marked;
     }
     RasterVertex previous;
+    if (FUSED_STRANDS == HK_FUSED_STRANDS_STRAIGHT) {
+        // For benchmarks (FusedStrands::Straight; CPU port raster::straight_strand): the straight
+        // line from the hair-mesh curve's point at the root to its point at the strand's length,
+        // split into the strand's vertices and walked like any strand, so that generation is two
+        // control-point loads and a lerp per vertex. Each invocation fetches its own texels (the
+        // subgroup-wide fetches need every invocation at the same load).
+        s.cell.together = false;
+        load_segment(s.cell, 0, s.control);
+        vec3 root = params.normalization.xyz + s.control.strand[0] * params.normalization.w;
+        load_segment(s.cell, int(coherent_layers()) - 1, s.control);
+        vec3 tip = params.normalization.xyz + s.control.strand[3] * params.normalization.w;
+        vec3 direction = try_normalize(tip - root, vec3(0.0, 1.0, 0.0));
+        for (uint k = 0u; k <= s.segments; ++k) {
+            StrandVertex v;
+            v.tau = float(k) * power_of_two_reciprocal(float(s.segments)); // k / segments, exactly
+            v.position = mix(root, tip, v.tau * s.scale);
+            v.tangent = direction;
+            v.width = width_at(v.tau) * l.width_scale;
+            RasterVertex next = raster_vertex(v);
+            if (SLOT_ORDER != 0u && k > 0u) {
+                segment_bit = segment_bits(k - 1u, s.segments);
+            }
+            if (k > 0u && (SLOT_ORDER == 0u || (walk & segment_bit) != 0u)) {
+                raster_segment(previous, next, raster.material, random);
+            }
+            previous = next;
+        }
+        if (SLOT_ORDER != 0u && segment_marks != 0u) {
+            marks[slot] |= segment_marks;
+        }
+        return;
+    }
     // Strands of 16 segments or more walked whole (no slot order) go curve segment by curve
     // segment: an outer loop enters each (loading its control data) and an inner loop takes
     // its steps. On CPU devices (llvmpipe) every value a loop carries is written back under

@@ -225,6 +225,18 @@ pub const DEPTH_CLIPPING_CONSTANT_ID: u32 = 35;
 /// reach the image (`raster_split.comp`) unless K is 1 (`raster::ComputeRaster::new`).
 pub const VISIBILITY_SLOTS_CONSTANT_ID: u32 = 36;
 
+/// Specialization constant of the compute rasterizer's fused-generation kernel: what it draws
+/// of each strand (`raster::FusedStrands`): [`FUSED_STRANDS_STYLED`], the frames' strands, or
+/// [`FUSED_STRANDS_STRAIGHT`], each strand as the straight line from its root to its tip through
+/// the same walk, for benchmarks that separate generation's cost from rasterization's.
+pub const FUSED_STRANDS_CONSTANT_ID: u32 = 37;
+
+/// [`FUSED_STRANDS_CONSTANT_ID`]: the strands as generated (every frame).
+pub const FUSED_STRANDS_STYLED: u32 = 0;
+
+/// [`FUSED_STRANDS_CONSTANT_ID`]: straight lines from root to tip (benchmarks).
+pub const FUSED_STRANDS_STRAIGHT: u32 = 1;
+
 /// 32-bit words per 8×8 tile of the compute rasterizer's occlusion tiles (`raster_tiles.comp`
 /// writes them, `strand_raster.glsl` reads them): the farthest depth of the tile's own pixels,
 /// then of the 2×2 and of the 3×3 tiles it is the top left of.
@@ -251,6 +263,8 @@ pub const GLSL_CONSTANTS: &[(&str, u64)] = &[
     ("HK_LOAD_BY_ADDRESS_CONSTANT_ID", LOAD_BY_ADDRESS_CONSTANT_ID as u64),
     ("HK_DEPTH_CLIPPING_CONSTANT_ID", DEPTH_CLIPPING_CONSTANT_ID as u64),
     ("HK_VISIBILITY_SLOTS_CONSTANT_ID", VISIBILITY_SLOTS_CONSTANT_ID as u64),
+    ("HK_FUSED_STRANDS_CONSTANT_ID", FUSED_STRANDS_CONSTANT_ID as u64),
+    ("HK_FUSED_STRANDS_STRAIGHT", FUSED_STRANDS_STRAIGHT as u64),
 ];
 
 /// Every binding a render shader may use: the values of [`GLSL_DEFINES`] (all of which are

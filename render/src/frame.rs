@@ -24,8 +24,8 @@ use crate::instance::{CharacterHair, SceneInstance};
 use crate::occluder::{OccluderMesh, OccluderPipelines};
 use crate::passes::ScenePass;
 use crate::raster::{
-    ComputeRaster, DepthClipping, LoadPath, MAX_MATERIALS, RasterBuffers, RasterMaterial, RasterPath,
-    resolve_raster,
+    ComputeRaster, DepthClipping, FusedStrands, LoadPath, MAX_MATERIALS, RasterBuffers, RasterMaterial,
+    RasterPath, resolve_raster,
 };
 use crate::scene::{Light, LoadedScene, Transparency};
 use crate::shadow::{ShadowAtlas, ShadowPipelines};
@@ -222,6 +222,9 @@ pub struct SceneRenderer {
     /// The compute rasterizer's plain loads and the triangle OIT's node pool go through buffer
     /// references where the device has them ([`Self::with_buffer_references`]).
     pub(crate) buffer_references: bool,
+    /// Compute rasterizer: what its fused-generation kernel draws of each strand
+    /// ([`Self::with_fused_strands`]).
+    fused_strands: FusedStrands,
     /// Hair volumes (with `"ao"`, `"volume_shadows"` or `"volume_lod"`).
     pub(crate) volumes: Option<SceneVolumes>,
     /// `"volume_lod"`: every character raymarched whatever its size ([`Self::with_volumes_everywhere`]).
@@ -659,6 +662,7 @@ impl SceneRenderer {
             slot_order: true,
             depth_clipping_everywhere: false,
             buffer_references: true,
+            fused_strands: FusedStrands::Styled,
             volumes: None,
             volumes_everywhere: false,
             batch_bytes: BATCH_BYTES,
@@ -732,6 +736,7 @@ impl SceneRenderer {
                 table.len(),
                 self.compute_raster_loads(),
                 Some(self.frame_slots(ctx)),
+                self.fused_strands,
             )?);
             self.raster_materials = table;
             self.character_materials = indices;
@@ -939,6 +944,25 @@ impl SceneRenderer {
     /// change makes the compute rasterizer's pipelines again.
     pub fn with_buffer_references(mut self, ctx: &Context, on: bool) -> Result<Self, RenderError> {
         self.buffer_references = on;
+        self.remake_compute_raster(ctx)?;
+        Ok(self)
+    }
+
+    /// Compute rasterizer: what its fused-generation kernel draws of each strand. The default,
+    /// [`FusedStrands::Styled`], is the frames' strands; [`FusedStrands::Straight`] draws each
+    /// as a straight line from its root to its tip through the same walk — a different image,
+    /// for benchmarks that measure what generation costs inside the kernel (`hair-bench --only
+    /// raster`); its raster passes say so in their names. The kernels are specialized for one
+    /// or the other, so a change makes the compute rasterizer's pipelines again.
+    pub fn with_fused_strands(mut self, ctx: &Context, strands: FusedStrands) -> Result<Self, RenderError> {
+        self.fused_strands = strands;
+        self.remake_compute_raster(ctx)?;
+        Ok(self)
+    }
+
+    /// The compute rasterizer's pipelines made again for the renderer's settings (when it has
+    /// them).
+    fn remake_compute_raster(&mut self, ctx: &Context) -> Result<(), RenderError> {
         if self.compute_raster.is_some() {
             let (lights, materials) = (self.scene.lights().len(), self.raster_materials.len());
             self.compute_raster = Some(ComputeRaster::new(
@@ -947,9 +971,10 @@ impl SceneRenderer {
                 materials,
                 self.compute_raster_loads(),
                 Some(self.frame_slots(ctx)),
+                self.fused_strands,
             )?);
         }
-        Ok(self)
+        Ok(())
     }
 
     /// How the compute rasterizer's kernels are to read ([`Self::with_buffer_references`]).
@@ -1422,7 +1447,8 @@ impl SceneRenderer {
 
     /// `raster hair (compute, opaque)` / `(…, blended)` on the triangle raster; on the compute
     /// rasterizer `raster hair (compute raster, …)` with what its kernels draw: `fused
-    /// generation`, `stored strands` or both.
+    /// generation`, `stored strands` or both, and `straight lines` where the fused kernel draws
+    /// them ([`Self::with_fused_strands`]).
     pub(crate) fn raster_pass_name(&self) -> String {
         if self.compute_raster.is_some() {
             let generated = self.slots.iter().any(|s| !s.stored);
@@ -1432,7 +1458,11 @@ impl SceneRenderer {
                 (false, true) => "stored strands",
                 _ => "fused generation",
             };
-            return format!("raster hair (compute raster, {drawn})");
+            let straight = match self.fused_strands {
+                FusedStrands::Straight if generated => ", straight lines",
+                _ => "",
+            };
+            return format!("raster hair (compute raster, {drawn}{straight})");
         }
         let mode = if self.depth_prepass.is_some() { "blended" } else { "opaque" };
         format!("raster hair ({}, {mode})", self.path)

@@ -42,9 +42,10 @@ use gen_gpu::{
 use glam::{Mat4, Vec3};
 
 use crate::contract::{
-    DEPTH_CLIPPING_CONSTANT_ID, GENERATED_RASTER_BINDINGS, LOAD_BY_ADDRESS_CONSTANT_ID,
-    ONLY_MATERIAL_CONSTANT_ID, RASTER_BINDINGS, RASTER_SHADE_BINDINGS, RASTER_SPLIT_BINDINGS,
-    RASTER_TILE_BINDINGS, RESOLVE_BINDINGS, VISIBILITY_SLOTS_CONSTANT_ID, scene_lights_constant,
+    DEPTH_CLIPPING_CONSTANT_ID, FUSED_STRANDS_CONSTANT_ID, FUSED_STRANDS_STRAIGHT, FUSED_STRANDS_STYLED,
+    GENERATED_RASTER_BINDINGS, LOAD_BY_ADDRESS_CONSTANT_ID, ONLY_MATERIAL_CONSTANT_ID, RASTER_BINDINGS,
+    RASTER_SHADE_BINDINGS, RASTER_SPLIT_BINDINGS, RASTER_TILE_BINDINGS, RESOLVE_BINDINGS,
+    VISIBILITY_SLOTS_CONSTANT_ID, scene_lights_constant,
 };
 use crate::graph::TransientPool;
 use crate::scene::{Effects, Raster};
@@ -474,6 +475,50 @@ pub enum LoadPath {
     Bindings,
 }
 
+/// What the compute rasterizer's fused-generation kernel draws of each strand: a
+/// specialization of its pipelines (`FUSED_STRANDS`, `hair_raster.comp`).
+///
+/// [`Self::Straight`] is for measuring, not for pictures: it draws each strand as the straight
+/// line from its root to its tip on the hair-mesh curve (the unstyled curve's end points, at
+/// the strand's length), split into the same vertices and walked by the same rasterizer, so
+/// that generating it costs two control-point loads and a lerp per vertex. The difference to a
+/// [`Self::Styled`] frame of the same scene is what generating the real strands costs inside
+/// the kernel (`hair-bench --only raster`, the far character's row); its CPU port is
+/// [`straight_strand`].
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum FusedStrands {
+    /// The strands as the generator makes them (every frame).
+    #[default]
+    Styled,
+    /// Straight lines from root to tip through the same walk (benchmarks).
+    Straight,
+}
+
+impl FusedStrands {
+    fn constant(self) -> u32 {
+        match self {
+            Self::Styled => FUSED_STRANDS_STYLED,
+            Self::Straight => FUSED_STRANDS_STRAIGHT,
+        }
+    }
+}
+
+/// The points [`FusedStrands::Straight`] draws for strand `strand` of `bundle` with
+/// `segments` segments: from the hair-mesh curve's point at the root (curve parameter 0) to
+/// its point at the strand's length (the style's length scale), evenly spaced. Object space.
+pub fn straight_strand(
+    hair: &hairmesh::asset::HairAsset,
+    bundle: u32,
+    strand: u32,
+    segments: u32,
+) -> Vec<Vec3> {
+    let root = hair.root_parameter(bundle, strand);
+    let at = |t: f64| hair.textures.curve_point(hair.curve, bundle, root.x, root.y, t);
+    let (start, end) = (at(0.0), at(1.0));
+    let scale = hair.style.length_scale(bundle, strand);
+    (0..=segments).map(|k| start.lerp(end, f64::from(k) / f64::from(segments) * scale).as_vec3()).collect()
+}
+
 /// Whether a character's segments need clipping to the view volume's depth (`0 ≤ z ≤ w`):
 /// the raster kernels come in both variants (`DEPTH_CLIPPING`, `strand_raster.glsl`), and a
 /// character wholly inside that depth range — nearly every character of nearly every frame —
@@ -548,6 +593,8 @@ pub struct ComputeRaster {
     loads: LoadPath,
     /// The visibility slots per pixel the kernels were specialized for (`None`: any).
     slots: Option<u32>,
+    /// What the fused-generation kernel draws of each strand.
+    fused: FusedStrands,
 }
 
 impl ComputeRaster {
@@ -559,13 +606,14 @@ impl ComputeRaster {
     /// [`RasterBuffers`] then hold: the scene's, [`slots_within`] its output), else they take
     /// it from their push constants (any K: [`Self::rasterize_stored_words`]). The fused
     /// raster kernel compiles the code that takes a slot order and marks segments
-    /// (`raster_split.comp`) unless `slots` is 1.
+    /// (`raster_split.comp`) unless `slots` is 1; it draws the strands as `fused` says.
     pub fn new(
         ctx: &Context,
         lights: usize,
         materials: usize,
         loads: LoadPath,
         slots: Option<u32>,
+        fused: FusedStrands,
     ) -> gen_gpu::Result<Self> {
         let loads = if ctx.capabilities().buffer_device_address { loads } else { LoadPath::Bindings };
         let by_address = (LOAD_BY_ADDRESS_CONSTANT_ID, u32::from(loads == LoadPath::BufferReferences));
@@ -580,24 +628,31 @@ impl ComputeRaster {
         };
         let push = size_of::<RasterPush>() as u32;
         let slot_count = (VISIBILITY_SLOTS_CONSTANT_ID, slots.unwrap_or(0));
-        let variants = |name: &str, shader, bindings: &[u32]| -> gen_gpu::Result<ClippingVariants> {
-            let strand = gen_gpu::strand_bindings(bindings);
-            let variant = |clipping: DepthClipping, suffix| {
-                let clips = (DEPTH_CLIPPING_CONSTANT_ID, u32::from(clipping == DepthClipping::Clip));
-                compute(&format!("{name}{suffix}"), shader, &strand, push, &[by_address, clips, slot_count])
+        let variants =
+            |name: &str, shader, bindings: &[u32], own: &[(u32, u32)]| -> gen_gpu::Result<ClippingVariants> {
+                let strand = gen_gpu::strand_bindings(bindings);
+                let variant = |clipping: DepthClipping, suffix| {
+                    let clips = (DEPTH_CLIPPING_CONSTANT_ID, u32::from(clipping == DepthClipping::Clip));
+                    let constants = [&[by_address, clips, slot_count], own].concat();
+                    compute(&format!("{name}{suffix}"), shader, &strand, push, &constants)
+                };
+                Ok(ClippingVariants {
+                    clip: variant(DepthClipping::Clip, ", depth clipping")?,
+                    skip: variant(DepthClipping::Skip, "")?,
+                })
             };
-            Ok(ClippingVariants {
-                clip: variant(DepthClipping::Clip, ", depth clipping")?,
-                skip: variant(DepthClipping::Skip, "")?,
-            })
-        };
         let raster = variants(
             "compute raster (fused generation)",
             &shaders::HAIR_RASTER_COMP,
             &GENERATED_RASTER_BINDINGS,
+            &[(FUSED_STRANDS_CONSTANT_ID, fused.constant())],
         )?;
-        let raster_stored =
-            variants("compute raster (stored strands)", &shaders::HAIR_RASTER_STORED_COMP, &RASTER_BINDINGS)?;
+        let raster_stored = variants(
+            "compute raster (stored strands)",
+            &shaders::HAIR_RASTER_STORED_COMP,
+            &RASTER_BINDINGS,
+            &[],
+        )?;
         let split = compute(
             "compute raster slot order",
             &shaders::RASTER_SPLIT_COMP,
@@ -636,7 +691,12 @@ impl ComputeRaster {
             &[by_address],
         )?;
         let no_scene_depth = Buffer::new(ctx, "no scene depth", BufferDesc::storage(16))?;
-        Ok(Self { raster, raster_stored, split, shade, tiles, resolve, no_scene_depth, loads, slots })
+        Ok(Self { raster, raster_stored, split, shade, tiles, resolve, no_scene_depth, loads, slots, fused })
+    }
+
+    /// What the fused-generation kernel draws of each strand ([`Self::new`]).
+    pub fn fused_strands(&self) -> FusedStrands {
+        self.fused
     }
 
     /// How the kernels read: what [`Self::new`] was asked for where the device allows it.

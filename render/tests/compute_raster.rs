@@ -14,7 +14,9 @@ use hairkit_tests::image_compare::{Tolerance, compare, output_dir};
 use hairkit_tests::scenes::{scene_with, scene_with_edit, sintel_scene};
 use render::frame::{RenderedFrame, SceneRenderer};
 use render::raster::cpu::{self, RasterView, StrandPoint};
-use render::raster::{ComputeRaster, DepthClipping, LoadPath, RasterPath, claimed_slots, coverage_sum};
+use render::raster::{
+    ComputeRaster, DepthClipping, FusedStrands, LoadPath, RasterPath, claimed_slots, coverage_sum,
+};
 use render::scene::{LoadedScene, load_scene};
 
 /// Mean alpha (hair + occluder coverage) of a frame.
@@ -157,8 +159,15 @@ impl KernelPair {
     /// any).
     fn specialized(ctx: &gen_gpu::Context, slots: Option<u32>) -> anyhow::Result<Self> {
         let pair = Self {
-            referenced: ComputeRaster::new(ctx, 1, 1, LoadPath::BufferReferences, slots)?,
-            bound: ComputeRaster::new(ctx, 1, 1, LoadPath::Bindings, slots)?,
+            referenced: ComputeRaster::new(
+                ctx,
+                1,
+                1,
+                LoadPath::BufferReferences,
+                slots,
+                FusedStrands::Styled,
+            )?,
+            bound: ComputeRaster::new(ctx, 1, 1, LoadPath::Bindings, slots, FusedStrands::Styled)?,
         };
         let wanted = if ctx.capabilities().buffer_device_address {
             LoadPath::BufferReferences
@@ -560,6 +569,67 @@ fn with_and_without_tiles(
 /// strand in place of its first failed at mean FLIP 0.021 and its 99th percentile 0.43 against
 /// 0.009 and 0.06, and drawing half of each bundle's strands twice the density by 5 %).
 fn fused_against_stored(ctx: &gen_gpu::Context) -> anyhow::Result<()> {
+    let (hair, view) = six_thousand_strands(0.0)?;
+    let lod_off =
+        hairmesh::reference::LodParams { enabled: false, ..hairmesh::reference::LodParams::default() };
+    let reference = hair.generate_reference(&view, &lod_off);
+    let set = hairmesh::strands::StrandSet::from_reference(&reference);
+    let (fused, stored) = fused_and_stored_frames(ctx, hair, set, FusedStrands::Styled)?;
+    let second = fused.passes.iter().filter(|p| p.ends_with(": second eighth, tile-culled")).count();
+    ensure!(second == 1, "the fused frame drew {second} second eighths, not one: {:?}", fused.passes);
+    let (a, b) = (mean_alpha(&fused), mean_alpha(&stored));
+    ensure!(a > 0.05, "too little hair on screen to compare (mean alpha {a})");
+    ensure!((a - b).abs() <= 0.01 * b, "mean alpha {a} (fused) against {b} (stored strands)");
+    let stats = compare(
+        "raster-fused-vs-stored",
+        &fused.image,
+        &stored.image,
+        Tolerance { mean: 0.015, percentile: (0.99, 0.1) },
+    )
+    .map_err(anyhow::Error::msg)?;
+    println!("fused vs stored strands: mean alpha {a:.4} / {b:.4}, FLIP {:.5}", stats.mean);
+    Ok(())
+}
+
+/// The fused kernel's benchmark variant (`FusedStrands::Straight`: every strand the straight
+/// line from its root to its tip, for measuring what generation costs) against its CPU port
+/// `raster::straight_strand` drawn as stored strands through the same rasterizer: the same
+/// lines, so the same image but for f32 rounding (mean FLIP 0.005), and the passes named for
+/// it. Verified to fail with the end of the first curve segment taken for the tip (lines a
+/// quarter as long) and with the strands' length scale ignored.
+fn fused_straight_against_port(ctx: &gen_gpu::Context) -> anyhow::Result<()> {
+    // Lengths that vary from strand to strand, so that each line ends at its own strand's length.
+    let (hair, _) = six_thousand_strands(0.3)?;
+    let segments = 1u32 << hairmesh::reference::MAX_SEGMENTS_LOG2;
+    let mut set = hairmesh::strands::StrandSet::from_reference(&[]);
+    for (bundle, info) in (0u32..).zip(&hair.bundles) {
+        for strand in 0..info.strands {
+            set.points.extend(render::raster::straight_strand(&hair, bundle, strand, segments));
+            set.strand_points.push(segments + 1);
+        }
+    }
+    let (fused, stored) = fused_and_stored_frames(ctx, hair, set, FusedStrands::Straight)?;
+    let straight = fused.passes.iter().filter(|p| p.contains("fused generation, straight lines)")).count();
+    ensure!(straight >= 2, "the raster passes should say they draw straight lines: {:?}", fused.passes);
+    let (a, b) = (mean_alpha(&fused), mean_alpha(&stored));
+    ensure!(a > 0.05, "too little hair on screen to compare (mean alpha {a})");
+    ensure!((a - b).abs() <= 0.01 * b, "mean alpha {a} (straight, fused) against {b} (the port's lines)");
+    let stats = compare(
+        "raster-straight-vs-port",
+        &fused.image,
+        &stored.image,
+        Tolerance { mean: 0.015, percentile: (0.99, 0.1) },
+    )
+    .map_err(anyhow::Error::msg)?;
+    println!("straight lines, fused vs port: mean alpha {a:.4} / {b:.4}, FLIP {:.5}", stats.mean);
+    Ok(())
+}
+
+/// A 6000-strand character (45 strands per bundle, tapering to 0.3 of its root width as stored
+/// strands do; the style's `length_variation` given) and the view of [`fused_and_stored_frames`].
+fn six_thousand_strands(
+    length_variation: f64,
+) -> anyhow::Result<(hairmesh::asset::HairAsset, hairmesh::reference::ViewParams)> {
     use hairmesh::asset::{AssetParams, HairAsset, StrandCount};
     use hairmesh::style::Style;
     use hairmesh::{ExtrudeParams, HairMesh};
@@ -568,21 +638,31 @@ fn fused_against_stored(ctx: &gen_gpu::Context) -> anyhow::Result<()> {
         &scalp,
         &ExtrudeParams { layers: 4, length: 0.25, droop: 1.2, ..ExtrudeParams::default() },
     )?;
-    // The stored strands taper to 0.3 of their root width, as the style here.
-    let style = Style { width: 0.003, tip_width: 0.3, ..Style::default() };
+    let style = Style { width: 0.003, tip_width: 0.3, length_variation, ..Style::default() };
     let params =
         AssetParams { strands: StrandCount::Total(6000), sample_sets: 1, seed: 5, ..AssetParams::default() };
     let hair = HairAsset::build(&mesh, &params, style)?;
-    let (width, height) = (256, 192);
-    let eye = Vec3::new(0.0, 1.82, 0.62);
-    let inputs = FrameInputs::looking_at(&hair, eye, width, height);
-    let lod_off =
-        hairmesh::reference::LodParams { enabled: false, ..hairmesh::reference::LodParams::default() };
-    let reference = hair.generate_reference(&inputs.view, &lod_off);
-    let set = hairmesh::strands::StrandSet::from_reference(&reference);
+    let (width, height) = FUSED_VS_STORED_SIZE;
+    let view = FrameInputs::looking_at(&hair, FUSED_VS_STORED_EYE, width, height).view;
+    Ok((hair, view))
+}
+
+const FUSED_VS_STORED_SIZE: (u32, u32) = (256, 192);
+const FUSED_VS_STORED_EYE: Vec3 = Vec3::new(0.0, 1.82, 0.62);
+
+/// `hair` generated in the compute rasterizer's kernel (LOD off, its kernel drawing as `fused`
+/// says) and `stored` drawn as stored strands (their root width the hair's) through the same
+/// rasterizer, in the same opaque scene.
+fn fused_and_stored_frames(
+    ctx: &gen_gpu::Context,
+    hair: hairmesh::asset::HairAsset,
+    stored: hairmesh::strands::StrandSet,
+    fused: FusedStrands,
+) -> anyhow::Result<(RenderedFrame, RenderedFrame)> {
+    let (width, height) = FUSED_VS_STORED_SIZE;
     let json = serde_json::json!({
         "output": { "width": width, "height": height },
-        "camera": { "eye": eye.to_array(), "target": [0.0, 1.55, 0.0], "fov_y_degrees": 45 },
+        "camera": { "eye": FUSED_VS_STORED_EYE.to_array(), "target": [0.0, 1.55, 0.0], "fov_y_degrees": 45 },
         "lights": [ { "directional": { "direction": [0.5, 0.8, 0.6] } } ],
         "characters": [],
         "effects": { "transparency": "opaque", "raster": "compute" }
@@ -601,30 +681,18 @@ fn fused_against_stored(ctx: &gen_gpu::Context) -> anyhow::Result<()> {
             color_variation: 0.0,
             occluder: None,
         });
-        let renderer = SceneRenderer::from_instance(ctx, &instance, GenerationPath::Compute)?;
+        let renderer = SceneRenderer::from_instance(ctx, &instance, GenerationPath::Compute)?
+            .with_fused_strands(ctx, fused)?;
         ensure!(renderer.raster() == RasterPath::Compute, "not the compute rasterizer");
         Ok(renderer.render(ctx)?)
     };
     let width_at_root = hair.style.width as f32;
     let fused = frame(render::instance::CharacterHair::Generated(std::sync::Arc::new(hair)))?;
     let stored = frame(render::instance::CharacterHair::Stored {
-        strands: std::sync::Arc::new(set),
+        strands: std::sync::Arc::new(stored),
         width: width_at_root,
     })?;
-    let second = fused.passes.iter().filter(|p| p.ends_with(": second eighth, tile-culled")).count();
-    ensure!(second == 1, "the fused frame drew {second} second eighths, not one: {:?}", fused.passes);
-    let (a, b) = (mean_alpha(&fused), mean_alpha(&stored));
-    ensure!(a > 0.05, "too little hair on screen to compare (mean alpha {a})");
-    ensure!((a - b).abs() <= 0.01 * b, "mean alpha {a} (fused) against {b} (stored strands)");
-    let stats = compare(
-        "raster-fused-vs-stored",
-        &fused.image,
-        &stored.image,
-        Tolerance { mean: 0.015, percentile: (0.99, 0.1) },
-    )
-    .map_err(anyhow::Error::msg)?;
-    println!("fused vs stored strands: mean alpha {a:.4} / {b:.4}, FLIP {:.5}", stats.mean);
-    Ok(())
+    Ok((fused, stored))
 }
 
 /// Two characters with a scene-wide strand LOD α of 2, one near the camera (its LOD keeps every
@@ -977,6 +1045,11 @@ fn main() -> ExitCode {
             "fused_generation_draws_every_strand_once",
             Requirements::INT64_ATOMICS,
             fused_against_stored,
+        ),
+        GpuTest::new(
+            "straight_strands_for_benchmarks_match_their_port",
+            Requirements::INT64_ATOMICS,
+            fused_straight_against_port,
         ),
         GpuTest::new("compute_raster_draws_stored_strands", Requirements::INT64_ATOMICS, |ctx| {
             // The artist's Sintel groom (11,400 × 16, TressFX) on its bust, with shadows.

@@ -859,6 +859,8 @@ fn raster_table(setup: &Setup<'_>, progress: &indicatif::ProgressBar) -> Result<
     let dir = std::env::temp_dir().join(format!("hair-bench-raster-{}", std::process::id()));
     std::fs::create_dir_all(&dir)?;
     let mut scenes: Vec<(String, PathBuf)> = Vec::new();
+    // The rows also timed with straight strands (what generation costs inside the kernel).
+    let mut straight_rows: Vec<String> = Vec::new();
     let near =
         serde_json::json!({ "eye": [0.0, 1.82, 0.62], "target": [0.0, 1.55, 0.0], "fov_y_degrees": 45 });
     let far = serde_json::json!({ "eye": [0.0, 1.7, 4.2], "target": [0.0, 1.55, 0.0], "fov_y_degrees": 45 });
@@ -887,7 +889,11 @@ fn raster_table(setup: &Setup<'_>, progress: &indicatif::ProgressBar) -> Result<
             let path = dir.join(format!("scene_{strands}_{}.json", scenes.len()));
             std::fs::write(&path, serde_json::to_vec_pretty(&scene)?)?;
             let mode = if transparency == "oit" { "OIT (k = 8)" } else { "opaque" };
-            scenes.push((format!("{strands}-strand character, {label}, {mode}"), path));
+            let name = format!("{strands}-strand character, {label}, {mode}");
+            if label.starts_with("far") {
+                straight_rows.push(name.clone());
+            }
+            scenes.push((name, path));
         }
     }
     if let Some((camera, character)) = sintel_groom() {
@@ -944,6 +950,7 @@ fn raster_table(setup: &Setup<'_>, progress: &indicatif::ProgressBar) -> Result<
         "resolve hair",
     ];
     let mut overflows = Vec::new();
+    let mut generation_costs = Vec::new();
     for (number, (name, loaded)) in all.into_iter().enumerate() {
         let number = number + 1;
         let mut results = Vec::new();
@@ -986,6 +993,32 @@ fn raster_table(setup: &Setup<'_>, progress: &indicatif::ProgressBar) -> Result<
             breakdown,
             "| {number} | {front:.1} | {rest:.1} | {shade:.1} | {resolve:.1} | {others:.1} | {cf:.1} |"
         );
+        if straight_rows.contains(&name) {
+            progress.set_message(format!("raster: {name} (straight strands)"));
+            let mut scene = loaded.clone();
+            scene.scene.effects.raster = render::scene::Raster::Compute;
+            let renderer = render::frame::SceneRenderer::new(ctx, &scene, GenerationPath::Compute)?
+                .with_fused_strands(ctx, render::raster::FusedStrands::Straight)?;
+            renderer.render(ctx)?;
+            let mut total = Vec::new();
+            for _ in 0..compute_frames {
+                total.push(submissions_ms(&renderer.render(ctx)?, &["scene frame"]));
+            }
+            let straight = median(total);
+            // 15× the triangle frame: the compute-rasterizer issue's goal for the far character.
+            let goal = tf / 15.0;
+            let at_goal = if goal > straight {
+                format!("15× ({goal:.1} ms) would leave {:.1} ms for it", goal - straight)
+            } else {
+                format!("15× ({goal:.1} ms) is out of reach even with straight strands")
+            };
+            generation_costs.push(format!(
+                "row {number}: {straight:.1} ms with straight strands ({:.1}× the triangle frame) against {cf:.1} ms styled ({:.1}×): generating the styled strands costs about {:.1} ms of the frame; {at_goal}",
+                tf / straight,
+                tf / cf,
+                cf - straight,
+            ));
+        }
         let flip = flip_mean(&ti, &ci);
         let speedup = tf / cf;
         let _ = writeln!(
@@ -1004,6 +1037,13 @@ fn raster_table(setup: &Setup<'_>, progress: &indicatif::ProgressBar) -> Result<
         "\nWhere the compute rasterizer's frame goes (the same frames; medians per column, so the parts need not add up to the frame's median exactly): the *front phase* generates and draws the first subset of strands (every {}th slot), the *rest phase* the others against the occlusion tiles made before them (with fused generation and one slot per pixel, for characters whose bundles keep many strands, a second eighth of each bundle, then the rest, each after its own tile pass; one phase where tiles are off); *shade* composites each pixel's nearest fragments, *resolve* filters and writes them; *the rest*: every other pass (LOD, clears, occluders, shadow maps, tiles, copies).\n\n{breakdown}",
         gen_gpu::contract::SPARSE_SLOT_STRIDE
     );
+    if !generation_costs.is_empty() {
+        let _ = writeln!(
+            md,
+            "What generation costs inside the fused kernel: the far character drawn again (same run, median of {compute_frames} frames) with every strand a straight line from its root to its tip on the hair-mesh curve (`FusedStrands::Straight`: the same vertices, walk and pixels' work, generation reduced to two control-point loads and a lerp per vertex; a different image, not a LOD): {}.",
+            generation_costs.join("; ")
+        );
+    }
     if !overflows.is_empty() {
         let _ = writeln!(
             md,
