@@ -90,6 +90,19 @@ uint front_first_strand(uint j, uint offset, uint n, uint part) {
     return strand < n ? strand : NO_STRAND;
 }
 
+// Vertex k of the strand being walked (0, 1, ... in order): draws the segment from `previous` to
+// `next` where `walk` asks for it (every segment without a slot order; with one, the segment's
+// bit is what a fragment marks), then `next` becomes `previous`.
+void walk_to(inout RasterVertex previous, RasterVertex next, uint k, uint segments, uint walk, float random) {
+    if (SLOT_ORDER != 0u && k > 0u) {
+        segment_bit = segment_bits(k - 1u, segments);
+    }
+    if (k > 0u && (SLOT_ORDER == 0u || (walk & segment_bit) != 0u)) {
+        raster_segment(previous, next, raster.material, random);
+    }
+    previous = next;
+}
+
 void main() {
     // The phase's slots, one per invocation: from the character's slot order with the strand's
     // marks (dispatched with its arguments, raster_split.comp), or the phase's slot subset,
@@ -139,69 +152,47 @@ void main() {
             v.position = mix(root, tip, v.tau * s.scale);
             v.tangent = direction;
             v.width = width_at(v.tau) * l.width_scale;
-            RasterVertex next = raster_vertex(v);
-            if (SLOT_ORDER != 0u && k > 0u) {
-                segment_bit = segment_bits(k - 1u, s.segments);
-            }
-            if (k > 0u && (SLOT_ORDER == 0u || (walk & segment_bit) != 0u)) {
-                raster_segment(previous, next, raster.material, random);
-            }
-            previous = next;
+            walk_to(previous, raster_vertex(v), k, s.segments, walk, random);
         }
-        if (SLOT_ORDER != 0u && segment_marks != 0u) {
-            marks[slot] |= segment_marks;
-        }
-        return;
-    }
-    // Strands of 16 segments or more walked whole (no slot order) go curve segment by curve
-    // segment: an outer loop enters each (loading its control data) and an inner loop takes
-    // its steps. On CPU devices (llvmpipe) every value a loop carries is written back under
-    // the SIMD lanes' mask at each turn; the inner loop only reads the segment's 38 control
-    // values, so they are written back once per curve segment instead of at every vertex
-    // (paired runs, the same images: the far character's frame 4-5 % faster; the 100k-strand
-    // close-up's within 1 %). Strands of a few segments, as in a crowd under LOD, enter a curve
-    // segment every step or two: that way the crowd measured 2 % slower, so they and the slot
-    // order's walks keep the one loop below.
-    if (SLOT_ORDER == 0u && s.segments >= 16u) {
+    } else if (SLOT_ORDER == 0u && s.segments >= 16u) {
+        // Strands of 16 segments or more walked whole (no slot order) go curve segment by
+        // curve segment: an outer loop enters each (loading its control data) and an inner loop
+        // takes its steps. On CPU devices (llvmpipe) every value a loop carries is written back
+        // under the SIMD lanes' mask at each turn; the inner loop only reads the segment's 38
+        // control values, so they are written back once per curve segment instead of at every
+        // vertex (paired runs, the same images: the far character's frame 4-5 % faster; the
+        // 100k-strand close-up's within 1 %). Strands of a few segments, as in a crowd under
+        // LOD, enter a curve segment every step or two: that way the crowd measured 2 % slower,
+        // so they and the slot order's walks keep the one loop below.
         while (strand_stream_walking(s)) {
             int segment = strand_stream_enter(s);
             do {
                 StrandVertex v;
                 uint k;
                 if (strand_stream_step(s, v, k)) {
-                    RasterVertex next = raster_vertex(v);
-                    if (k > 0u) {
-                        raster_segment(previous, next, raster.material, random);
-                    }
-                    previous = next;
+                    walk_to(previous, raster_vertex(v), k, s.segments, walk, random);
                 }
             } while (strand_stream_within(s, segment));
         }
-        return;
-    }
-    // One loop entering each curve segment at the step that reaches it.
-    for (uint step = 0u; step < strand_stream_steps(s); ++step) {
-        // With a slot order, only the points the walked segments' vertices read are evaluated
-        // (their control data loaded by the whole subgroup when it fetches together).
-        bool needed = SLOT_ORDER == 0u || point_needed(walk, s.pushed, s.segments);
-        bool enter = needed;
-        if (SLOT_ORDER != 0u && s.cell.together) {
-            enter = subgroupAny(needed);
-        }
-        if (enter) {
-            strand_stream_enter(s);
-        }
-        StrandVertex v;
-        uint k;
-        if (strand_stream_step_needed(s, needed, v, k)) {
-            RasterVertex next = raster_vertex(v);
-            if (SLOT_ORDER != 0u && k > 0u) {
-                segment_bit = segment_bits(k - 1u, s.segments);
+    } else {
+        // One loop entering each curve segment at the step that reaches it.
+        for (uint step = 0u; step < strand_stream_steps(s); ++step) {
+            // With a slot order, only the points the walked segments' vertices read are
+            // evaluated (their control data loaded by the whole subgroup when it fetches
+            // together).
+            bool needed = SLOT_ORDER == 0u || point_needed(walk, s.pushed, s.segments);
+            bool enter = needed;
+            if (SLOT_ORDER != 0u && s.cell.together) {
+                enter = subgroupAny(needed);
             }
-            if (k > 0u && (SLOT_ORDER == 0u || (walk & segment_bit) != 0u)) {
-                raster_segment(previous, next, raster.material, random);
+            if (enter) {
+                strand_stream_enter(s);
             }
-            previous = next;
+            StrandVertex v;
+            uint k;
+            if (strand_stream_step_needed(s, needed, v, k)) {
+                walk_to(previous, raster_vertex(v), k, s.segments, walk, random);
+            }
         }
     }
     // One writer per slot in each phase; a strand of both phases adds the rest's to the
