@@ -6,7 +6,11 @@ use anyhow::{Context as _, ensure};
 use hairkit_tests::harness::{GpuTest, Requirements, run_gpu_tests};
 
 fn hairkit(args: &[&str]) -> anyhow::Result<(bool, String, String)> {
-    let out = Command::new(env!("CARGO_BIN_EXE_hairkit")).args(args).output()?;
+    hairkit_with(args, &[])
+}
+
+fn hairkit_with(args: &[&str], env: &[(&str, &std::path::Path)]) -> anyhow::Result<(bool, String, String)> {
+    let out = Command::new(env!("CARGO_BIN_EXE_hairkit")).args(args).envs(env.iter().copied()).output()?;
     Ok((
         out.status.success(),
         String::from_utf8_lossy(&out.stdout).into_owned(),
@@ -102,6 +106,26 @@ fn main() -> ExitCode {
             if ctx.capabilities().mesh_shader.is_some() {
                 ensure!(dir.path().join("people-mesh.png").is_file(), "{stdout}");
             }
+            Ok(())
+        }),
+        GpuTest::new("demo_without_the_data_set_renders_the_head_cap", Requirements::NONE, |_| {
+            // HAIRKIT_DATA names an empty folder: the real heads are nowhere, so the demo says how
+            // to get them and puts both generated hairstyles on the project's own head cap.
+            let (dir, empty) = (tempfile::tempdir()?, tempfile::tempdir()?);
+            let out = dir.path().to_str().ok_or_else(|| anyhow::anyhow!("non-UTF-8 temp dir"))?;
+            let args = ["demo", "-o", out, "--strands", "300", "--characters", "2", "--size", "96x64"];
+            let (ok, stdout, stderr) = hairkit_with(&args, &[(data_set::ENV_VAR, empty.path())])?;
+            ensure!(ok, "hairkit demo failed: {stderr}");
+            for expected in [data_set::SAMPLE_HEAD, data_set::ENV_VAR, data_set::FETCH_COMMAND, "head cap"] {
+                ensure!(stdout.contains(expected), "`{expected}` missing from:\n{stdout}");
+            }
+            ensure!(
+                dir.path().join("head_cap.gltf").is_file(),
+                "the cap occluder is written beside the scene"
+            );
+            let image = render::output::read_png(&dir.path().join("people-compute.png"))?;
+            let hair_pixels = image.pixels.chunks_exact(4).filter(|p| p[0] > 20).count();
+            ensure!(hair_pixels > 100, "only {hair_pixels} hair pixels");
             Ok(())
         }),
         GpuTest::new("hair_bench_quick_writes_a_sane_report", Requirements::NONE, |ctx| {

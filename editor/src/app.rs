@@ -268,15 +268,23 @@ impl EditorApp {
         }
     }
 
-    /// Opens the repository's sample head (found under `root`) with its scalp selection and
-    /// the drape settings of its skull.
-    pub fn open_sample_head(&mut self, root: &Path) {
+    /// Opens the sample head (from the third-party data set, wherever the resolver finds it)
+    /// with its scalp selection and the drape settings of its skull; where the data set is
+    /// missing, the error says how to get it.
+    pub fn open_sample_head(&mut self) {
         use hairmesh::convert::sample_head;
+        let head = match sample_head::locate() {
+            Ok(head) => head,
+            Err(missing) => {
+                self.error = Some(missing.to_string());
+                return;
+            }
+        };
         self.convert.scalp = sample_head::SCALP.into();
         if let LayerShape::Drape { centre, .. } = &mut self.convert.shape {
             *centre = DVec3::from_array(sample_head::SKULL_CENTRE);
         }
-        self.open(&root.join(sample_head::PATH));
+        self.open(&head);
     }
 
     /// Converts `file` with the panel's settings (and the open document's style) in a thread.
@@ -699,7 +707,7 @@ impl EditorApp {
                 }
                 if ui.button("Open sample head").on_hover_text(hairmesh::convert::sample_head::PATH).clicked()
                 {
-                    self.open_sample_head(Path::new("."));
+                    self.open_sample_head();
                 }
                 ui.menu_button("Open recent", |ui| {
                     if self.recent.is_empty() {

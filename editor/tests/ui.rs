@@ -336,7 +336,8 @@ fn presets_convert_and_render(_: &gen_gpu::Context) -> Result<()> {
     // HAIRKIT_EDITOR_SAMPLE_HEAD=1: on the LeePerrySmith scan (slower; for looking at the presets).
     if std::env::var("HAIRKIT_EDITOR_SAMPLE_HEAD").is_ok_and(|v| v == "1") {
         h.state_mut().convert.strands = 20_000;
-        h.state_mut().open_sample_head(&Path::new(env!("CARGO_MANIFEST_DIR")).join(".."));
+        hairmesh::convert::sample_head::locate()?;
+        h.state_mut().open_sample_head();
         settle(&mut h)?;
     } else {
         open_sample(&mut h)?;
@@ -368,7 +369,8 @@ fn draped_presets_use_the_sample_heads_skull_centre(_: &gen_gpu::Context) -> Res
     use hairmesh::convert::{LayerShape, sample_head};
     let long_wavy = editor::presets::PRESETS.iter().find(|p| p.name == "Long wavy").context("preset")?;
     let mut h = builder().build_ui_state(|ui, app: &mut EditorApp| app.ui(ui), app());
-    h.state_mut().open_sample_head(&Path::new(env!("CARGO_MANIFEST_DIR")).join(".."));
+    sample_head::locate()?;
+    h.state_mut().open_sample_head();
     settle(&mut h)?;
     h.state_mut().apply_preset(long_wavy);
     settle(&mut h)?;

@@ -3,7 +3,6 @@
 //! `cargo bench -p hairmesh --bench convert`
 
 use std::hint::black_box;
-use std::path::Path;
 
 use criterion::{Criterion, criterion_group, criterion_main};
 use hairmesh::ScalpSelector;
@@ -14,7 +13,7 @@ use hairmesh::roots::{EliminationParams, SampleDomain, progressive_samples};
 use hairmesh::style::Style;
 
 fn lee_perry_smith() -> std::path::PathBuf {
-    Path::new(env!("CARGO_MANIFEST_DIR")).join("../tests/data/heads/LeePerrySmith/LeePerrySmith.glb")
+    data_set::require(data_set::SAMPLE_HEAD)
 }
 
 fn convert(c: &mut Criterion) {

@@ -23,13 +23,20 @@ use crate::style::Style;
 use crate::texture::SliceLayout;
 use crate::{HairMeshError, Result, ScalpMesh, ScalpSelector};
 
-/// The repository's sample head, the LeePerrySmith scan (`tests/data/heads/LeePerrySmith/`),
-/// and how its scalp is selected: faces whose centroid has `y − 0.7 z > 1.64` (file units: face
+/// The sample head, the LeePerrySmith scan from the third-party data set (`data_set`), and how
+/// its scalp is selected: faces whose centroid has `y − 0.7 z > 1.64` (file units: face
 /// towards +Z, top of the head at y = 3.97), i.e. the hairline at y ≈ 2.9 over the forehead,
 /// above the ears at the sides and at y ≈ 0.3 at the nape.
 pub mod sample_head {
-    /// The head, relative to the repository root.
-    pub const PATH: &str = "tests/data/heads/LeePerrySmith/LeePerrySmith.glb";
+    use std::path::PathBuf;
+
+    /// The head, relative to the data folder.
+    pub const PATH: &str = data_set::SAMPLE_HEAD;
+    /// The head on this machine, found by the data set's resolver (`HAIRKIT_DATA`, the folder
+    /// beside the checkout, the user cache); the error says how to get it.
+    pub fn locate() -> Result<PathBuf, data_set::MissingData> {
+        data_set::locate(PATH)
+    }
     /// Its scalp selector.
     pub const SCALP: &str = "above:0,0.8192,-0.5735,1.3435";
     /// The centre of its skull, which draped hair flows around.

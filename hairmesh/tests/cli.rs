@@ -16,6 +16,11 @@ fn repo(path: &str) -> String {
     Path::new(env!("CARGO_MANIFEST_DIR")).join("..").join(path).display().to_string()
 }
 
+/// A file of the third-party data set (see `data_set`).
+fn data(path: &str) -> String {
+    data_set::require(path).display().to_string()
+}
+
 #[test]
 fn the_committed_head_cap_is_what_the_generator_writes() {
     let dir = tempfile::tempdir().expect("temp dir");
@@ -34,7 +39,7 @@ fn the_committed_head_cap_is_what_the_generator_writes() {
 fn convert_and_info_on_the_readme_examples() {
     let dir = tempfile::tempdir().expect("temp dir");
     let out = dir.path().join("lee");
-    let lee = repo("tests/data/heads/LeePerrySmith/LeePerrySmith.glb");
+    let lee = data("heads/LeePerrySmith/LeePerrySmith.glb");
     let (ok, stdout, stderr) = hairmesh(&[
         "convert",
         &lee,
@@ -78,9 +83,9 @@ fn convert_and_info_on_the_readme_examples() {
     let (ok, stdout, stderr) = hairmesh(&["info", draped.to_str().expect("utf-8")]);
     assert!(ok, "{stderr}");
     assert!(stdout.contains("draped around") && stdout.contains("above:0,0.8192"), "{stdout}");
-    let (ok, stdout, _) = hairmesh(&["info", &repo("tests/data/strands/tressfx/v4/Ratboy_mohawk.tfx")]);
+    let (ok, stdout, _) = hairmesh(&["info", &data("strands/tressfx/v4/Ratboy_mohawk.tfx")]);
     assert!(ok && stdout.contains("2228"), "{stdout}");
-    let (ok, stdout, _) = hairmesh(&["info", &repo("tests/data/strands/tressfx/v4/Ratboy_mohawk.tfxbone")]);
+    let (ok, stdout, _) = hairmesh(&["info", &data("strands/tressfx/v4/Ratboy_mohawk.tfxbone")]);
     assert!(ok && stdout.contains("bones:"), "{stdout}");
 }
 

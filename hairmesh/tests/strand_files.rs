@@ -1,4 +1,4 @@
-//! Explicit strand files from `tests/data` and hostile ones.
+//! Explicit strand files from the data set and hostile ones.
 
 use std::path::{Path, PathBuf};
 
@@ -9,7 +9,7 @@ use hairmesh::strands::{load_strands, load_tfxbone};
 
 #[test]
 fn tressfx_files_load_with_their_documented_counts() {
-    let tfx = testdata().join("strands/tressfx");
+    let tfx = testdata("strands/tressfx");
     for (file, strands, per_strand, format) in [
         ("v3/bear/bear.tfx", 48113, 4, "TressFX 3.0"),
         ("v3/testhair1/TestHair1.tfx", 10027, 4, "TressFX 3.0"),
@@ -126,7 +126,7 @@ fn sintel_roots_match_the_artist_groom() {
     use hairmesh::style::Style;
 
     let scalp = load_scalp(
-        &testdata().join("heads/sintel/sintel_bust.obj"),
+        &testdata("heads/sintel/sintel_bust.obj"),
         &ScalpSelector::parse(SINTEL_SCALP).expect("selector"),
     )
     .expect("scalp");
@@ -155,7 +155,7 @@ fn sintel_roots_match_the_artist_groom() {
         .map(|s| s.positions[0])
         .collect();
     // The guide strands share the bust's frame (the full 16-point groom is in another scale).
-    let groom = load_strands(&testdata().join("strands/tressfx/v4/sintel_hair.tfx")).expect("groom");
+    let groom = load_strands(&testdata("strands/tressfx/v4/sintel_hair.tfx")).expect("groom");
     let theirs: Vec<DVec3> = groom.roots().iter().map(|p| p.as_dvec3()).collect();
     let nearest = |p: &DVec3, set: &[DVec3]| set.iter().map(|q| p.distance(*q)).fold(f64::INFINITY, f64::min);
     let mut d_theirs: Vec<f64> = theirs.iter().map(|p| nearest(p, &ours)).collect();

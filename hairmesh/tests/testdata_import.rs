@@ -1,4 +1,4 @@
-//! Every glTF and head in `tests/data` either imports or fails with the documented error.
+//! Every glTF and head of the data set's `gltf/` and `heads/` either imports or fails with the documented error.
 
 use std::path::{Path, PathBuf};
 
@@ -49,8 +49,8 @@ fn expectation(name: &str) -> Result<usize, &'static str> {
 #[test]
 fn every_test_file_imports_or_fails_as_documented() {
     let mut all = Vec::new();
-    files(&testdata().join("gltf"), &mut all);
-    files(&testdata().join("heads"), &mut all);
+    files(&testdata("gltf"), &mut all);
+    files(&testdata("heads"), &mut all);
     assert!(all.len() >= 30, "found only {} files", all.len());
     let mut report = String::new();
     for path in &all {
@@ -135,7 +135,7 @@ fn malformed_files_give_clear_errors() {
 #[test]
 fn scalp_selections_of_the_real_heads() {
     // LeePerrySmith (metres, +Y up, face toward +Z): the crown and back of the head.
-    let lee = testdata().join("heads/LeePerrySmith/LeePerrySmith.glb");
+    let lee = testdata("heads/LeePerrySmith/LeePerrySmith.glb");
     let whole = load_scalp(&lee, &ScalpSelector::All).expect("LeePerrySmith loads");
     let (lo, hi) = whole.bounds().expect("bounds");
     eprintln!(
@@ -143,7 +143,7 @@ fn scalp_selections_of_the_real_heads() {
         whole.positions.len(),
         whole.faces.len()
     );
-    let sintel = testdata().join("heads/sintel/sintel_bust.obj");
+    let sintel = testdata("heads/sintel/sintel_bust.obj");
     let whole = load_scalp(&sintel, &ScalpSelector::All).expect("sintel loads");
     let (lo, hi) = whole.bounds().expect("bounds");
     eprintln!("sintel: {} vertices, {} faces, bounds {lo} .. {hi}", whole.positions.len(), whole.faces.len());
@@ -158,7 +158,7 @@ fn real_heads_become_hair_meshes() {
         ("heads/sintel/sintel_bust.obj", "above:0,0.9138,-0.4061,32", 15.0),
     ] {
         let selector = ScalpSelector::parse(selector).expect("valid selector");
-        let scalp = load_scalp(&testdata().join(file), &selector).expect("scalp loads");
+        let scalp = load_scalp(&testdata(file), &selector).expect("scalp loads");
         let hm = HairMesh::extrude(
             &scalp,
             &ExtrudeParams { layers: 4, length, droop: 0.3, gravity: glam::DVec3::NEG_Y },
@@ -220,7 +220,7 @@ fn real_heads_get_hair_above_their_hairlines_and_off_their_faces() {
     ];
     for head in heads {
         let selector = ScalpSelector::parse(head.selector).expect("valid selector");
-        let scalp = load_scalp(&testdata().join(head.file), &selector).expect("scalp loads");
+        let scalp = load_scalp(&testdata(head.file), &selector).expect("scalp loads");
         let hm = HairMesh::drape(
             &scalp,
             &DrapeParams {
@@ -261,5 +261,58 @@ fn real_heads_get_hair_above_their_hairlines_and_off_their_faces() {
             head.file,
             hm.vertex_count()
         );
+    }
+}
+
+/// Run by the two tests below in a child process with `HAIRKIT_DATA` set (on its own it checks
+/// the data set this machine resolves): the sample head is found through the resolver, inside
+/// `HAIRKIT_DATA_EXPECTED_ROOT` when that is set, and loads.
+#[test]
+fn the_sample_head_loads_through_the_resolver() {
+    let head = hairmesh::convert::sample_head::locate().unwrap_or_else(|missing| panic!("{missing}"));
+    if let Some(root) = std::env::var_os("HAIRKIT_DATA_EXPECTED_ROOT") {
+        assert!(head.starts_with(&root), "{} is not inside {}", head.display(), Path::new(&root).display());
+    }
+    let selector = ScalpSelector::parse(hairmesh::convert::sample_head::SCALP).expect("selector");
+    let scalp = load_scalp(&head, &selector).expect("the sample head loads");
+    assert!(scalp.faces.len() > 1000, "{} faces", scalp.faces.len());
+}
+
+/// This test binary again, running only the test above, with `HAIRKIT_DATA` set to `data`.
+fn the_sample_head_test_with_data_at(data: &Path) -> std::process::Output {
+    std::process::Command::new(std::env::current_exe().expect("this test binary"))
+        .args(["--exact", "the_sample_head_loads_through_the_resolver", "--test-threads", "1"])
+        .env(data_set::ENV_VAR, data)
+        .env("HAIRKIT_DATA_EXPECTED_ROOT", data)
+        .output()
+        .expect("run the test binary")
+}
+
+#[test]
+fn hairkit_data_pointing_at_a_copy_of_the_data_is_used() {
+    let copy = tempfile::tempdir().expect("temp dir");
+    let original = testdata(data_set::SAMPLE_HEAD);
+    let target = copy.path().join(data_set::SAMPLE_HEAD);
+    std::fs::create_dir_all(target.parent().expect("a folder")).expect("mkdir");
+    std::fs::copy(&original, &target).expect("copy the head");
+    let out = the_sample_head_test_with_data_at(copy.path());
+    let stdout = String::from_utf8_lossy(&out.stdout);
+    assert!(out.status.success(), "{stdout}\n{}", String::from_utf8_lossy(&out.stderr));
+    assert!(stdout.contains("1 passed"), "the child ran no test: {stdout}");
+}
+
+#[test]
+fn hairkit_data_pointing_at_an_empty_folder_names_the_file_and_the_variable() {
+    let empty = tempfile::tempdir().expect("temp dir");
+    let out = the_sample_head_test_with_data_at(empty.path());
+    let text = format!("{}{}", String::from_utf8_lossy(&out.stdout), String::from_utf8_lossy(&out.stderr));
+    assert!(!out.status.success(), "found a head in an empty folder: {text}");
+    for needle in [
+        data_set::SAMPLE_HEAD,
+        data_set::ENV_VAR,
+        data_set::FETCH_COMMAND,
+        &empty.path().display().to_string(),
+    ] {
+        assert!(text.contains(needle), "`{needle}` missing from the failure: {text}");
     }
 }

@@ -11,7 +11,7 @@ use hairkit_tests::image_compare::{Tolerance, compare};
 use render::frame::SceneRenderer;
 use render::scene::load_scene;
 
-use hairkit_tests::scenes::{repo, scene_with, sintel_scene, small_scene};
+use hairkit_tests::scenes::{data, scene_with, sintel_scene, small_scene};
 
 /// Compares with `tests/golden/NAME.png`; `HAIRKIT_UPDATE_GOLDEN=1` rewrites the golden.
 fn check_golden(name: &str, image: &render::RgbaImage) -> anyhow::Result<()> {
@@ -210,7 +210,7 @@ fn main() -> ExitCode {
         }),
         GpuTest::new("sintel_groom_from_tressfx_matches_its_golden_images", Requirements::NONE, |ctx| {
             // The artist's full Sintel groom (11,400 strands × 16 points) on the Sintel bust, read
-            // from tests/data at run time, the groom drawn as explicit strands.
+            // from the data set at run time, the groom drawn as explicit strands.
             let dir = tempfile::tempdir()?;
             for (name, effects) in [
                 ("sintel_opaque", serde_json::json!({ "transparency": "opaque", "raster": "triangles" })),
@@ -292,16 +292,16 @@ fn main() -> ExitCode {
             Requirements::NONE,
             |ctx| {
                 // A scalp nobody here modelled: the LeePerrySmith head above its documented
-                // hairline (read from tests/data at run time), the hair laid over the head and
+                // hairline (read from the data set at run time), the hair laid over the head and
                 // combed back (the demo's long style), converted into a hair asset in a
                 // temporary folder and drawn over the whole head as its occluder, OIT and shadows.
                 use hairmesh::asset::{AssetParams, HairAsset, StrandCount};
                 use hairmesh::hair_mesh::{DrapeParams, HairMesh};
                 let dir = tempfile::tempdir()?;
-                let head = repo("tests/data/heads/LeePerrySmith/LeePerrySmith.glb");
+                let head = data(hairmesh::convert::sample_head::PATH)?;
                 let selector = hairmesh::ScalpSelector::parse("above:0,0.8192,-0.5735,1.3435")?;
                 let scalp = hairmesh::import::load_scalp(&head, &selector)
-                    .with_context(|| format!("{} (the repository's test data)", head.display()))?;
+                    .with_context(|| head.display().to_string())?;
                 let hair_mesh = HairMesh::drape(
                     &scalp,
                     &DrapeParams {

@@ -10,14 +10,18 @@ pub fn repo(path: &str) -> PathBuf {
     Path::new(env!("CARGO_MANIFEST_DIR")).join("..").join(path)
 }
 
+/// A file of the third-party data set (heads, grooms): see `data_set` for where it is found.
+pub fn data(path: &str) -> anyhow::Result<PathBuf> {
+    Ok(data_set::locate(path)?)
+}
+
 /// The artist's full Sintel groom (TressFX, 11,400 strands × 16 points, drawn as explicit
-/// strands) on the Sintel bust as its occluder, both from `tests/data`, 256×256, written to
+/// strands) on the Sintel bust as its occluder, both from the data set, 256×256, written to
 /// `dir/NAME.json` with `effects`. The groom is in metres, the bust in centimetres 1.195 m lower
 /// (found by matching the groom's roots to the bust's own guide file, sintel_hair.tfx).
 pub fn sintel_scene(dir: &Path, name: &str, effects: serde_json::Value) -> anyhow::Result<PathBuf> {
-    let groom = repo("tests/data/strands/tressfx/v4/sintel_hair_full_16points.tfx");
-    let bust = repo("tests/data/heads/sintel/sintel_bust.obj");
-    anyhow::ensure!(groom.is_file(), "{} is missing (the repository's test data)", groom.display());
+    let groom = data("strands/tressfx/v4/sintel_hair_full_16points.tfx")?;
+    let bust = data("heads/sintel/sintel_bust.obj")?;
     let scene = serde_json::json!({
         "output": { "width": 256, "height": 256 },
         "camera": { "eye": [0.15, 1.62, 0.5], "target": [0.0, 1.52, 0.0], "fov_y_degrees": 40 },

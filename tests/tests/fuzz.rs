@@ -18,11 +18,6 @@ use std::path::{Path, PathBuf};
 use proptest::prelude::*;
 use proptest::test_runner::{Config, RngAlgorithm, TestRng, TestRunner};
 
-/// The repository's test data.
-fn testdata() -> PathBuf {
-    Path::new(env!("CARGO_MANIFEST_DIR")).join("data")
-}
-
 /// Cases per loader in the suite (`HAIRKIT_FUZZ_CASES` overrides).
 const SUITE_CASES: u32 = 96;
 
@@ -147,7 +142,7 @@ fn fuzz(
 }
 
 fn data(path: &str) -> (PathBuf, Vec<u8>) {
-    let p = testdata().join(path);
+    let p = data_set::require(path);
     let bytes = std::fs::read(&p).unwrap_or_else(|e| panic!("{}: {e}", p.display()));
     (p, bytes)
 }

@@ -1,15 +1,20 @@
-//! The repository stands alone: nothing it builds, tests or benchmarks reads a path outside it.
+//! The repository stands alone: nothing it builds, tests or benchmarks reads a path outside it
+//! except through the data set's resolver.
 //!
-//! A clone without sibling folders must pass its own test suite, so every source, build script,
-//! manifest and scene is scanned for references that climb out of the repository root
-//! (`../../` from a crate folder, or the steering folder that sits beside this project's own
-//! checkouts). The real test data lives in `tests/data/` with its origins and licences.
+//! A clone must build and test by itself plus the third-party data set, which lives beside the
+//! repository (or where `HAIRKIT_DATA` points, or in the user cache) and is found only by
+//! `data-set/src/lib.rs`. So every source, build script, manifest and scene is scanned for
+//! references that climb out of the repository root (`../../` from a crate folder, or the
+//! shared folder beside the checkout), and the repository holds no third-party data.
 
 use std::path::{Path, PathBuf};
 
 fn repository_root() -> PathBuf {
     Path::new(env!("CARGO_MANIFEST_DIR")).join("..")
 }
+
+/// The one source allowed to name the folder beside the checkout.
+const RESOLVER: &str = "data-set/src/lib.rs";
 
 /// Files whose contents decide what the build and the tests read.
 fn is_checked(path: &Path) -> bool {
@@ -25,8 +30,8 @@ fn walk(dir: &Path, out: &mut Vec<PathBuf>) {
         let path = entry.path();
         let name = entry.file_name();
         let name = name.to_string_lossy();
-        // Build output, git internals and the vendored data itself (its files are inputs, not code).
-        if name == "target" || name == ".git" || path.ends_with("tests/data") {
+        // Build output and git internals.
+        if name == "target" || name == ".git" {
             continue;
         }
         if path.is_dir() {
@@ -44,9 +49,18 @@ fn no_source_reads_outside_the_repository() {
     walk(&root, &mut files);
     assert!(files.len() > 50, "the scan found only {} files under {}", files.len(), root.display());
     // Assembled at run time so this file does not match itself.
-    let escapes = [format!("../{}/", "shared"), format!("{}/testdata", "shared"), format!("\"../{}", "../")];
+    let escapes = [
+        ["../", "sha", "red/"].concat(),
+        ["sha", "red/", "testdata"].concat(),
+        ["\"", "sha", "red", "\""].concat(),
+        ["\"../", "../"].concat(),
+        ["tests", "/data/"].concat(),
+    ];
     let mut offenders = Vec::new();
     for file in &files {
+        if file.ends_with(RESOLVER) {
+            continue;
+        }
         let Ok(text) = std::fs::read_to_string(file) else { continue };
         for (number, line) in text.lines().enumerate() {
             if escapes.iter().any(|e| line.contains(e.as_str())) {
@@ -58,32 +72,44 @@ fn no_source_reads_outside_the_repository() {
 }
 
 #[test]
-fn the_test_data_is_in_the_repository_with_its_sources() {
-    let data = repository_root().join("tests/data");
-    let sources = std::fs::read_to_string(data.join("SOURCES.md")).expect("tests/data/SOURCES.md");
+fn the_resolver_is_what_names_the_folder_beside_the_checkout() {
+    // Its exemption above must stay meaningful: the file exists and does name that folder.
+    let text = std::fs::read_to_string(repository_root().join(RESOLVER)).expect("the resolver's source");
+    let names_it = [".join(\"", "sha", "red\").join(\"testdata\")"].concat();
+    assert!(text.contains(&names_it), "{RESOLVER} no longer names the folder beside the checkout");
+}
+
+#[test]
+fn no_third_party_data_is_in_the_repository() {
+    let root = repository_root();
+    // The old place of the data set is gone (tracked or not).
+    assert!(
+        !root.join("tests/data").exists(),
+        "tests/data is back: third-party files belong in the data set"
+    );
+    // No file of the data set's list is anywhere in the tree under its own name.
+    let listed: Vec<String> = data_set::sources()
+        .expect("the sources list reads")
+        .into_iter()
+        .filter_map(|s| s.path.rsplit('/').next().map(str::to_owned))
+        .filter(|name| !["LICENSE", "LICENSE.md", "README.md", "metadata.json"].contains(&name.as_str()))
+        .collect();
     let mut files = Vec::new();
     fn all(dir: &Path, out: &mut Vec<PathBuf>) {
-        for entry in std::fs::read_dir(dir).expect("readable test data").flatten() {
+        for entry in std::fs::read_dir(dir).into_iter().flatten().flatten() {
             let path = entry.path();
+            let name = entry.file_name();
+            if name == "target" || name == ".git" {
+                continue;
+            }
             if path.is_dir() { all(&path, out) } else { out.push(path) }
         }
     }
-    all(&data, &mut files);
-    let mut unlisted = Vec::new();
-    for file in &files {
-        let relative =
-            file.strip_prefix(&data).expect("inside tests/data").to_string_lossy().replace('\\', "/");
-        if relative == "SOURCES.md" || relative == "README.md" {
-            continue;
-        }
-        // Every data file names its origin and licence in SOURCES.md.
-        if !sources.contains(&format!("| {relative} |")) {
-            unlisted.push(relative);
-        }
-    }
-    assert!(files.len() > 20, "tests/data holds only {} files", files.len());
-    assert!(
-        unlisted.is_empty(),
-        "files in tests/data without an origin and licence in SOURCES.md: {unlisted:?}"
-    );
+    all(&root, &mut files);
+    let copies: Vec<String> = files
+        .iter()
+        .filter(|f| f.file_name().and_then(|n| n.to_str()).is_some_and(|n| listed.iter().any(|l| l == n)))
+        .map(|f| f.display().to_string())
+        .collect();
+    assert!(copies.is_empty(), "files of the third-party data set inside the repository: {copies:?}");
 }

@@ -5,9 +5,13 @@
 //! * `cargo xtask test` sets up, then runs formatting and lint checks and the whole test suite
 //!   on Mesa lavapipe with the Khronos validation layer.
 //! * `cargo xtask demo` sets up, then runs the demo in release mode.
+//! * `cargo xtask data` downloads the third-party data set into the user cache; `test` and
+//!   `demo` call it when no folder holds the data set.
 
+mod data;
 mod setup;
 
+use std::path::Path;
 use std::process::{Command, ExitCode};
 
 use anyhow::{Context, Result, bail};
@@ -21,6 +25,8 @@ commands:
                   set up, check formatting and clippy, run the whole test suite
   demo [-- <demo args>]
                   set up, then run `hairkit demo` (release build)
+  data            download the third-party data set (heads, grooms, glTF samples) into the
+                  user cache, checking every file's SHA-256 (resumes an interrupted run)
   env             print the environment the tests run with (for running cargo by hand)
 ";
 
@@ -42,6 +48,12 @@ fn run() -> Result<()> {
         "setup" => setup::ensure_system_packages().map(|_| ()),
         "test" => test(&rest),
         "demo" => demo(&rest),
+        "data" => {
+            if let Some(a) = rest.first() {
+                bail!("unknown option `{a}` for `cargo xtask data`\n{USAGE}");
+            }
+            fetch_data()
+        }
         "env" => {
             let machine = setup::ensure_system_packages()?;
             for (k, v) in machine.test_env() {
@@ -55,6 +67,41 @@ fn run() -> Result<()> {
         }
         other => bail!("unknown command `{other}`\n{USAGE}"),
     }
+}
+
+/// Downloads the data set into the user cache (`HAIRKIT_DATA`, when set, is the user's own
+/// folder and is never written to).
+fn fetch_data() -> Result<()> {
+    if let Some(dir) = std::env::var_os(data_set::ENV_VAR).filter(|v| !v.is_empty()) {
+        bail!(
+            "{} is set ({}): the data set is read from there only, so downloading into the cache would not be used; \
+             unset it to use the cache",
+            data_set::ENV_VAR,
+            Path::new(&dir).display()
+        );
+    }
+    let cache = data_set::user_cache().context("no cache folder: set XDG_CACHE_HOME or HOME")?;
+    let sources = data_set::sources()?;
+    data::fetch_all(&data::agent(), &sources, &cache, &mut std::io::stdout().lock())
+}
+
+/// Where the data set is for this run: a complete folder if one is found, else a download into
+/// the user cache (when `HAIRKIT_DATA` does not name another folder).
+fn ensure_data() -> Result<()> {
+    let set = data_set::DataSet::from_env();
+    if let Some(root) = set.complete_root() {
+        eprintln!("xtask: data set in {} ({})", root.path.display(), root.place);
+        return Ok(());
+    }
+    if std::env::var_os(data_set::ENV_VAR).is_some_and(|v| !v.is_empty()) {
+        eprintln!(
+            "xtask: warning: {} does not hold the whole data set; whatever needs a missing file will say which",
+            data_set::ENV_VAR
+        );
+        return Ok(());
+    }
+    eprintln!("xtask: no folder holds the data set; downloading it");
+    fetch_data()
 }
 
 fn split_passthrough(args: &[String]) -> (Vec<String>, Vec<String>) {
@@ -75,6 +122,7 @@ fn test(args: &[String]) -> Result<()> {
     }
     let machine = setup::ensure_system_packages()?;
     let env = machine.test_env();
+    ensure_data()?;
     if lint {
         cargo(&["fmt", "--all", "--check"], &env)?;
         cargo(&["clippy", "--workspace", "--all-targets", "--quiet", "--", "-D", "warnings"], &env)?;
@@ -91,6 +139,10 @@ fn demo(args: &[String]) -> Result<()> {
     }
     let machine = setup::ensure_system_packages()?;
     let mut env = machine.test_env();
+    if let Err(e) = ensure_data() {
+        // The demo falls back on the project's own head cap and says so.
+        eprintln!("xtask: warning: {e:#}");
+    }
     // The demo is for looking at, not for testing the driver: validation stays off so the
     // printed timings mean something.
     env.retain(|(k, _)| k != "HAIRKIT_VALIDATION");

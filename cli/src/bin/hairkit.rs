@@ -37,9 +37,12 @@ enum Command {
         /// Output folder.
         #[arg(short, long, default_value = "target/demo")]
         out: PathBuf,
-        /// The folder with the heads (`LeePerrySmith/LeePerrySmith.glb`, `sintel/…`).
-        #[arg(long, default_value = concat!(env!("CARGO_MANIFEST_DIR"), "/../tests/data"))]
-        data: PathBuf,
+        /// The data set's folder (`heads/LeePerrySmith/…`, `heads/sintel/…`, `strands/…`).
+        /// Default: where `HAIRKIT_DATA` points, else the folder beside the checkout, else the
+        /// user cache (`cargo xtask data` fills it); without any, the demo renders the
+        /// project's own head cap instead.
+        #[arg(long)]
+        data: Option<PathBuf>,
         /// Strands per generated hairstyle.
         #[arg(long, default_value_t = 20_000)]
         strands: u64,
@@ -213,7 +216,7 @@ fn run(cli: Cli) -> Result<()> {
 
 struct DemoOptions {
     out: PathBuf,
-    data: PathBuf,
+    data: Option<PathBuf>,
     strands: u64,
     characters: u32,
     size: (u32, u32),
@@ -228,6 +231,62 @@ fn timed<T>(what: &str, f: impl FnOnce() -> Result<T>) -> Result<T> {
 }
 
 use hairmesh::convert::sample_head::{SCALP as LEE_PERRY_SMITH_SCALP, SKULL_CENTRE as LEE_PERRY_SMITH_SKULL};
+
+/// The heads the demo puts hair on.
+struct DemoPeople {
+    /// The head mesh (the scalp's file, drawn as each generated hairstyle's occluder).
+    head: PathBuf,
+    /// Its scalp, in the LeePerrySmith scan's frame and units.
+    scalp: hairmesh::ScalpMesh,
+    /// The artist's Sintel groom and its bust, when the data set has them.
+    groom: Option<(PathBuf, PathBuf)>,
+}
+
+/// The real heads from the data set (`--data`, else the resolver); when the resolver finds
+/// none, the project's own head cap, placed and scaled like the scan's head, written to `out`.
+fn demo_people(data: Option<&Path>, out: &Path) -> Result<DemoPeople> {
+    let set = match data {
+        Some(dir) => data_set::DataSet::new(Some(dir.into()), None, None),
+        None => data_set::DataSet::from_env(),
+    };
+    let found = set.locate(hairmesh::convert::sample_head::PATH).and_then(|head| {
+        let bust = set.locate("heads/sintel/sintel_bust.obj")?;
+        Ok((head, bust, set.locate("strands/tressfx/v4/sintel_hair_full_16points.tfx")?))
+    });
+    match found {
+        Ok((head, bust, groom)) => {
+            println!("== convert {} (scalp `{LEE_PERRY_SMITH_SCALP}`)", head.display());
+            let scalp = timed("import and scalp selection", || {
+                let selector = hairmesh::ScalpSelector::parse(LEE_PERRY_SMITH_SCALP)?;
+                hairmesh::import::load_scalp(&head, &selector).with_context(|| format!("{}", head.display()))
+            })?;
+            Ok(DemoPeople { head, scalp, groom: Some((groom, bust)) })
+        }
+        // A folder the user named must hold the data: say what is missing there.
+        Err(missing) if let Some(dir) = data => {
+            Err(anyhow::Error::new(missing).context(format!("--data {}", dir.display())))
+        }
+        Err(missing) => {
+            println!(
+                "== {missing}\n== until then: hair on the project's own head cap (assets/head_cap.gltf)\n"
+            );
+            let mut scalp = hairmesh::procedural::head_cap(8, 32);
+            // The cap (metres, centred at y = 1.6) scaled and moved onto the scan's skull, so
+            // that the hairstyles, camera and spacing below fit it unchanged.
+            let skull = glam::DVec3::from_array(LEE_PERRY_SMITH_SKULL);
+            for p in &mut scalp.positions {
+                *p = (*p - glam::DVec3::new(0.0, 1.6, 0.0)) * HEAD_CAP_SCALE + skull;
+            }
+            let head = out.join("head_cap.gltf");
+            hairmesh::procedural::write_gltf(&head, &scalp, "head cap")
+                .with_context(|| format!("writing {}", head.display()))?;
+            Ok(DemoPeople { head, scalp, groom: None })
+        }
+    }
+}
+
+/// The LeePerrySmith scan's skull is about 21 times the head cap's (a 9.5 cm crown height).
+const HEAD_CAP_SCALE: f64 = 21.0;
 
 fn demo(o: &DemoOptions, device: &DeviceArgs) -> Result<()> {
     use hairmesh::asset::{AssetParams, HairAsset, StrandCount};
@@ -249,22 +308,9 @@ fn demo(o: &DemoOptions, device: &DeviceArgs) -> Result<()> {
         device.path(&ctx)?
     );
 
-    let head = o.data.join("heads/LeePerrySmith/LeePerrySmith.glb");
-    let bust = o.data.join("heads/sintel/sintel_bust.obj");
-    let groom = o.data.join("strands/tressfx/v4/sintel_hair_full_16points.tfx");
-    for file in [&head, &bust, &groom] {
-        if !file.is_file() {
-            bail!(
-                "{} is missing (the demo reads the repository's tests/data; pass --data DIR)",
-                file.display()
-            );
-        }
-    }
-    println!("== convert {} (scalp `{LEE_PERRY_SMITH_SCALP}`)", head.display());
-    let scalp = timed("import and scalp selection", || {
-        let selector = hairmesh::ScalpSelector::parse(LEE_PERRY_SMITH_SCALP)?;
-        hairmesh::import::load_scalp(&head, &selector).with_context(|| format!("{}", head.display()))
-    })?;
+    std::fs::create_dir_all(&o.out).with_context(|| format!("creating {}", o.out.display()))?;
+    let people = demo_people(o.data.as_deref(), &o.out)?;
+    let (head, scalp) = (people.head, people.scalp);
     let long = HairMesh::drape(
         &scalp,
         &DrapeParams {
@@ -356,14 +402,20 @@ fn demo(o: &DemoOptions, device: &DeviceArgs) -> Result<()> {
     let columns = o.characters.min(5);
     let rows = o.characters.div_ceil(columns);
     let absolute = |p: &Path| std::path::absolute(p).with_context(|| format!("{}", p.display()));
-    let (head, bust, groom) = (absolute(&head)?, absolute(&bust)?, absolute(&groom)?);
+    let head = absolute(&head)?;
+    let groom = people
+        .groom
+        .as_ref()
+        .map(|(groom, bust)| Ok::<_, anyhow::Error>((absolute(groom)?, absolute(bust)?)));
+    let groom = groom.transpose()?;
+    let looks_count = if groom.is_some() { 3 } else { 2 };
     let characters: Vec<serde_json::Value> = (0..o.characters)
         .map(|i| {
             let (col, row) = (i % columns, i / columns);
             let x = (col as f32 - (columns - 1) as f32 / 2.0) * 6.5;
             let z = -(row as f32) * 7.0;
-            match i % 3 {
-                2 => serde_json::json!({
+            match (i % looks_count, &groom) {
+                (2, Some((groom, bust))) => serde_json::json!({
                     // The groom is in metres on a bust in centimetres 1.195 m below it (the
                     // artist's guide file); ×19 brings it to the scan's head size.
                     "hair": groom,
@@ -372,7 +424,7 @@ fn demo(o: &DemoOptions, device: &DeviceArgs) -> Result<()> {
                     "color": [0.171, 0.0397, 0.00719],
                     "occluder": { "mesh": bust, "transform": { "scale": 0.01, "translation": [0, 1.195, 0] }, "color": [0.62, 0.45, 0.36] },
                 }),
-                look => serde_json::json!({
+                (look, _) => serde_json::json!({
                     // Relative to the scene file, which is written into the same output folder.
                     "hair": format!("assets/style{look}"),
                     "transform": { "translation": [x, 0.0, z], "rotation_y_degrees": if look == 0 { 12.0 } else { -12.0 } },
@@ -412,7 +464,6 @@ fn demo(o: &DemoOptions, device: &DeviceArgs) -> Result<()> {
         }
     });
     let scene_path = o.out.join("people.json");
-    std::fs::create_dir_all(&o.out).with_context(|| format!("creating {}", o.out.display()))?;
     std::fs::write(&scene_path, serde_json::to_vec_pretty(&scene_json)?)
         .with_context(|| format!("writing {}", scene_path.display()))?;
     let scene = render::scene::load_scene(&scene_path)?;

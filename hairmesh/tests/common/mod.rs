@@ -1,6 +1,6 @@
 //! Meshes shared by the integration tests.
 
-use std::path::{Path, PathBuf};
+use std::path::PathBuf;
 
 use glam::{DVec2, DVec3};
 use hairmesh::ScalpMesh;
@@ -34,10 +34,9 @@ pub fn patch(n: u32, origin: DVec3, scale: f64, rng: &mut SplitMix64) -> ScalpMe
     ScalpMesh { positions, uvs: Some(uvs), faces, ..Default::default() }
 }
 
-/// The repository's real test data (`tests/data`, see its README for origins and licences).
+/// A file or folder of the third-party data set (heads, grooms, glTF samples), wherever the
+/// resolver finds it; a missing one fails the test with the message that says how to get it.
 #[allow(dead_code, reason = "each test binary uses a different part of this module")]
-pub fn testdata() -> PathBuf {
-    let dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("../tests/data");
-    assert!(dir.is_dir(), "test data folder {} is missing from the checkout", dir.display());
-    dir
+pub fn testdata(relative: &str) -> PathBuf {
+    data_set::require(relative)
 }

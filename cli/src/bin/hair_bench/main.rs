@@ -717,20 +717,26 @@ fn passes_section(setup: &Setup<'_>) -> Result<Section> {
 }
 
 /// The camera and the character of the artist's Sintel groom (TressFX, 11,400 × 16) on the Sintel
-/// bust (centimetres, 1.195 m below the groom's frame), when the repository's test data is there.
+/// bust (centimetres, 1.195 m below the groom's frame), when the data set holds them; otherwise
+/// the rows that need them are left out and the resolver's message (once) says how to get them.
 fn sintel_groom() -> Option<(serde_json::Value, serde_json::Value)> {
-    let data = Path::new(env!("CARGO_MANIFEST_DIR")).join("../tests/data");
-    let groom = data.join("strands/tressfx/v4/sintel_hair_full_16points.tfx");
-    let bust = data.join("heads/sintel/sintel_bust.obj");
-    (groom.is_file() && bust.is_file()).then(|| {
-        (
-            serde_json::json!({ "eye": [0.15, 1.62, 0.5], "target": [0.0, 1.52, 0.0], "fov_y_degrees": 40 }),
-            serde_json::json!({
-                "hair": groom, "color": [0.171, 0.0397, 0.00719], "strand_width": 0.0004,
-                "occluder": { "mesh": bust, "transform": { "scale": 0.01, "translation": [0, 1.195, 0] } }
-            }),
-        )
-    })
+    static SAID: std::sync::Once = std::sync::Once::new();
+    let found = data_set::locate("strands/tressfx/v4/sintel_hair_full_16points.tfx")
+        .and_then(|groom| Ok((groom, data_set::locate("heads/sintel/sintel_bust.obj")?)));
+    let (groom, bust) = match found {
+        Ok(files) => files,
+        Err(missing) => {
+            SAID.call_once(|| eprintln!("hair-bench: the Sintel groom's rows are left out: {missing}"));
+            return None;
+        }
+    };
+    Some((
+        serde_json::json!({ "eye": [0.15, 1.62, 0.5], "target": [0.0, 1.52, 0.0], "fov_y_degrees": 40 }),
+        serde_json::json!({
+            "hair": groom, "color": [0.171, 0.0397, 0.00719], "strand_width": 0.0004,
+            "occluder": { "mesh": bust, "transform": { "scale": 0.01, "translation": [0, 1.195, 0] } }
+        }),
+    ))
 }
 
 fn raster_section(setup: &Setup<'_>, progress: &indicatif::ProgressBar) -> Result<Section> {
