@@ -18,6 +18,55 @@ fn hairkit_with(args: &[&str], env: &[(&str, &std::path::Path)]) -> anyhow::Resu
     ))
 }
 
+/// `hair-bench --quick --only SECTIONS --out DIR` into a new folder: the folder and its report,
+/// which names the device.
+fn quick_bench(ctx: &gen_gpu::Context, sections: &str) -> anyhow::Result<(tempfile::TempDir, String)> {
+    let dir = tempfile::tempdir()?;
+    let out = Command::new(env!("CARGO_BIN_EXE_hair-bench"))
+        .args(["--quick", "--only", sections, "--out"])
+        .arg(dir.path())
+        .output()?;
+    ensure!(
+        out.status.success(),
+        "hair-bench --only {sections} failed: {}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let report = std::fs::read_to_string(dir.path().join("benchmarks.md"))?;
+    ensure!(report.contains(&ctx.capabilities().device_name), "the report names the device");
+    Ok((dir, report))
+}
+
+/// At least `min_rows` rows in `file`, every value after the first `skip` finite and ≥ 0.
+fn finite_rows(dir: &std::path::Path, file: &str, skip: usize, min_rows: usize) -> anyhow::Result<()> {
+    let csv = std::fs::read_to_string(dir.join(file))?;
+    let rows: Vec<&str> = csv.lines().skip(1).collect();
+    ensure!(rows.len() >= min_rows, "{file}: {csv}");
+    for row in rows {
+        for value in row.split(',').skip(skip) {
+            let v: f64 = value.parse()?;
+            ensure!(v.is_finite() && v >= 0.0, "{file}: {row}");
+        }
+    }
+    Ok(())
+}
+
+/// The plots are written at the plots' size and shown in the report.
+fn check_plots(dir: &std::path::Path, report: &str, plots: &[&str]) -> anyhow::Result<()> {
+    for plot in plots {
+        let image = render::output::read_png(&dir.join(plot))?;
+        ensure!((image.width, image.height) == hairkit_cli::plots::IMAGE_SIZE, "{plot}");
+        ensure!(report.contains(&format!("]({plot})")), "the report shows {plot}");
+    }
+    Ok(())
+}
+
+/// The text of a report's section `name`, between its markers.
+fn section(text: &str, name: &str) -> Option<String> {
+    let (b, e) = (format!("<!-- hair-bench:{name}:begin -->"), format!("<!-- hair-bench:{name}:end -->"));
+    let (i, j) = (text.find(&b)?, text.find(&e)?);
+    Some(text[i..j].to_owned())
+}
+
 fn main() -> ExitCode {
     run_gpu_tests(vec![
         GpuTest::new("info_reports_the_device", Requirements::NONE, |ctx| {
@@ -128,59 +177,18 @@ fn main() -> ExitCode {
             ensure!(hair_pixels > 100, "only {hair_pixels} hair pixels");
             Ok(())
         }),
-        GpuTest::new("hair_bench_quick_writes_a_sane_report", Requirements::NONE, |ctx| {
-            let dir = tempfile::tempdir()?;
-            let out = Command::new(env!("CARGO_BIN_EXE_hair-bench"))
-                .args(["--quick", "--out"])
-                .arg(dir.path())
-                .output()?;
-            ensure!(out.status.success(), "hair-bench failed: {}", String::from_utf8_lossy(&out.stderr));
-            let report = std::fs::read_to_string(dir.path().join("benchmarks.md"))?;
-            ensure!(report.contains(&ctx.capabilities().device_name), "the report names the device");
+        // `hair-bench --quick` by section groups, each in its own folder, so that the groups run
+        // side by side (they are independent runs of the same binary).
+        GpuTest::new("hair_bench_quick_generation_memory_stored_accuracy", Requirements::NONE, |ctx| {
+            let (dir, report) = quick_bench(ctx, "generation,memory,stored,accuracy")?;
             for (file, skip, min_rows) in [
                 // (strands, path, evaluation, then the generate pass alone: compute path only)
                 ("bench-generation.csv", 4, 4),
                 ("bench-stored.csv", 0, 2),
                 ("bench-accuracy.csv", 1, 9),
-                ("bench-effects.csv", 1, 3),
-                ("bench-crowd.csv", 2, 6),
                 ("bench-memory.csv", 1, 5),
-                ("bench-shadows.csv", 1, 6),
             ] {
-                let csv = std::fs::read_to_string(dir.path().join(file))?;
-                let rows: Vec<&str> = csv.lines().skip(1).collect();
-                ensure!(rows.len() >= min_rows, "{file}: {csv}");
-                for row in rows {
-                    for value in row.split(',').skip(skip) {
-                        let v: f64 = value.parse()?;
-                        ensure!(v.is_finite() && v >= 0.0, "{file}: {row}");
-                    }
-                }
-            }
-            // The raster table: both rasterizers' times and the compute rasterizer's parts.
-            let raster = dir.path().join("bench-raster.csv");
-            if raster.is_file() {
-                let csv = std::fs::read_to_string(&raster)?;
-                let rows: Vec<&str> = csv.lines().skip(1).collect();
-                ensure!(rows.len() >= 4, "bench-raster.csv: {csv}");
-                for row in rows {
-                    let values: Vec<f64> =
-                        row.split(',').skip(1).map(str::parse).collect::<Result<_, _>>()?;
-                    ensure!(values.len() == 11, "bench-raster.csv: {row}");
-                    ensure!(values.iter().all(|v| v.is_finite() && *v >= 0.0), "bench-raster.csv: {row}");
-                    // The rest phase draws every strand the front phase leaves: never nothing.
-                    ensure!(values[8] > 0.0, "bench-raster.csv: {row}");
-                }
-                // The far character timed again with straight strands: a positive time per far row.
-                let straight = report
-                    .lines()
-                    .find(|l| l.starts_with("What generation costs inside the fused kernel"))
-                    .context("the raster section has no straight-strand timing")?;
-                let times: Vec<f64> = straight
-                    .split(" ms with straight strands")
-                    .filter_map(|part| part.rsplit(' ').next()?.parse().ok())
-                    .collect();
-                ensure!(!times.is_empty() && times.iter().all(|t| t.is_finite() && *t > 0.0), "{straight}");
+                finite_rows(dir.path(), file, skip, min_rows)?;
             }
             // The compute path's rows time generation alone too.
             for row in std::fs::read_to_string(dir.path().join("bench-generation.csv"))?.lines().skip(1) {
@@ -189,11 +197,53 @@ fn main() -> ExitCode {
                     ensure!(alone.is_finite() && alone > 0.0, "bench-generation.csv: {row}");
                 }
             }
-            // The compute rasterizer's maps look like the triangle pipeline's.
-            for row in std::fs::read_to_string(dir.path().join("bench-shadows.csv"))?.lines().skip(1) {
-                let flip: f64 = row.rsplit(',').next().unwrap_or_default().parse()?;
-                ensure!(flip < 0.05, "bench-shadows.csv: {row}");
+            // The lattice layout needs fewer texels and bytes than 2×2 blocks on every head cap.
+            for row in std::fs::read_to_string(dir.path().join("bench-memory.csv"))?.lines().skip(1) {
+                let v: Vec<f64> = row.split(',').skip(1).map(str::parse).collect::<Result<_, _>>()?;
+                ensure!(v[4] < v[3] && v[6] < v[5], "bench-memory.csv: {row}");
             }
+            for section in ["On-the-fly vs stored", "Accuracy vs time", "GPU memory"] {
+                ensure!(report.contains(section), "`{section}` missing");
+            }
+            check_plots(dir.path(), &report, &["plot-generation.png", "plot-accuracy.png"])?;
+            // A second run replaces its own section and keeps the rest of the file, and `--only`
+            // replaces only the sections it names.
+            std::fs::write(dir.path().join("benchmarks.md"), format!("# Benchmarks\n\nkeep me\n\n{report}"))?;
+            let out = Command::new(env!("CARGO_BIN_EXE_hair-bench"))
+                .args(["--quick", "--only", "memory", "--out"])
+                .arg(dir.path())
+                .output()?;
+            ensure!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+            let again = std::fs::read_to_string(dir.path().join("benchmarks.md"))?;
+            ensure!(
+                again.contains("keep me")
+                    && again.matches("hair-bench:memory:begin").count() == 1
+                    && again.matches("hair-bench:generation:begin").count() == 1,
+                "{again}"
+            );
+            for name in ["generation", "stored", "accuracy"] {
+                ensure!(
+                    section(&again, name).is_some() && section(&again, name) == section(&report, name),
+                    "{name} kept"
+                );
+            }
+            ensure!(section(&again, "memory").is_some_and(|m| m.contains("--only memory")), "{again}");
+            let out = Command::new(env!("CARGO_BIN_EXE_hair-bench"))
+                .args(["--quick", "--only", "generation,colour", "--out"])
+                .arg(dir.path())
+                .output()?;
+            let stderr = String::from_utf8_lossy(&out.stderr);
+            ensure!(!out.status.success() && stderr.contains("unknown section `colour`"), "{stderr}");
+            ensure!(
+                std::fs::read_to_string(dir.path().join("benchmarks.md"))? == again,
+                "a refused run writes nothing"
+            );
+            Ok(())
+        }),
+        GpuTest::new("hair_bench_quick_crowd_passes_dynamics", Requirements::NONE, |ctx| {
+            let (dir, report) = quick_bench(ctx, "crowd,passes,dynamics")?;
+            finite_rows(dir.path(), "bench-effects.csv", 1, 3)?;
+            finite_rows(dir.path(), "bench-crowd.csv", 2, 6)?;
             // Dynamics: per character every cost measured; in the crowd only the dynamic variant
             // simulates, re-bakes and uploads.
             let dynamics = std::fs::read_to_string(dir.path().join("bench-dynamics.csv"))?;
@@ -217,68 +267,44 @@ fn main() -> ExitCode {
                 }
             }
             ensure!(crowd_rows == 3 && dynamics.lines().count() >= 6, "{dynamics}");
-            // The lattice layout needs fewer texels and bytes than 2×2 blocks on every head cap.
-            for row in std::fs::read_to_string(dir.path().join("bench-memory.csv"))?.lines().skip(1) {
-                let v: Vec<f64> = row.split(',').skip(1).map(str::parse).collect::<Result<_, _>>()?;
-                ensure!(v[4] < v[3] && v[6] < v[5], "bench-memory.csv: {row}");
-            }
-            for section in [
-                "On-the-fly vs stored",
-                "Accuracy vs time",
-                "GPU memory",
-                "Render passes",
-                "Crowds",
-                "## Dynamics",
-            ] {
+            for section in ["Render passes", "Crowds", "## Dynamics"] {
                 ensure!(report.contains(section), "`{section}` missing");
             }
-            for plot in ["plot-generation.png", "plot-accuracy.png", "plot-crowd.png"] {
-                let image = render::output::read_png(&dir.path().join(plot))?;
-                ensure!((image.width, image.height) == hairkit_cli::plots::IMAGE_SIZE, "{plot}");
-                ensure!(report.contains(&format!("]({plot})")), "the report shows {plot}");
+            check_plots(dir.path(), &report, &["plot-crowd.png"])
+        }),
+        GpuTest::new("hair_bench_quick_raster", Requirements::INT64_ATOMICS, |ctx| {
+            let (dir, report) = quick_bench(ctx, "raster")?;
+            // The raster table: both rasterizers' times and the compute rasterizer's parts.
+            let csv = std::fs::read_to_string(dir.path().join("bench-raster.csv"))?;
+            let rows: Vec<&str> = csv.lines().skip(1).collect();
+            ensure!(rows.len() >= 4, "bench-raster.csv: {csv}");
+            for row in rows {
+                let values: Vec<f64> = row.split(',').skip(1).map(str::parse).collect::<Result<_, _>>()?;
+                ensure!(values.len() == 11, "bench-raster.csv: {row}");
+                ensure!(values.iter().all(|v| v.is_finite() && *v >= 0.0), "bench-raster.csv: {row}");
+                // The rest phase draws every strand the front phase leaves: never nothing.
+                ensure!(values[8] > 0.0, "bench-raster.csv: {row}");
             }
-            // A second run replaces its own section and keeps the rest of the file.
-            std::fs::write(dir.path().join("benchmarks.md"), format!("# Benchmarks\n\nkeep me\n\n{report}"))?;
-            let out = Command::new(env!("CARGO_BIN_EXE_hair-bench"))
-                .args(["--quick", "--out"])
-                .arg(dir.path())
-                .output()?;
-            ensure!(out.status.success());
-            let again = std::fs::read_to_string(dir.path().join("benchmarks.md"))?;
-            ensure!(
-                again.contains("keep me") && again.matches("hair-bench:generation:begin").count() == 1,
-                "{again}"
-            );
-            // `--only` runs one section and replaces only it.
-            let section = |text: &str, name: &str| -> Option<String> {
-                let (b, e) =
-                    (format!("<!-- hair-bench:{name}:begin -->"), format!("<!-- hair-bench:{name}:end -->"));
-                let (i, j) = (text.find(&b)?, text.find(&e)?);
-                Some(text[i..j].to_owned())
-            };
-            let out = Command::new(env!("CARGO_BIN_EXE_hair-bench"))
-                .args(["--quick", "--only", "memory", "--out"])
-                .arg(dir.path())
-                .output()?;
-            ensure!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
-            let third = std::fs::read_to_string(dir.path().join("benchmarks.md"))?;
-            for name in ["generation", "stored", "accuracy", "crowd", "passes"] {
-                ensure!(
-                    section(&third, name).is_some() && section(&third, name) == section(&again, name),
-                    "{name} kept"
-                );
+            // The far character timed again with straight strands: a positive time per far row.
+            let straight = report
+                .lines()
+                .find(|l| l.starts_with("What generation costs inside the fused kernel"))
+                .context("the raster section has no straight-strand timing")?;
+            let times: Vec<f64> = straight
+                .split(" ms with straight strands")
+                .filter_map(|part| part.rsplit(' ').next()?.parse().ok())
+                .collect();
+            ensure!(!times.is_empty() && times.iter().all(|t| t.is_finite() && *t > 0.0), "{straight}");
+            Ok(())
+        }),
+        GpuTest::new("hair_bench_quick_shadows_and_volume", Requirements::NONE, |ctx| {
+            let (dir, _) = quick_bench(ctx, "shadows,volume")?;
+            finite_rows(dir.path(), "bench-shadows.csv", 1, 6)?;
+            // The compute rasterizer's maps look like the triangle pipeline's.
+            for row in std::fs::read_to_string(dir.path().join("bench-shadows.csv"))?.lines().skip(1) {
+                let flip: f64 = row.rsplit(',').next().unwrap_or_default().parse()?;
+                ensure!(flip < 0.05, "bench-shadows.csv: {row}");
             }
-            ensure!(section(&third, "memory").is_some_and(|m| m.contains("--only memory")), "{third}");
-            let out = Command::new(env!("CARGO_BIN_EXE_hair-bench"))
-                .args(["--quick", "--only", "generation,colour", "--out"])
-                .arg(dir.path())
-                .output()?;
-            let stderr = String::from_utf8_lossy(&out.stderr);
-            ensure!(!out.status.success() && stderr.contains("unknown section `colour`"), "{stderr}");
-            ensure!(
-                std::fs::read_to_string(dir.path().join("benchmarks.md"))? == third,
-                "a refused run writes nothing"
-            );
             Ok(())
         }),
         GpuTest::new("bad_arguments_are_refused_clearly", Requirements::NONE, |_| {

@@ -81,19 +81,55 @@ pub fn run_checked(ctx: &Context, body: impl FnOnce(&Context) -> anyhow::Result<
     if failure.is_empty() { Ok(()) } else { Err(failure.into()) }
 }
 
+impl Requirements {
+    /// Why `caps`' device cannot run a test needing these, if it cannot; `mesh_is_required`:
+    /// a missing mesh shader is a failure (HAIRKIT_REQUIRE_MESH_SHADER=1), not a reason to skip.
+    fn unmet(&self, caps: &gen_gpu::Capabilities, mesh_is_required: bool) -> Option<String> {
+        if self.mesh_shader && caps.mesh_shader.is_none() && !mesh_is_required {
+            return Some(format!("{} lacks VK_EXT_mesh_shader", caps.device_name));
+        }
+        if self.int64_atomics && !caps.buffer_int64_atomics {
+            return Some(format!("{} lacks 64-bit buffer atomics", caps.device_name));
+        }
+        if self.timestamps && caps.timestamp_period_ns.is_none() {
+            return Some(format!("{} has no GPU timestamps", caps.device_name));
+        }
+        if self.buffer_device_address && !caps.buffer_device_address {
+            return Some(format!("{} lacks buffer device addresses", caps.device_name));
+        }
+        None
+    }
+}
+
+/// Whether this process runs under `cargo nextest` (one test per process, listed first).
+fn under_nextest() -> bool {
+    std::env::var_os("NEXTEST").is_some()
+}
+
 /// The entry point of a GPU test binary: creates the context once, reports the device, and
 /// runs `tests` one at a time (they share the device and its validation log).
+///
+/// Under `cargo nextest` every test runs in a process of its own, and a test that finds at run
+/// time that it cannot run would count as passed: there, the listing probes the device and
+/// marks the tests it cannot run as ignored (nextest reports them as skipped), and a test that
+/// would still be ignored at run time fails with its reason instead.
 pub fn run_gpu_tests(tests: Vec<GpuTest>) -> ExitCode {
     let mut args = Arguments::from_args();
     args.test_threads = Some(1);
     let require_gpu = env_flag("HAIRKIT_REQUIRE_GPU");
     let require_mesh = env_flag("HAIRKIT_REQUIRE_MESH_SHADER");
+    let nextest = under_nextest();
 
     let ctx = if args.list {
         Err("listing only".to_owned())
     } else {
         Context::new(&ContextDesc { validation: Validation::On, device: None }).map_err(|e| e.to_string())
     };
+    // The device's capabilities while listing for nextest (no validation: nothing is run).
+    let listed_caps = (args.list && nextest)
+        .then(|| Context::new(&ContextDesc { validation: Validation::Off, device: None }).ok())
+        .flatten()
+        .map(|c| c.capabilities().clone());
     match &ctx {
         Ok(ctx) => {
             let caps = ctx.capabilities();
@@ -117,6 +153,8 @@ pub fn run_gpu_tests(tests: Vec<GpuTest>) -> ExitCode {
         .map(|t| {
             let ctx = ctx.clone();
             let GpuTest { name, requires, body } = t;
+            let unrunnable =
+                listed_caps.as_ref().is_some_and(|caps| requires.unmet(caps, require_mesh).is_some());
             Trial::ignorable_test(name, move || {
                 let ctx = match &ctx {
                     Ok(c) => c,
@@ -125,28 +163,24 @@ pub fn run_gpu_tests(tests: Vec<GpuTest>) -> ExitCode {
                     }
                     Err(e) => return Ok(Completion::ignored_with(format!("no Vulkan device: {e}"))),
                 };
-                if requires.mesh_shader && ctx.capabilities().mesh_shader.is_none() {
-                    let reason = format!("{} lacks VK_EXT_mesh_shader", ctx.capabilities().device_name);
-                    return if require_mesh {
-                        Err(format!("{reason}, although HAIRKIT_REQUIRE_MESH_SHADER=1").into())
+                let caps = ctx.capabilities();
+                if requires.mesh_shader && caps.mesh_shader.is_none() && require_mesh {
+                    return Err(format!(
+                        "{} lacks VK_EXT_mesh_shader, although HAIRKIT_REQUIRE_MESH_SHADER=1",
+                        caps.device_name
+                    )
+                    .into());
+                }
+                if let Some(reason) = requires.unmet(caps, require_mesh) {
+                    return if nextest {
+                        Err(format!("cannot run here ({reason}) although the listing said it could").into())
                     } else {
                         Ok(Completion::ignored_with(reason))
                     };
                 }
-                if requires.int64_atomics && !ctx.capabilities().buffer_int64_atomics {
-                    let reason = format!("{} lacks 64-bit buffer atomics", ctx.capabilities().device_name);
-                    return Ok(Completion::ignored_with(reason));
-                }
-                if requires.timestamps && ctx.capabilities().timestamp_period_ns.is_none() {
-                    let reason = format!("{} has no GPU timestamps", ctx.capabilities().device_name);
-                    return Ok(Completion::ignored_with(reason));
-                }
-                if requires.buffer_device_address && !ctx.capabilities().buffer_device_address {
-                    let reason = format!("{} lacks buffer device addresses", ctx.capabilities().device_name);
-                    return Ok(Completion::ignored_with(reason));
-                }
                 run_checked(ctx, body).map(|()| Completion::Completed)
             })
+            .with_ignored_flag(unrunnable)
         })
         .collect();
     libtest_mimic::run(&args, trials).exit_code()

@@ -42,10 +42,9 @@ fn head_cap_asset(strands: u64, style: Style) -> anyhow::Result<HairAsset> {
 }
 
 fn lee_perry_smith_asset(strands: u64, style: Style) -> anyhow::Result<HairAsset> {
-    let path =
-        std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("data/heads/LeePerrySmith/LeePerrySmith.glb");
+    let path = data_set::locate(data_set::SAMPLE_HEAD)?;
     let scalp = hairmesh::import::load_scalp(&path, &hairmesh::ScalpSelector::parse("above:0,1,0,1.5")?)
-        .with_context(|| format!("{} (the repository's test data)", path.display()))?;
+        .with_context(|| path.display().to_string())?;
     asset_from(&scalp, 3.0, strands, style)
 }
 

@@ -10,9 +10,10 @@
 
 mod data;
 mod setup;
+mod suite;
 
 use std::path::Path;
-use std::process::{Command, ExitCode};
+use std::process::ExitCode;
 
 use anyhow::{Context, Result, bail};
 
@@ -21,8 +22,10 @@ usage: cargo xtask <command> [args]
 
 commands:
   setup           install the system packages the toolkit needs (idempotent)
-  test [--no-lint] [-- <cargo test args>]
-                  set up, check formatting and clippy, run the whole test suite
+  test [--no-lint] [AREA ...] [-- <test runner args>]
+                  set up, check formatting and clippy, run the whole test suite (or the tests
+                  of the AREAs: data-set, hairmesh, gen-gpu, render, cli, editor, tests, xtask,
+                  shader-build) under cargo nextest, and print each step's time
   demo [-- <demo args>]
                   set up, then run `hairkit demo` (release build)
   data            download the third-party data set (heads, grooms, glTF samples) into the
@@ -113,23 +116,16 @@ fn split_passthrough(args: &[String]) -> (Vec<String>, Vec<String>) {
 
 fn test(args: &[String]) -> Result<()> {
     let (own, passthrough) = split_passthrough(args);
-    let mut lint = true;
-    for a in &own {
-        match a.as_str() {
-            "--no-lint" => lint = false,
-            other => bail!("unknown option `{other}` for `cargo xtask test`\n{USAGE}"),
-        }
-    }
-    let machine = setup::ensure_system_packages()?;
-    let env = machine.test_env();
-    ensure_data()?;
-    if lint {
-        cargo(&["fmt", "--all", "--check"], &env)?;
-        cargo(&["clippy", "--workspace", "--all-targets", "--quiet", "--", "-D", "warnings"], &env)?;
-    }
-    let mut test_args = vec!["test", "--workspace"];
-    test_args.extend(passthrough.iter().map(String::as_str));
-    cargo(&test_args, &env)
+    let options = suite::Options::parse(&own, passthrough)?;
+    let mut timeline = suite::Timeline::new();
+    let result = (|| {
+        let machine = timeline.step("set-up", setup::ensure_system_packages)?;
+        let env = machine.test_env();
+        timeline.step("data set", ensure_data)?;
+        suite::run(&options, &env, &mut timeline)
+    })();
+    eprintln!("{}", timeline.table());
+    result
 }
 
 fn demo(args: &[String]) -> Result<()> {
@@ -153,15 +149,5 @@ fn demo(args: &[String]) -> Result<()> {
 }
 
 fn cargo(args: &[&str], env: &[(String, String)]) -> Result<()> {
-    let cargo = std::env::var("CARGO").unwrap_or_else(|_| "cargo".into());
-    eprintln!("xtask: cargo {}", args.join(" "));
-    let status = Command::new(&cargo)
-        .args(args)
-        .envs(env.iter().map(|(k, v)| (k.as_str(), v.as_str())))
-        .status()
-        .with_context(|| format!("could not start `{cargo}`"))?;
-    if !status.success() {
-        bail!("`cargo {}` failed ({status})", args.join(" "));
-    }
-    Ok(())
+    suite::cargo(args, env)
 }
