@@ -76,6 +76,8 @@ pub(crate) struct DeviceShared {
     pub(crate) push_descriptor: ash::khr::push_descriptor::Device,
     queue: Mutex<vk::Queue>,
     pub(crate) command_pool: Mutex<vk::CommandPool>,
+    /// Every pipeline made on the device, made once per desc (see `pipeline_registry`).
+    pub(crate) pipelines: super::pipeline_registry::PipelineRegistry,
     allocator: ManuallyDrop<Mutex<Allocator>>,
     pub(crate) caps: Capabilities,
     validation: bool,
@@ -109,6 +111,8 @@ impl Drop for DeviceShared {
             if let Ok(pool) = self.command_pool.get_mut() {
                 self.device.destroy_command_pool(*pool, None);
             }
+            // No Pipeline handle is alive: each holds an Arc to this struct.
+            self.pipelines.destroy_all(&self.device);
             ManuallyDrop::drop(&mut self.allocator);
             self.device.destroy_device(None);
             if let Some(du) = &self.debug_utils_instance {
@@ -414,6 +418,7 @@ impl Context {
                 push_descriptor,
                 queue: Mutex::new(queue),
                 command_pool: Mutex::new(command_pool),
+                pipelines: Default::default(),
                 allocator: ManuallyDrop::new(Mutex::new(allocator)),
                 caps,
                 validation,
@@ -461,6 +466,11 @@ impl Context {
 
     pub(crate) fn allocator(&self) -> MutexGuard<'_, Allocator> {
         self.shared.allocator()
+    }
+
+    /// How many distinct pipelines this device has made (each desc once).
+    pub fn pipelines_made(&self) -> usize {
+        self.shared.pipelines.len()
     }
 
     pub(crate) fn queue(&self) -> MutexGuard<'_, vk::Queue> {

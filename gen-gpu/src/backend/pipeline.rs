@@ -4,6 +4,7 @@ use ash::vk;
 use shader_build::{ShaderSpirv, ShaderStage};
 
 use super::context::DeviceShared;
+use super::pipeline_registry::{GraphicsState, PipelineKey, PipelineObjects};
 use crate::error::VkResultExt;
 use crate::{Context, Result};
 
@@ -93,12 +94,13 @@ pub struct GraphicsPipelineDesc<'a> {
     pub depth_compare: vk::CompareOp,
 }
 
-/// A pipeline with its layout and push-descriptor set layout; all destroyed on drop.
+/// A pipeline with its layout (and push-descriptor set layout). The Vulkan objects belong to
+/// the device's pipeline registry (made once per device for the same shaders, bindings,
+/// constants and state; destroyed with the device); this handle keeps the device alive.
 pub struct Pipeline {
-    shared: Arc<DeviceShared>,
+    _shared: Arc<DeviceShared>,
     pub raw: vk::Pipeline,
     pub layout: vk::PipelineLayout,
-    set_layout: vk::DescriptorSetLayout,
     pub bind_point: vk::PipelineBindPoint,
     pub push_constant_stages: vk::ShaderStageFlags,
     name: String,
@@ -113,17 +115,28 @@ impl std::fmt::Debug for Pipeline {
     }
 }
 
-impl Drop for Pipeline {
+/// Objects of a pipeline being made, destroyed if it fails half-way.
+struct Unfinished<'a> {
+    device: &'a ash::Device,
+    objects: Option<PipelineObjects>,
+}
+
+impl Unfinished<'_> {
+    fn finish(mut self, raw: vk::Pipeline) -> PipelineObjects {
+        let objects = self.objects.take().map(|o| PipelineObjects { raw, ..o });
+        objects.unwrap_or(PipelineObjects {
+            raw,
+            layout: vk::PipelineLayout::null(),
+            set_layout: vk::DescriptorSetLayout::null(),
+        })
+    }
+}
+
+impl Drop for Unfinished<'_> {
     fn drop(&mut self) {
-        // SAFETY: submissions are synchronous, so the pipeline is idle; objects are destroyed
-        // in reverse order of creation.
-        unsafe {
-            let d = &self.shared.device;
-            if self.raw != vk::Pipeline::null() {
-                d.destroy_pipeline(self.raw, None);
-            }
-            d.destroy_pipeline_layout(self.layout, None);
-            d.destroy_descriptor_set_layout(self.set_layout, None);
+        if let Some(objects) = self.objects.take() {
+            // SAFETY: made on this device by the failed creation, never used.
+            unsafe { objects.destroy(self.device) };
         }
     }
 }
@@ -234,42 +247,48 @@ impl Pipeline {
         }
     }
 
-    /// Creates a compute pipeline.
+    /// Creates a compute pipeline (or finds the device's pipeline made from the same desc).
     pub fn compute(ctx: &Context, desc: &ComputePipelineDesc<'_>) -> Result<Self> {
         let push_stages = vk::ShaderStageFlags::COMPUTE;
-        let (set_layout, layout) =
-            Self::layout(ctx, desc.name, desc.bindings, desc.push_constant_size, push_stages)?;
-        let mut pipeline = Pipeline {
-            shared: ctx.shared.clone(),
-            raw: vk::Pipeline::null(),
-            layout,
-            set_layout,
-            bind_point: vk::PipelineBindPoint::COMPUTE,
-            push_constant_stages: push_stages,
-            name: desc.name.into(),
-        };
-        let module = ShaderModule::new(ctx, desc.shader)?;
         // Every compute pipeline gets the dispatch order's worker count (a map entry for a
         // constant the shader does not declare is ignored).
         let mut constants = desc.specialization.to_vec();
         if !constants.iter().any(|(id, _)| *id == crate::contract::DISPATCH_WORKERS_CONSTANT_ID) {
             constants.push((crate::contract::DISPATCH_WORKERS_CONSTANT_ID, ctx.dispatch_workers()));
         }
-        let spec = Specialization::new(&constants);
-        let spec_info = spec.info();
-        let stage = vk::PipelineShaderStageCreateInfo::default()
-            .stage(vk::ShaderStageFlags::COMPUTE)
-            .module(module.raw)
-            .name(c"main")
-            .specialization_info(&spec_info);
-        let info = vk::ComputePipelineCreateInfo::default().stage(stage).layout(layout);
-        // SAFETY: valid device; module, layout and create info outlive the call.
-        let raw = unsafe { ctx.device().create_compute_pipelines(vk::PipelineCache::null(), &[info], None) }
-            .map_err(|(_, e)| e)
-            .call("vkCreateComputePipelines")?;
-        pipeline.raw = raw[0];
-        ctx.set_name(pipeline.raw, desc.name);
-        Ok(pipeline)
+        let key = PipelineKey::new(&[desc.shader], desc.bindings, desc.push_constant_size, &constants, None);
+        let objects = ctx.shared.pipelines.get_or_create(ctx.device(), key, || {
+            let (set_layout, layout) =
+                Self::layout(ctx, desc.name, desc.bindings, desc.push_constant_size, push_stages)?;
+            let unfinished = Unfinished {
+                device: ctx.device(),
+                objects: Some(PipelineObjects { raw: vk::Pipeline::null(), layout, set_layout }),
+            };
+            let module = ShaderModule::new(ctx, desc.shader)?;
+            let spec = Specialization::new(&constants);
+            let spec_info = spec.info();
+            let stage = vk::PipelineShaderStageCreateInfo::default()
+                .stage(vk::ShaderStageFlags::COMPUTE)
+                .module(module.raw)
+                .name(c"main")
+                .specialization_info(&spec_info);
+            let info = vk::ComputePipelineCreateInfo::default().stage(stage).layout(layout);
+            // SAFETY: valid device; module, layout and create info outlive the call.
+            let raw =
+                unsafe { ctx.device().create_compute_pipelines(vk::PipelineCache::null(), &[info], None) }
+                    .map_err(|(_, e)| e)
+                    .call("vkCreateComputePipelines")?;
+            ctx.set_name(raw[0], desc.name);
+            Ok(unfinished.finish(raw[0]))
+        })?;
+        Ok(Pipeline {
+            _shared: ctx.shared.clone(),
+            raw: objects.raw,
+            layout: objects.layout,
+            bind_point: vk::PipelineBindPoint::COMPUTE,
+            push_constant_stages: push_stages,
+            name: desc.name.into(),
+        })
     }
 
     /// Creates a graphics pipeline (triangle lists, no culling, optional depth test).
@@ -282,18 +301,49 @@ impl Pipeline {
             .iter()
             .chain([&desc.fragment])
             .fold(vk::ShaderStageFlags::empty(), |acc, s| acc | stage_flag(s.stage));
-        let (set_layout, layout) =
-            Self::layout(ctx, desc.name, desc.bindings, desc.push_constant_size, push_stages)?;
-        let mut pipeline = Pipeline {
-            shared: ctx.shared.clone(),
-            raw: vk::Pipeline::null(),
-            layout,
-            set_layout,
+        let shaders: Vec<&ShaderSpirv> = pre_raster.into_iter().chain([desc.fragment]).collect();
+        let state = GraphicsState {
+            color_format: desc.color_format.as_raw(),
+            depth_format: desc.depth_format.map(vk::Format::as_raw),
+            blend: desc.blend,
+            depth_write: desc.depth_write,
+            color_write: desc.color_write,
+            samples: desc.samples,
+            depth_compare: desc.depth_compare.as_raw(),
+        };
+        let key = PipelineKey::new(
+            &shaders,
+            desc.bindings,
+            desc.push_constant_size,
+            desc.specialization,
+            Some(state),
+        );
+        let objects = ctx
+            .shared
+            .pipelines
+            .get_or_create(ctx.device(), key, || Self::create_graphics(ctx, desc, &shaders, push_stages))?;
+        Ok(Pipeline {
+            _shared: ctx.shared.clone(),
+            raw: objects.raw,
+            layout: objects.layout,
             bind_point: vk::PipelineBindPoint::GRAPHICS,
             push_constant_stages: push_stages,
             name: desc.name.into(),
+        })
+    }
+
+    fn create_graphics(
+        ctx: &Context,
+        desc: &GraphicsPipelineDesc<'_>,
+        shaders: &[&ShaderSpirv],
+        push_stages: vk::ShaderStageFlags,
+    ) -> Result<PipelineObjects> {
+        let (set_layout, layout) =
+            Self::layout(ctx, desc.name, desc.bindings, desc.push_constant_size, push_stages)?;
+        let unfinished = Unfinished {
+            device: ctx.device(),
+            objects: Some(PipelineObjects { raw: vk::Pipeline::null(), layout, set_layout }),
         };
-        let shaders: Vec<&ShaderSpirv> = pre_raster.into_iter().chain([desc.fragment]).collect();
         let modules = shaders.iter().map(|s| ShaderModule::new(ctx, s)).collect::<Result<Vec<_>>>()?;
         let spec = Specialization::new(desc.specialization);
         let spec_info = spec.info();
@@ -366,9 +416,8 @@ impl Pipeline {
         let raw = unsafe { ctx.device().create_graphics_pipelines(vk::PipelineCache::null(), &[info], None) }
             .map_err(|(_, e)| e)
             .call("vkCreateGraphicsPipelines")?;
-        pipeline.raw = raw[0];
-        ctx.set_name(pipeline.raw, desc.name);
-        Ok(pipeline)
+        ctx.set_name(raw[0], desc.name);
+        Ok(unfinished.finish(raw[0]))
     }
 
     pub fn name(&self) -> &str {
