@@ -26,6 +26,22 @@ fn main() -> ExitCode {
             }
             Ok(())
         }),
+        GpuTest::new("a_pipeline_is_made_once_per_device_and_desc", Requirements::NONE, |ctx| {
+            // write_pattern asks for its pipeline at every call: the device makes it once, and
+            // the shared pipeline keeps working after the earlier calls' handles are gone.
+            write_pattern(ctx, 64, 1)?;
+            let made = ctx.pipelines_made();
+            let values = write_pattern(ctx, 64, 2)?;
+            ensure!(ctx.pipelines_made() == made, "the same desc made another pipeline");
+            ensure!(values.iter().enumerate().all(|(i, v)| *v == wang_hash(i as u32 ^ 2)), "{values:?}");
+            // Another specialization constant (the dispatch order's worker count) is another
+            // pipeline, on the same device.
+            let other = ctx.with_dispatch_workers(ctx.dispatch_workers() + 1);
+            let values = write_pattern(&other, 64, 3)?;
+            ensure!(other.pipelines_made() == made + 1, "{} pipelines after {made}", other.pipelines_made());
+            ensure!(values.iter().enumerate().all(|(i, v)| *v == wang_hash(i as u32 ^ 3)), "{values:?}");
+            Ok(())
+        }),
         GpuTest::new(
             "a_buffer_dropped_while_recording_lives_until_its_submission_ends",
             Requirements::NONE,

@@ -142,12 +142,15 @@ fn minutes(seconds: f64) -> String {
 }
 
 /// Runs the suite: fmt and clippy (unless `--no-lint`), the tests' build, the tests, doc tests.
+///
+/// With nextest and clippy's driver at hand, clippy does not compile the workspace a second
+/// time: the tests are built with `clippy-driver` as the workspace's compiler wrapper (what
+/// `cargo clippy` does, but producing real artifacts), so the project's crates are linted while
+/// they are compiled and the dependencies are built once; benches and examples are built (and
+/// linted) in the same build, as `clippy --all-targets` would check them.
 pub fn run(options: &Options, env: &[(String, String)], timeline: &mut Timeline) -> Result<()> {
     if options.lint {
         timeline.step("cargo fmt --check", || cargo(&["fmt", "--all", "--check"], env))?;
-        timeline.step("cargo clippy", || {
-            cargo(&["clippy", "--workspace", "--all-targets", "--quiet", "--", "-D", "warnings"], env)
-        })?;
     }
     let packages = options.package_args();
     let packages: Vec<&str> = packages.iter().map(String::as_str).collect();
@@ -156,12 +159,40 @@ pub fn run(options: &Options, env: &[(String, String)], timeline: &mut Timeline)
         eprintln!(
             "xtask: cargo-nextest is not installed: running the tests one binary at a time with `cargo test`"
         );
+        if options.lint {
+            timeline.step("cargo clippy", || cargo(&CLIPPY, env))?;
+        }
         return timeline
             .step("cargo test", || cargo(&[&["test"], &packages[..], &passthrough[..]].concat(), env));
     }
-    timeline.step("build the tests", || {
-        cargo(&[&["nextest", "run", "--no-run", "--cargo-quiet"], &packages[..]].concat(), env)
-    })?;
+    let mut env = env.to_vec();
+    let driver = if options.lint { clippy_driver() } else { None };
+    match &driver {
+        Some(driver) => {
+            // Every later cargo call gets the same wrapper, or it would compile the crates again.
+            env.push(("RUSTC_WORKSPACE_WRAPPER".into(), driver.clone()));
+            env.push((
+                "CLIPPY_ARGS".into(),
+                ["-D", "warnings"].join("__CLIPPY_HACKERY__") + "__CLIPPY_HACKERY__",
+            ));
+            timeline.step("build the tests and benches, clippy on the project's crates", || {
+                cargo(
+                    &[&["nextest", "run", "--no-run", "--cargo-quiet", "--all-targets"], &packages[..]]
+                        .concat(),
+                    &env,
+                )
+            })?;
+        }
+        None => {
+            if options.lint {
+                timeline.step("cargo clippy", || cargo(&CLIPPY, &env))?;
+            }
+            timeline.step("build the tests", || {
+                cargo(&[&["nextest", "run", "--no-run", "--cargo-quiet"], &packages[..]].concat(), &env)
+            })?;
+        }
+    }
+    let env = &env[..];
     let junit = Path::new(env!("CARGO_MANIFEST_DIR")).join("../target/nextest/xtask/junit.xml");
     let _ = std::fs::remove_file(&junit);
     let tests = timeline.step("run the tests (nextest)", || {
@@ -185,6 +216,19 @@ pub fn run(options: &Options, env: &[(String, String)], timeline: &mut Timeline)
         Ok(())
     };
     tests.and(docs)
+}
+
+/// `cargo clippy` as the fallback runs it.
+const CLIPPY: [&str; 7] = ["clippy", "--workspace", "--all-targets", "--quiet", "--", "-D", "warnings"];
+
+/// Clippy's driver beside cargo (rustup installs both), if it runs.
+fn clippy_driver() -> Option<String> {
+    let cargo = cargo_program();
+    let beside = Path::new(&cargo).parent().map(|dir| dir.join("clippy-driver"));
+    let candidates = beside.into_iter().map(|p| p.display().to_string()).chain(["clippy-driver".to_owned()]);
+    candidates
+        .into_iter()
+        .find(|c| Command::new(c).arg("--version").output().is_ok_and(|o| o.status.success()))
 }
 
 fn has_nextest() -> bool {
