@@ -175,12 +175,10 @@ pub fn run(options: &Options, env: &[(String, String)], timeline: &mut Timeline)
                 "CLIPPY_ARGS".into(),
                 ["-D", "warnings"].join("__CLIPPY_HACKERY__") + "__CLIPPY_HACKERY__",
             ));
+            // `cargo test --no-run`, not nextest's: nextest lists every binary it builds, and a
+            // criterion bench asked to list itself runs instead.
             timeline.step("build the tests and benches, clippy on the project's crates", || {
-                cargo(
-                    &[&["nextest", "run", "--no-run", "--cargo-quiet", "--all-targets"], &packages[..]]
-                        .concat(),
-                    &env,
-                )
+                cargo(&[&["test", "--no-run", "--quiet", "--all-targets"], &packages[..]].concat(), &env)
             })?;
         }
         None => {
