@@ -111,7 +111,7 @@ impl DataSet {
     /// The folders this process should look in: `HAIRKIT_DATA` alone when it is set, otherwise
     /// the folder beside the checkout and then the user cache.
     pub fn from_env() -> Self {
-        Self::new(std::env::var_os(ENV_VAR), Some(beside_checkout()), user_cache())
+        Self::new(hairkit_data().map(Into::into), Some(beside_checkout()), user_cache())
     }
 
     /// The search list from its parts (for tests and tools that want another environment).
@@ -156,6 +156,11 @@ impl DataSet {
             })
         })
     }
+}
+
+/// The folder `HAIRKIT_DATA` names, if it is set and not empty.
+pub fn hairkit_data() -> Option<PathBuf> {
+    std::env::var_os(ENV_VAR).filter(|v| !v.is_empty()).map(PathBuf::from)
 }
 
 /// [`DataSet::from_env`]`.locate(relative)`.

@@ -125,11 +125,13 @@ pub fn run_gpu_tests(tests: Vec<GpuTest>) -> ExitCode {
     } else {
         Context::new(&ContextDesc { validation: Validation::On, device: None }).map_err(|e| e.to_string())
     };
-    // The device's capabilities while listing for nextest (no validation: nothing is run).
-    let listed_caps = (args.list && nextest)
-        .then(|| Context::new(&ContextDesc { validation: Validation::Off, device: None }).ok())
-        .flatten()
-        .map(|c| c.capabilities().clone());
+    // The device's capabilities while listing for nextest (no validation: nothing is run); an
+    // error where there is no usable device.
+    let listed_caps = (args.list && nextest).then(|| {
+        Context::new(&ContextDesc { validation: Validation::Off, device: None })
+            .map(|c| c.capabilities().clone())
+            .map_err(drop)
+    });
     match &ctx {
         Ok(ctx) => {
             let caps = ctx.capabilities();
@@ -153,15 +155,28 @@ pub fn run_gpu_tests(tests: Vec<GpuTest>) -> ExitCode {
         .map(|t| {
             let ctx = ctx.clone();
             let GpuTest { name, requires, body } = t;
-            let unrunnable =
-                listed_caps.as_ref().is_some_and(|caps| requires.unmet(caps, require_mesh).is_some());
+            let unrunnable = match &listed_caps {
+                None => false,
+                Some(Ok(caps)) => requires.unmet(caps, require_mesh).is_some(),
+                // Without a device the test runs (and fails) only where a GPU is required.
+                Some(Err(())) => !require_gpu,
+            };
+            // A test that cannot run here: ignored with its reason, but a failure under nextest,
+            // whose listing already left out the tests it could not run.
+            let skip = move |reason: String| -> Result<Completion, Failed> {
+                if nextest {
+                    Err(format!("cannot run here ({reason}) although the listing said it could").into())
+                } else {
+                    Ok(Completion::ignored_with(reason))
+                }
+            };
             Trial::ignorable_test(name, move || {
                 let ctx = match &ctx {
                     Ok(c) => c,
                     Err(e) if require_gpu => {
                         return Err(format!("no GPU although HAIRKIT_REQUIRE_GPU=1: {e}").into());
                     }
-                    Err(e) => return Ok(Completion::ignored_with(format!("no Vulkan device: {e}"))),
+                    Err(e) => return skip(format!("no Vulkan device: {e}")),
                 };
                 let caps = ctx.capabilities();
                 if requires.mesh_shader && caps.mesh_shader.is_none() && require_mesh {
@@ -172,11 +187,7 @@ pub fn run_gpu_tests(tests: Vec<GpuTest>) -> ExitCode {
                     .into());
                 }
                 if let Some(reason) = requires.unmet(caps, require_mesh) {
-                    return if nextest {
-                        Err(format!("cannot run here ({reason}) although the listing said it could").into())
-                    } else {
-                        Ok(Completion::ignored_with(reason))
-                    };
+                    return skip(reason);
                 }
                 run_checked(ctx, body).map(|()| Completion::Completed)
             })

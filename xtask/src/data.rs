@@ -127,11 +127,9 @@ pub fn fetch_file(agent: &ureq::Agent, source: &Source, dest: &Path) -> Result<O
             source.bytes
         );
     }
+    // copy_at_most never goes past the listed size: fewer bytes means the body ended early.
     if received != source.bytes {
-        if received > source.bytes {
-            remove(&part)?;
-        }
-        bail!("the server sent {received} bytes, the list says {}", source.bytes);
+        bail!("the server sent {received} bytes, the list says {}; the part is kept to resume", source.bytes);
     }
     let mut extra = [0u8; 1];
     if body.read(&mut extra).is_ok_and(|n| n > 0) {

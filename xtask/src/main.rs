@@ -12,7 +12,6 @@ mod data;
 mod setup;
 mod suite;
 
-use std::path::Path;
 use std::process::ExitCode;
 
 use anyhow::{Context, Result, bail};
@@ -75,12 +74,12 @@ fn run() -> Result<()> {
 /// Downloads the data set into the user cache (`HAIRKIT_DATA`, when set, is the user's own
 /// folder and is never written to).
 fn fetch_data() -> Result<()> {
-    if let Some(dir) = std::env::var_os(data_set::ENV_VAR).filter(|v| !v.is_empty()) {
+    if let Some(dir) = data_set::hairkit_data() {
         bail!(
             "{} is set ({}): the data set is read from there only, so downloading into the cache would not be used; \
              unset it to use the cache",
             data_set::ENV_VAR,
-            Path::new(&dir).display()
+            dir.display()
         );
     }
     let cache = data_set::user_cache().context("no cache folder: set XDG_CACHE_HOME or HOME")?;
@@ -96,7 +95,7 @@ fn ensure_data() -> Result<()> {
         eprintln!("xtask: data set in {} ({})", root.path.display(), root.place);
         return Ok(());
     }
-    if std::env::var_os(data_set::ENV_VAR).is_some_and(|v| !v.is_empty()) {
+    if data_set::hairkit_data().is_some() {
         eprintln!(
             "xtask: warning: {} does not hold the whole data set; whatever needs a missing file will say which",
             data_set::ENV_VAR
@@ -145,9 +144,5 @@ fn demo(args: &[String]) -> Result<()> {
     let mut run_args =
         vec!["run", "--release", "--quiet", "-p", "hairkit-cli", "--bin", "hairkit", "--", "demo"];
     run_args.extend(passthrough.iter().map(String::as_str));
-    cargo(&run_args, &env)
-}
-
-fn cargo(args: &[&str], env: &[(String, String)]) -> Result<()> {
-    suite::cargo(args, env)
+    suite::cargo(&run_args, &env)
 }

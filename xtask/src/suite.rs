@@ -191,7 +191,10 @@ pub fn run(options: &Options, env: &[(String, String)], timeline: &mut Timeline)
         }
     }
     let env = &env[..];
-    let junit = Path::new(env!("CARGO_MANIFEST_DIR")).join("../target/nextest/xtask/junit.xml");
+    // nextest writes its reports under the target folder, wherever CARGO_TARGET_DIR puts it.
+    let target = std::env::var_os("CARGO_TARGET_DIR")
+        .map_or_else(|| Path::new(env!("CARGO_MANIFEST_DIR")).join("../target"), std::path::PathBuf::from);
+    let junit = target.join("nextest/xtask/junit.xml");
     let _ = std::fs::remove_file(&junit);
     let tests = timeline.step("run the tests (nextest)", || {
         cargo(

@@ -115,26 +115,23 @@ impl std::fmt::Debug for Pipeline {
     }
 }
 
-/// Objects of a pipeline being made, destroyed if it fails half-way.
+/// The layouts of a pipeline being made: destroyed if it fails before [`Unfinished::finish`].
 struct Unfinished<'a> {
     device: &'a ash::Device,
-    objects: Option<PipelineObjects>,
+    layouts: Option<(vk::DescriptorSetLayout, vk::PipelineLayout)>,
 }
 
 impl Unfinished<'_> {
     fn finish(mut self, raw: vk::Pipeline) -> PipelineObjects {
-        let objects = self.objects.take().map(|o| PipelineObjects { raw, ..o });
-        objects.unwrap_or(PipelineObjects {
-            raw,
-            layout: vk::PipelineLayout::null(),
-            set_layout: vk::DescriptorSetLayout::null(),
-        })
+        let (set_layout, layout) = self.layouts.take().unwrap_or_default();
+        PipelineObjects { raw, layout, set_layout }
     }
 }
 
 impl Drop for Unfinished<'_> {
     fn drop(&mut self) {
-        if let Some(objects) = self.objects.take() {
+        if let Some((set_layout, layout)) = self.layouts.take() {
+            let objects = PipelineObjects { raw: vk::Pipeline::null(), layout, set_layout };
             // SAFETY: made on this device by the failed creation, never used.
             unsafe { objects.destroy(self.device) };
         }
@@ -260,10 +257,7 @@ impl Pipeline {
         let objects = ctx.shared.pipelines.get_or_create(ctx.device(), key, || {
             let (set_layout, layout) =
                 Self::layout(ctx, desc.name, desc.bindings, desc.push_constant_size, push_stages)?;
-            let unfinished = Unfinished {
-                device: ctx.device(),
-                objects: Some(PipelineObjects { raw: vk::Pipeline::null(), layout, set_layout }),
-            };
+            let unfinished = Unfinished { device: ctx.device(), layouts: Some((set_layout, layout)) };
             let module = ShaderModule::new(ctx, desc.shader)?;
             let spec = Specialization::new(&constants);
             let spec_info = spec.info();
@@ -281,14 +275,25 @@ impl Pipeline {
             ctx.set_name(raw[0], desc.name);
             Ok(unfinished.finish(raw[0]))
         })?;
-        Ok(Pipeline {
+        Ok(Self::handle(ctx, objects, vk::PipelineBindPoint::COMPUTE, push_stages, desc.name))
+    }
+
+    /// The handle callers hold to the registry's `objects`.
+    fn handle(
+        ctx: &Context,
+        objects: PipelineObjects,
+        bind_point: vk::PipelineBindPoint,
+        push_constant_stages: vk::ShaderStageFlags,
+        name: &str,
+    ) -> Self {
+        Pipeline {
             _shared: ctx.shared.clone(),
             raw: objects.raw,
             layout: objects.layout,
-            bind_point: vk::PipelineBindPoint::COMPUTE,
-            push_constant_stages: push_stages,
-            name: desc.name.into(),
-        })
+            bind_point,
+            push_constant_stages,
+            name: name.into(),
+        }
     }
 
     /// Creates a graphics pipeline (triangle lists, no culling, optional depth test).
@@ -322,14 +327,7 @@ impl Pipeline {
             .shared
             .pipelines
             .get_or_create(ctx.device(), key, || Self::create_graphics(ctx, desc, &shaders, push_stages))?;
-        Ok(Pipeline {
-            _shared: ctx.shared.clone(),
-            raw: objects.raw,
-            layout: objects.layout,
-            bind_point: vk::PipelineBindPoint::GRAPHICS,
-            push_constant_stages: push_stages,
-            name: desc.name.into(),
-        })
+        Ok(Self::handle(ctx, objects, vk::PipelineBindPoint::GRAPHICS, push_stages, desc.name))
     }
 
     fn create_graphics(
@@ -340,10 +338,7 @@ impl Pipeline {
     ) -> Result<PipelineObjects> {
         let (set_layout, layout) =
             Self::layout(ctx, desc.name, desc.bindings, desc.push_constant_size, push_stages)?;
-        let unfinished = Unfinished {
-            device: ctx.device(),
-            objects: Some(PipelineObjects { raw: vk::Pipeline::null(), layout, set_layout }),
-        };
+        let unfinished = Unfinished { device: ctx.device(), layouts: Some((set_layout, layout)) };
         let modules = shaders.iter().map(|s| ShaderModule::new(ctx, s)).collect::<Result<Vec<_>>>()?;
         let spec = Specialization::new(desc.specialization);
         let spec_info = spec.info();
