@@ -29,7 +29,12 @@ pub struct CrowdOptions {
     /// Also write `heads_animated.json`: every head turning and nodding with its own phase and
     /// its hair simulated in its own wind.
     pub animated: bool,
+    /// Whether `out` may be a folder that is not an earlier crowd (`--force`).
+    pub replace: hairmesh::output::Replace,
 }
+
+/// The command named in a crowd folder's marker ([`hairmesh::output::mark_folder`]).
+pub const CROWD_COMMAND: &str = "hairkit crowd";
 
 impl Default for CrowdOptions {
     fn default() -> Self {
@@ -41,6 +46,7 @@ impl Default for CrowdOptions {
             teapot_strands: 20_000,
             teapot_variants: 8,
             size: (1280, 720),
+            replace: hairmesh::output::Replace::OwnOutput,
             seed: 1,
             animated: false,
         }
@@ -189,7 +195,10 @@ pub fn write_crowds(
     mut progress: impl FnMut(u64, u64, &str),
 ) -> Result<CrowdScenes, CrowdError> {
     let out = &options.out;
+    hairmesh::output::check_command_folder(out, CROWD_COMMAND, options.replace)
+        .map_err(hairmesh::HairMeshError::from)?;
     std::fs::create_dir_all(out).map_err(io_error(out))?;
+    hairmesh::output::mark_folder(out, CROWD_COMMAND).map_err(io_error(out))?;
     let total =
         u64::from(options.characters) + u64::from(options.teapot_variants.min(options.teapots.max(1)));
     let mut done = 0;

@@ -25,6 +25,7 @@ use serde::{Deserialize, Serialize};
 
 use crate::asset::{BundleInfo, HairAsset, SampleSet, ScalpProvenance};
 use crate::hair_mesh::{BundleFace, HairMesh};
+use crate::output::Replace;
 use crate::roots::SampleDomain;
 use crate::style::Style;
 use crate::texture::{HairTextures, Normalization, Texture3, TextureLayout, texel_vertices};
@@ -108,7 +109,8 @@ fn texture_files(layout: &TextureLayout) -> TextureFiles {
     }
 }
 
-/// Writes `asset` to the folder `dir` (replacing it atomically).
+/// Writes `asset` to the folder `dir`, replacing it atomically if it is a hair asset (an
+/// existing folder of anything else is refused: see [`crate::output`]).
 pub fn write_asset(
     dir: &Path,
     asset: &HairAsset,
@@ -116,6 +118,19 @@ pub fn write_asset(
     units: &str,
     source: Option<&str>,
 ) -> Result<()> {
+    write_asset_replacing(dir, asset, precision, units, source, Replace::OwnOutput)
+}
+
+/// [`write_asset`], replacing whatever `dir` is with [`Replace::Anything`] (`--force`).
+pub fn write_asset_replacing(
+    dir: &Path,
+    asset: &HairAsset,
+    precision: Precision,
+    units: &str,
+    source: Option<&str>,
+    replace: Replace,
+) -> Result<()> {
+    crate::output::check_asset_folder(dir, &[], replace)?;
     let t = &asset.textures;
     let files = texture_files(&t.layout);
     let manifest = Manifest {
@@ -205,12 +220,8 @@ fn field_error(path: &Path, field: &str, message: impl std::fmt::Display) -> Hai
 }
 
 fn read_limited(path: &Path, limit: u64) -> Result<Vec<u8>> {
-    let io = |e: std::io::Error| HairMeshError::Io { path: path.to_owned(), message: e.to_string() };
-    let len = std::fs::metadata(path).map_err(io)?.len();
-    if len > limit {
-        return Err(field_error(path, "file", format!("{len} bytes is over the {limit}-byte limit")));
-    }
-    std::fs::read(path).map_err(io)
+    crate::input::read_regular(path, limit)
+        .map_err(|e| HairMeshError::Io { path: path.to_owned(), message: e.to_string() })
 }
 
 /// Reads an asset folder (or its `hair.json`), validating everything against the manifest.
@@ -360,11 +371,23 @@ fn validate_manifest(path: &Path, m: &Manifest) -> Result<()> {
             format!("{} entries but layout.bundles = {}", m.bundles.len(), l.bundles),
         ));
     }
-    if m.textures != texture_files(l) {
-        return Err(err(
-            "textures",
-            format!("{:?} does not match the layout (expected {:?})", m.textures, texture_files(l)),
-        ));
+    let expected = texture_files(l);
+    for (name, found, wanted) in [
+        ("hair_mesh", &m.textures.hair_mesh, &expected.hair_mesh),
+        ("uv", &m.textures.uv, &expected.uv),
+        ("w", &m.textures.w, &expected.w),
+        ("u", &m.textures.u, &expected.u),
+        ("v", &m.textures.v, &expected.v),
+    ] {
+        if found != wanted {
+            return Err(err(
+                &format!("textures.{name}"),
+                format!(
+                    "file `{}` with {} channels and {} slices does not match the layout, which needs file `{}` with {} channels and {} slices",
+                    found.file, found.channels, found.slices, wanted.file, wanted.channels, wanted.slices
+                ),
+            ));
+        }
     }
     let longest = |sets: &[SampleSet]| sets.iter().map(|s| s.points.len()).min().unwrap_or(0);
     for (i, b) in m.bundles.iter().enumerate() {

@@ -18,7 +18,8 @@ use serde::{Deserialize, Serialize};
 
 use crate::asset::{AssetParams, HairAsset, LayerSource, ScalpProvenance, StrandCount};
 use crate::hair_mesh::{DrapeParams, ExtrudeParams, HairMesh};
-use crate::import::load_scalp;
+use crate::import::load_scalp_with;
+use crate::input::References;
 use crate::style::Style;
 use crate::texture::SliceLayout;
 use crate::{HairMeshError, Result, ScalpMesh, ScalpSelector};
@@ -75,6 +76,10 @@ pub struct ConvertSettings {
     pub sample_sets: u32,
     pub layout: SliceLayout,
     pub style: Style,
+    /// Where the files a glTF refers to may be (trusting a file is a choice per run, never
+    /// stored).
+    #[serde(skip)]
+    pub references: References,
 }
 
 impl Default for ConvertSettings {
@@ -90,6 +95,7 @@ impl Default for ConvertSettings {
             sample_sets: 1,
             layout: SliceLayout::Lattice,
             style: Style::default(),
+            references: References::InsideFolder,
         }
     }
 }
@@ -145,7 +151,7 @@ pub fn convert_scalp(
 ) -> Result<Converted> {
     let selector = ScalpSelector::parse(&settings.scalp)?;
     progress(&format!("importing {}", input.display()));
-    let scalp = load_scalp(input, &selector)?;
+    let scalp = load_scalp_with(input, &selector, settings.references)?;
     let Some((lo, hi)) = scalp.bounds() else {
         return Err(HairMeshError::InvalidParameter {
             what: "scalp",

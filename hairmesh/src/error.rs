@@ -13,6 +13,8 @@ pub enum HairMeshError {
     UnsupportedExtension { path: PathBuf, extension: String },
     #[error("{path}: no triangles or polygons to use as a scalp{detail}")]
     NoFaces { path: PathBuf, detail: String },
+    #[error(transparent)]
+    Output(#[from] crate::output::OutputError),
     #[error("invalid {what}: {message}")]
     InvalidParameter { what: &'static str, message: String },
 }

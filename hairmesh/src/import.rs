@@ -14,6 +14,7 @@ use std::path::Path;
 
 use glam::{DMat4, DVec2, DVec3};
 
+use crate::input::References;
 use crate::scalp::{ScalpMesh, ScalpSelector};
 use crate::{HairMeshError, Result};
 
@@ -27,11 +28,17 @@ pub const WELD_TOLERANCE: f64 = 1e-6;
 const UNDECODABLE: &[&str] =
     &["KHR_draco_mesh_compression", "EXT_meshopt_compression", "KHR_meshopt_compression"];
 
-/// Loads a scalp from a glTF/GLB or OBJ file, keeps the selected faces and welds.
+/// Loads a scalp from a glTF/GLB or OBJ file, keeps the selected faces and welds. The files a
+/// glTF refers to must be in its folder (see [`crate::input`]).
 pub fn load_scalp(path: &Path, selector: &ScalpSelector) -> Result<ScalpMesh> {
+    load_scalp_with(path, selector, References::InsideFolder)
+}
+
+/// [`load_scalp`], with the glTF's buffers read from where `references` allows.
+pub fn load_scalp_with(path: &Path, selector: &ScalpSelector, references: References) -> Result<ScalpMesh> {
     let ext = path.extension().and_then(|e| e.to_str()).map(str::to_ascii_lowercase).unwrap_or_default();
     let mut mesh = match ext.as_str() {
-        "gltf" | "glb" => load_gltf(path, selector)?,
+        "gltf" | "glb" => load_gltf(path, selector, references)?,
         "obj" => load_obj(path, selector)?,
         _ => {
             return Err(HairMeshError::Format {
@@ -79,18 +86,11 @@ pub fn load_scalp(path: &Path, selector: &ScalpSelector) -> Result<ScalpMesh> {
 }
 
 fn read_file(path: &Path) -> Result<Vec<u8>> {
-    let io = |e: std::io::Error| HairMeshError::Io { path: path.into(), message: e.to_string() };
-    let len = std::fs::metadata(path).map_err(io)?.len();
-    if len > MAX_FILE_BYTES {
-        return Err(HairMeshError::Format {
-            path: path.into(),
-            message: format!("{len} bytes is over the {MAX_FILE_BYTES}-byte limit"),
-        });
-    }
-    std::fs::read(path).map_err(io)
+    crate::input::read_regular(path, MAX_FILE_BYTES)
+        .map_err(|e| HairMeshError::Io { path: path.into(), message: e.to_string() })
 }
 
-fn load_gltf(path: &Path, selector: &ScalpSelector) -> Result<ScalpMesh> {
+fn load_gltf(path: &Path, selector: &ScalpSelector, references: References) -> Result<ScalpMesh> {
     let format = |message: String| HairMeshError::Format { path: path.into(), message };
     let bytes = read_file(path)?;
     let gltf = gltf::Gltf::from_slice_without_validation(&bytes)
@@ -114,8 +114,7 @@ fn load_gltf(path: &Path, selector: &ScalpSelector) -> Result<ScalpMesh> {
         });
         return Err(format(format!("invalid glTF ({} problems), first: {first}{hint}", problems.len())));
     }
-    let base = path.parent().unwrap_or(Path::new("."));
-    let buffers = load_buffers(path, base, &gltf)?;
+    let buffers = load_buffers(path, references, &gltf)?;
     for view in gltf.document.views() {
         let len = buffers[view.buffer().index()].len();
         if view.offset().checked_add(view.length()).is_none_or(|end| end > len) {
@@ -194,7 +193,7 @@ fn check_primitive_accessors(path: &Path, root: &gltf::json::Root) -> Result<()>
     Ok(())
 }
 
-fn load_buffers(path: &Path, base: &Path, gltf: &gltf::Gltf) -> Result<Vec<Vec<u8>>> {
+fn load_buffers(path: &Path, references: References, gltf: &gltf::Gltf) -> Result<Vec<Vec<u8>>> {
     use base64::Engine as _;
     let format = |message: String| HairMeshError::Format { path: path.into(), message };
     gltf.document
@@ -213,10 +212,12 @@ fn load_buffers(path: &Path, base: &Path, gltf: &gltf::Gltf) -> Result<Vec<Vec<u
                         .map_err(|e| format(format!("buffer {}: bad base64 data: {e}", buffer.index())))?
                 }
                 gltf::buffer::Source::Uri(uri) => {
-                    let decoded = percent_encoding::percent_decode_str(uri).decode_utf8_lossy().into_owned();
-                    let file = base.join(&decoded);
-                    read_file(&file)
-                        .map_err(|e| format(format!("buffer {} ({decoded}): {e}", buffer.index())))?
+                    let file = crate::input::resolve_reference(path, uri, references)
+                        .map_err(|e| format(format!("buffers[{}].uri: {e}", buffer.index())))?;
+                    // Never more than the buffer declares; a shorter file is refused below.
+                    crate::input::read_prefix(&file, buffer.length() as u64).map_err(|e| {
+                        format(format!("buffers[{}].uri: `{uri}` ({}) {e}", buffer.index(), file.display()))
+                    })?
                 }
             };
             if data.len() < buffer.length() {

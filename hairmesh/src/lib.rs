@@ -12,7 +12,9 @@ pub mod dynamics;
 mod error;
 pub mod hair_mesh;
 pub mod import;
+pub mod input;
 pub mod lattice;
+pub mod output;
 pub mod procedural;
 pub mod reference;
 pub mod rng;
@@ -21,6 +23,7 @@ pub mod scalp;
 pub mod strands;
 pub mod style;
 pub mod teapot;
+pub mod terminal;
 pub mod texture;
 
 pub use error::{HairMeshError, Result};

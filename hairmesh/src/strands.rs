@@ -137,14 +137,7 @@ fn f32s(bytes: &[u8]) -> impl Iterator<Item = f32> + '_ {
 
 fn read_all(path: &Path) -> Result<Vec<u8>> {
     let io = |e: std::io::Error| HairMeshError::Io { path: path.to_owned(), message: e.to_string() };
-    let len = std::fs::metadata(path).map_err(io)?.len();
-    if len > MAX_POINTS * 16 + 4096 {
-        return Err(HairMeshError::Format {
-            path: path.into(),
-            message: format!("{len} bytes is too large for a strand file"),
-        });
-    }
-    std::fs::read(path).map_err(io)
+    crate::input::read_regular(path, MAX_POINTS * 16 + 4096).map_err(io)
 }
 
 /// Loads `.tfx` (TressFX 3.x or 4.x, by its version field) or `.hair`.

@@ -332,13 +332,7 @@ impl SimCache {
     /// cache of another scene or an older version of it is refused, naming what differs.
     pub fn read(path: &Path, animation: &Animation) -> Result<Self, RenderError> {
         let error = |message: String| RenderError::Animation { path: path.to_owned(), message };
-        let len = std::fs::metadata(path).map_err(|e| error(e.to_string()))?.len();
-        if len > MAX_CACHE_BYTES {
-            return Err(error(format!(
-                "{len} bytes is larger than a simulation cache may be ({MAX_CACHE_BYTES})"
-            )));
-        }
-        let data = std::fs::read(path).map_err(|e| error(e.to_string()))?;
+        let data = hairmesh::input::read_regular(path, MAX_CACHE_BYTES).map_err(|e| error(e.to_string()))?;
         let truncated = || error("truncated: not a hairkit simulation cache".into());
         let word = |at: usize| -> Result<[u8; 4], RenderError> {
             data.get(at..at + 4).and_then(|s| s.try_into().ok()).ok_or_else(truncated)

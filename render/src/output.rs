@@ -109,7 +109,7 @@ pub const MAX_READ_PIXELS: u64 = 1 << 28;
 /// Reads an 8-bit RGB or RGBA PNG (as written by [`write_png`]) into RGBA.
 pub fn read_png(path: &Path) -> Result<RgbaImage, OutputError> {
     let err = |message: String| OutputError::Io { path: path.to_owned(), message };
-    let file = std::fs::File::open(path).map_err(|e| err(e.to_string()))?;
+    let file = hairmesh::input::open_regular(path).map_err(|e| err(e.to_string()))?;
     let mut decoder = png::Decoder::new(std::io::BufReader::new(file));
     decoder.set_transformations(png::Transformations::EXPAND | png::Transformations::STRIP_16);
     let mut reader = decoder.read_info().map_err(|e| err(e.to_string()))?;

@@ -699,6 +699,15 @@ impl LoadedScene {
         self.path.parent().unwrap_or(Path::new(".")).join(path)
     }
 
+    /// The scene file and every file or folder it refers to: what an output must never replace.
+    pub fn input_files(&self) -> Vec<PathBuf> {
+        let characters = self.scene.characters.iter();
+        std::iter::once(self.path.clone())
+            .chain(characters.clone().map(|c| self.hair_path(c)))
+            .chain(characters.filter_map(|c| c.occluder.as_ref()).map(|o| self.resolve(&o.mesh)))
+            .collect()
+    }
+
     /// The camera at `t` ∈ [0, 1] along the camera path (Catmull-Rom through the keys, uniform
     /// in key index); the scene's camera without a path.
     pub fn camera_at(&self, t: f32) -> (Vec3, Vec3) {
@@ -780,18 +789,14 @@ impl LoadedScene {
     }
 }
 
+/// Largest scene file read.
+pub const MAX_SCENE_BYTES: u64 = 64 << 20;
+
 /// Reads, parses and validates a scene file.
 pub fn load_scene(path: &Path) -> Result<LoadedScene, SceneError> {
     let io = |e: std::io::Error| SceneError::Io { path: path.to_owned(), message: e.to_string() };
-    let len = std::fs::metadata(path).map_err(io)?.len();
-    if len > 64 << 20 {
-        return Err(SceneError::Io {
-            path: path.to_owned(),
-            message: format!("{len} bytes is too large for a scene file"),
-        });
-    }
-    let text = std::fs::read_to_string(path).map_err(io)?;
-    let scene: Scene = serde_json::from_str(&text).map_err(|e| SceneError::Syntax {
+    let bytes = hairmesh::input::read_regular(path, MAX_SCENE_BYTES).map_err(io)?;
+    let scene: Scene = serde_json::from_slice(&bytes).map_err(|e| SceneError::Syntax {
         path: path.to_owned(),
         line: e.line(),
         column: e.column(),

@@ -26,6 +26,7 @@ use std::path::PathBuf;
 use anyhow::{Context as _, Result};
 use clap::Parser;
 use gen_gpu::{Context, ContextDesc, PathChoice, Validation};
+use hairmesh::output::{FileKind, Replace};
 use render::frame::SceneRenderer;
 
 #[derive(Parser, Debug)]
@@ -82,7 +83,15 @@ struct Cli {
     /// The simulation cache [default: the scene file with the extension `.sim`].
     #[arg(long)]
     sim_cache: Option<PathBuf>,
+    /// Replace output files even when they are not images / statistics / caches written by
+    /// hairkit (never the scene or a file it refers to).
+    #[arg(long)]
+    force: bool,
 }
+
+/// What the statistics JSON holds at its top level (how an earlier one is recognized).
+const STATS_JSON: FileKind =
+    FileKind::Json { what: "hair-render statistics file", keys: &["device", "passes"] };
 
 /// Most frames `--repeat` renders (a bound on a typo's cost, not on what is useful).
 const MAX_REPEAT: u32 = 1000;
@@ -124,6 +133,7 @@ fn numbered(path: &std::path::Path, index: u32) -> PathBuf {
 }
 
 fn main() -> std::process::ExitCode {
+    hairmesh::terminal::exit_quietly_on_closed_pipe();
     env_logger::Builder::from_env(env_logger::Env::default().default_filter_or("warn")).init();
     match run(&Cli::parse()) {
         Ok(()) => std::process::ExitCode::SUCCESS,
@@ -164,6 +174,7 @@ fn run(cli: &Cli) -> Result<()> {
         ),
         None => cli.frames.end,
     };
+    check_outputs(cli, &scene, length)?;
     let mut instance = render::instance::SceneInstance::load(&scene)?;
     let animation = render::animation::Animation::new(&mut instance)?;
     let cache_path = cli.sim_cache.clone().unwrap_or_else(|| cli.scene.with_extension("sim"));
@@ -380,6 +391,31 @@ fn run(cli: &Cli) -> Result<()> {
         let text = serde_json::to_string_pretty(&json)?;
         hairmesh::atomic::write_file_atomic(json_path, |w| w.write_all(text.as_bytes()))
             .with_context(|| format!("writing {}", json_path.display()))?;
+    }
+    Ok(())
+}
+
+/// Every file this run would write may be written (before anything is loaded or simulated):
+/// none is an input, and each is new or an earlier output of its kind unless `--force`.
+fn check_outputs(cli: &Cli, scene: &render::scene::LoadedScene, length: u32) -> Result<()> {
+    let inputs = scene.input_files();
+    let inputs: Vec<&std::path::Path> = inputs.iter().map(PathBuf::as_path).collect();
+    let replace = Replace::from_force(cli.force);
+    if cli.simulate {
+        let cache = cli.sim_cache.clone().unwrap_or_else(|| cli.scene.with_extension("sim"));
+        hairmesh::output::check_file(&cache, FileKind::SimCache, &inputs, replace)?;
+    }
+    if let Some(path) = &cli.stats_json {
+        hairmesh::output::check_file(path, STATS_JSON, &inputs, replace)?;
+    }
+    if let Some(out) = &cli.out {
+        let kind = FileKind::from_extension(out)
+            .filter(|k| matches!(k, FileKind::Png | FileKind::Exr))
+            .with_context(|| format!("{}: the output must end in .png or .exr", out.display()))?;
+        for i in cli.frames.start..cli.frames.end {
+            let file = if length > 1 { numbered(out, i) } else { out.clone() };
+            hairmesh::output::check_file(&file, kind, &inputs, replace)?;
+        }
     }
     Ok(())
 }

@@ -13,6 +13,7 @@ use std::time::Instant;
 use anyhow::{Context as _, Result, bail};
 use clap::{Args, Parser, Subcommand};
 use gen_gpu::{Context, ContextDesc, GenerationPath, PathChoice, Validation};
+use hairmesh::output::Replace;
 
 #[derive(Parser, Debug)]
 #[command(name = "hairkit", version, about = "hairkit: hair meshes rendered as strands generated on the GPU")]
@@ -56,6 +57,10 @@ enum Command {
         /// or compute.
         #[arg(long, default_value = "auto")]
         raster: render::scene::Raster,
+        /// Write into the output folder even if it is not an earlier demo's (files of the same
+        /// names in it are replaced; nothing else is touched).
+        #[arg(long)]
+        force: bool,
         #[command(flatten)]
         device: DeviceArgs,
     },
@@ -92,6 +97,10 @@ struct CrowdArgs {
     /// simulated in its own wind (render it with `hair-render --frames`).
     #[arg(long)]
     animated: bool,
+    /// Write into the output folder even if it is not an earlier crowd's (files of the same
+    /// names in it are replaced; nothing else is touched).
+    #[arg(long)]
+    force: bool,
 }
 
 #[derive(Args, Debug)]
@@ -135,6 +144,7 @@ fn parse_size(s: &str) -> Result<(u32, u32), String> {
 }
 
 fn main() -> std::process::ExitCode {
+    hairmesh::terminal::exit_quietly_on_closed_pipe();
     env_logger::Builder::from_env(env_logger::Env::default().default_filter_or("warn")).init();
     match run(Cli::parse()) {
         Ok(()) => std::process::ExitCode::SUCCESS,
@@ -155,6 +165,7 @@ fn crowd(args: &CrowdArgs) -> Result<()> {
         size: args.size,
         seed: args.seed,
         animated: args.animated,
+        replace: Replace::from_force(args.force),
         ..hairkit_cli::crowd_scenes::CrowdOptions::default()
     };
     let start = Instant::now();
@@ -208,8 +219,8 @@ fn run(cli: Cli) -> Result<()> {
             );
             Ok(())
         }
-        Command::Demo { out, data, strands, characters, size, raster, device } => {
-            demo(&DemoOptions { out, data, strands, characters, size, raster }, &device)
+        Command::Demo { out, data, strands, characters, size, raster, force, device } => {
+            demo(&DemoOptions { out, data, strands, characters, size, raster, force }, &device)
         }
     }
 }
@@ -221,7 +232,11 @@ struct DemoOptions {
     characters: u32,
     size: (u32, u32),
     raster: render::scene::Raster,
+    force: bool,
 }
+
+/// The command named in a demo folder's marker.
+const DEMO_COMMAND: &str = "hairkit demo";
 
 fn timed<T>(what: &str, f: impl FnOnce() -> Result<T>) -> Result<T> {
     let start = Instant::now();
@@ -293,6 +308,7 @@ fn demo(o: &DemoOptions, device: &DeviceArgs) -> Result<()> {
     use hairmesh::hair_mesh::{DrapeParams, ExtrudeParams, HairMesh};
     use hairmesh::style::{Clump, Curl, Style, Wave};
 
+    hairmesh::output::check_command_folder(&o.out, DEMO_COMMAND, Replace::from_force(o.force))?;
     if o.characters == 0 || o.characters > 400 {
         bail!("--characters {} (expected 1..=400)", o.characters);
     }
@@ -309,6 +325,8 @@ fn demo(o: &DemoOptions, device: &DeviceArgs) -> Result<()> {
     );
 
     std::fs::create_dir_all(&o.out).with_context(|| format!("creating {}", o.out.display()))?;
+    hairmesh::output::mark_folder(&o.out, DEMO_COMMAND)
+        .with_context(|| format!("writing into {}", o.out.display()))?;
     let people = demo_people(o.data.as_deref(), &o.out)?;
     let (head, scalp) = (people.head, people.scalp);
     let long = HairMesh::drape(

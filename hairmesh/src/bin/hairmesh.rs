@@ -14,9 +14,11 @@ use std::time::Instant;
 use anyhow::{Context, Result, bail};
 use clap::{Parser, Subcommand};
 use hairmesh::asset::LayerSource;
-use hairmesh::asset_io::{Precision, read_asset, write_asset};
+use hairmesh::asset_io::{Precision, read_asset, write_asset_replacing};
 use hairmesh::convert::{ConvertSettings, Converted, LayerShape, convert_scalp, file_units};
 use hairmesh::hair_mesh::BundleFace;
+use hairmesh::input::References;
+use hairmesh::output::{FileKind, Replace};
 use hairmesh::style::Style;
 use hairmesh::texture::SliceLayout;
 
@@ -40,9 +42,17 @@ struct Cli {
 #[derive(clap::Args, Debug)]
 struct ConvertArgs {
     input: PathBuf,
-    /// Output asset folder (replaced atomically if it exists).
+    /// Output asset folder. An existing one is replaced (atomically) only if it is a hair asset
+    /// and holds nothing else; anything else needs --force.
     #[arg(short, long)]
     out: PathBuf,
+    /// Replace the output even if it is not a hair asset (never the folder holding the input).
+    #[arg(long)]
+    force: bool,
+    /// Read glTF buffers from absolute paths and `file:` URIs too (only files in the input's
+    /// folder are read otherwise).
+    #[arg(long)]
+    trust_paths: bool,
     /// Layers above the scalp (1..=64).
     #[arg(long, default_value_t = 4)]
     layers: u32,
@@ -107,8 +117,9 @@ fn parse_vec3(text: &str) -> Result<glam::DVec3, String> {
 impl ConvertArgs {
     fn style(&self) -> Result<Style> {
         let Some(path) = &self.style else { return Ok(Style::default()) };
-        let text = std::fs::read_to_string(path).with_context(|| format!("reading {}", path.display()))?;
-        serde_json::from_str::<Style>(&text)
+        let bytes = hairmesh::input::read_regular(path, 1 << 20)
+            .with_context(|| format!("reading {}", path.display()))?;
+        serde_json::from_slice::<Style>(&bytes)
             .map_err(|e| anyhow::anyhow!("{}: line {}, column {}: {e}", path.display(), e.line(), e.column()))
     }
 }
@@ -123,10 +134,14 @@ enum Command {
     HeadCap {
         #[arg(short, long)]
         out: PathBuf,
+        /// Replace the output even if it is not a glTF file.
+        #[arg(long)]
+        force: bool,
     },
 }
 
 fn main() -> std::process::ExitCode {
+    hairmesh::terminal::exit_quietly_on_closed_pipe();
     match run(Cli::parse()) {
         Ok(()) => std::process::ExitCode::SUCCESS,
         Err(e) => {
@@ -140,7 +155,8 @@ fn run(cli: Cli) -> Result<()> {
     match cli.command {
         Command::Convert(args) => convert(&args),
         Command::Info { path } => info(&path),
-        Command::HeadCap { out } => {
+        Command::HeadCap { out, force } => {
+            hairmesh::output::check_file(&out, FileKind::GLTF, &[], Replace::from_force(force))?;
             hairmesh::procedural::write_gltf(&out, &hairmesh::procedural::head_cap(8, 32), "head cap")
                 .with_context(|| format!("writing {}", out.display()))?;
             println!("wrote {}", out.display());
@@ -159,6 +175,10 @@ fn step<T>(what: &str, f: impl FnOnce() -> Result<T>) -> Result<T> {
 
 fn convert(o: &ConvertArgs) -> Result<()> {
     let (input, out) = (o.input.as_path(), o.out.as_path());
+    // Before any work: the output must be safe to replace.
+    let replace = Replace::from_force(o.force);
+    let inputs: Vec<&Path> = std::iter::once(input).chain(o.style.as_deref()).collect();
+    hairmesh::output::check_asset_folder(out, &inputs, replace)?;
     let settings = ConvertSettings {
         scalp: o.scalp.clone(),
         layers: o.layers,
@@ -179,6 +199,7 @@ fn convert(o: &ConvertArgs) -> Result<()> {
             LayoutArg::Blocks => SliceLayout::Blocks,
         },
         style: o.style()?,
+        references: if o.trust_paths { References::Anywhere } else { References::InsideFolder },
     };
     // Each step's time is printed when the next one starts, the last one's after the call.
     let mut started: Option<Instant> = None;
@@ -201,7 +222,7 @@ fn convert(o: &ConvertArgs) -> Result<()> {
     let units = file_units(input);
     let precision = if o.f16 { Precision::F16 } else { Precision::F32 };
     step(&format!("writing {}", out.display()), || {
-        Ok(write_asset(out, &asset, precision, units, input.to_str())?)
+        Ok(write_asset_replacing(out, &asset, precision, units, input.to_str(), replace)?)
     })?;
     let quads = hm.faces.iter().filter(|f| matches!(f, BundleFace::Quad(_))).count();
     let t = &asset.textures;
