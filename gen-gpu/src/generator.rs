@@ -108,6 +108,20 @@ pub struct FrameInputs {
     pub cull: bool,
 }
 
+/// The view matrix (right-handed) of an eye at `eye` looking at `target`, with world +Y up on
+/// screen. Looking straight up or down, +Y is the viewing direction and cannot be "up": then
+/// the screen's up is −Z looking down and +Z looking up (a top view with −Z at the top, as a
+/// map). `eye == target` looks down −Z.
+pub fn view_matrix(eye: Vec3, target: Vec3) -> Mat4 {
+    let forward = (target - eye).try_normalize().unwrap_or(Vec3::NEG_Z);
+    let up = if forward.cross(Vec3::Y).length_squared() > 1e-8 {
+        Vec3::Y
+    } else {
+        Vec3::new(0.0, 0.0, -forward.y.signum())
+    };
+    Mat4::look_to_rh(eye, forward, up)
+}
+
 impl FrameInputs {
     /// A perspective camera at `eye` looking at the asset's centre (45° vertical field of view).
     pub fn looking_at(asset: &HairAsset, eye: Vec3, width: u32, height: u32) -> Self {
@@ -118,7 +132,7 @@ impl FrameInputs {
         let proj = Mat4::perspective_rh(fov_y, width as f32 / height.max(1) as f32, far * 1e-4, far);
         // Vulkan's y points down in clip space.
         let flip = Mat4::from_scale(Vec3::new(1.0, -1.0, 1.0));
-        let view = Mat4::look_at_rh(eye, centre, Vec3::Y);
+        let view = view_matrix(eye, centre);
         Self {
             view_proj: flip * proj * view,
             view: ViewParams {
@@ -884,5 +898,29 @@ mod tests {
             let stride = crate::contract::SPARSE_SLOT_STRIDE as usize;
             assert_eq!(sparse as usize, (0..slots).step_by(stride).count(), "{slots} slots");
         }
+    }
+}
+
+#[cfg(test)]
+mod view_tests {
+    use super::view_matrix;
+    use glam::Vec3;
+
+    /// The target lies straight ahead (−Z in view space) from every direction, the poles
+    /// included, and the matrix stays a rotation.
+    #[test]
+    fn the_view_is_well_defined_from_every_direction() {
+        let target = Vec3::new(0.0, 1.5, 0.0);
+        for dir in
+            [Vec3::Y, Vec3::NEG_Y, Vec3::X, Vec3::Z, Vec3::new(1e-6, 1.0, 0.0), Vec3::new(0.0, -1.0, 1e-7)]
+        {
+            let eye = target + dir * 2.0;
+            let view = view_matrix(eye, target);
+            assert!(view.is_finite(), "{dir}: {view}");
+            let ahead = view.transform_point3(target);
+            assert!(ahead.truncate().length() < 1e-4 && (ahead.z + 2.0).abs() < 1e-4, "{dir}: {ahead}");
+            assert!((view.determinant() - 1.0).abs() < 1e-4, "{dir}: not a rotation");
+        }
+        assert!(view_matrix(target, target).is_finite());
     }
 }

@@ -34,7 +34,7 @@ pub use error::{GpuError, Result};
 pub use generator::{
     COLOR_FORMAT, Capture, CapturedStrand, DEPTH_FORMAT, DrawExtras, FRAGMENT_PUSH_OFFSET, Filtering,
     FragmentStage, FrameBuffers, FrameInputs, GenerationStats, Generator, GeneratorOptions, MAX_VERTICES,
-    SlotSubset, VERTEX_BYTES, strand_bindings,
+    SlotSubset, VERTEX_BYTES, strand_bindings, view_matrix,
 };
 pub use gpu_allocator::MemoryLocation;
 pub use hair::{GpuHair, HairUpdate, StagedHairUpdate, TextureBytes, TexturePrecision};

@@ -14,6 +14,7 @@ use std::path::Path;
 
 use glam::{DMat4, DVec2, DVec3};
 
+use crate::gltf_source::SourceError;
 use crate::input::References;
 use crate::scalp::{ScalpMesh, ScalpSelector};
 use crate::{HairMeshError, Result};
@@ -93,29 +94,41 @@ fn read_file(path: &Path) -> Result<Vec<u8>> {
 fn load_gltf(path: &Path, selector: &ScalpSelector, references: References) -> Result<ScalpMesh> {
     let format = |message: String| HairMeshError::Format { path: path.into(), message };
     let bytes = read_file(path)?;
-    let gltf = gltf::Gltf::from_slice_without_validation(&bytes)
-        .map_err(|e| format(format!("not valid glTF: {e}")))?;
-    for ext in gltf.extensions_required() {
-        if UNDECODABLE.contains(&ext) {
-            return Err(HairMeshError::UnsupportedExtension { path: path.into(), extension: ext.into() });
+    let source = crate::gltf_source::parse(&bytes).map_err(|e| match e {
+        SourceError::Invalid(message) => format(format!("not valid glTF: {message}")),
+        SourceError::Unsupported(extension) if UNDECODABLE.contains(&extension.as_str()) => {
+            HairMeshError::UnsupportedExtension { path: path.into(), extension }
         }
-    }
-    check_primitive_accessors(path, gltf.document.as_json())?;
+        SourceError::Unsupported(extension) => {
+            format(format!("requires the glTF extension {extension}, which hairmesh does not support"))
+        }
+    })?;
+    let document = &source.document;
+    check_primitive_accessors(path, document.as_json())?;
+    let compressed = source.used.iter().find(|e| UNDECODABLE.contains(&e.as_str()));
     let mut problems = Vec::new();
     {
-        use gltf::json::validation::Validate;
-        let root = gltf.document.as_json();
-        root.validate(root, gltf::json::Path::new, &mut |p, e| problems.push(format!("{}: {e}", p())));
+        use gltf::json::validation::{Error, Validate};
+        let root = document.as_json();
+        root.validate(root, gltf::json::Path::new, &mut |p, e| {
+            let p = p().to_string();
+            // An accessor without data is all zeros (the specification's rule), unless the
+            // file's meshes are compressed: then it is an empty fallback.
+            let zeros =
+                p.starts_with("accessors[") && p.ends_with(".bufferView") && matches!(e, Error::Missing);
+            if !zeros || compressed.is_some() {
+                problems.push(format!("{p}: {e}"));
+            }
+        });
     }
     if let Some(first) = problems.first() {
-        let compressed = gltf.extensions_used().find(|e| UNDECODABLE.contains(e));
         let hint = compressed.map_or(String::new(), |e| {
             format!("; the file uses {e}, which hairmesh cannot decode, and has no uncompressed fallback")
         });
         return Err(format(format!("invalid glTF ({} problems), first: {first}{hint}", problems.len())));
     }
-    let buffers = load_buffers(path, references, &gltf)?;
-    for view in gltf.document.views() {
+    let buffers = load_buffers(path, references, document, source.blob.as_deref())?;
+    for view in document.views() {
         let len = buffers[view.buffer().index()].len();
         if view.offset().checked_add(view.length()).is_none_or(|end| end > len) {
             return Err(format(format!(
@@ -127,10 +140,10 @@ fn load_gltf(path: &Path, selector: &ScalpSelector, references: References) -> R
     }
 
     let mut mesh = ScalpMesh::default();
-    let scene = gltf.document.default_scene().or_else(|| gltf.document.scenes().next());
+    let scene = document.default_scene().or_else(|| document.scenes().next());
     let mut stack: Vec<(gltf::Node<'_>, DMat4)> = match &scene {
         Some(s) => s.nodes().map(|n| (n, DMat4::IDENTITY)).collect(),
-        None => gltf.document.nodes().map(|n| (n, DMat4::IDENTITY)).collect(),
+        None => document.nodes().map(|n| (n, DMat4::IDENTITY)).collect(),
     };
     let mut visited = 0usize;
     while let Some((node, parent)) = stack.pop() {
@@ -193,14 +206,19 @@ fn check_primitive_accessors(path: &Path, root: &gltf::json::Root) -> Result<()>
     Ok(())
 }
 
-fn load_buffers(path: &Path, references: References, gltf: &gltf::Gltf) -> Result<Vec<Vec<u8>>> {
+fn load_buffers(
+    path: &Path,
+    references: References,
+    document: &gltf::Document,
+    blob: Option<&[u8]>,
+) -> Result<Vec<Vec<u8>>> {
     use base64::Engine as _;
     let format = |message: String| HairMeshError::Format { path: path.into(), message };
-    gltf.document
+    document
         .buffers()
         .map(|buffer| {
             let data = match buffer.source() {
-                gltf::buffer::Source::Bin => gltf.blob.clone().ok_or_else(|| {
+                gltf::buffer::Source::Bin => blob.map(<[u8]>::to_vec).ok_or_else(|| {
                     format(format!("buffer {} refers to a missing GLB binary chunk", buffer.index()))
                 })?,
                 gltf::buffer::Source::Uri(uri) if uri.starts_with("data:") => {
@@ -233,6 +251,65 @@ fn load_buffers(path: &Path, references: References, gltf: &gltf::Gltf) -> Resul
         .collect()
 }
 
+/// A VEC3 accessor's values as f64: float, or integers (normalized or not) as
+/// `KHR_mesh_quantization` allows; all zeros without data (the specification's rule). `None`
+/// when the data is out of range or of a type no position has.
+fn read_vec3(accessor: &gltf::Accessor<'_>, buffers: &[Vec<u8>]) -> Option<Vec<DVec3>> {
+    use gltf::accessor::{DataType, Dimensions, Iter};
+    if accessor.dimensions() != Dimensions::Vec3 {
+        return None;
+    }
+    if accessor.view().is_none() && accessor.sparse().is_none() {
+        return Some(vec![DVec3::ZERO; accessor.count()]);
+    }
+    let get = |b: gltf::Buffer<'_>| buffers.get(b.index()).map(Vec::as_slice);
+    // Normalized integers map to [0, 1] or [−1, 1] (signed values below −1 clamp to −1).
+    let normalized = accessor.normalized();
+    fn convert<T: Copy + Into<f64>>(items: impl Iterator<Item = [T; 3]>, scale: Option<f64>) -> Vec<DVec3> {
+        items
+            .map(|v| {
+                let v = DVec3::new(v[0].into(), v[1].into(), v[2].into());
+                match scale {
+                    Some(s) => (v * s).max(DVec3::NEG_ONE),
+                    None => v,
+                }
+            })
+            .collect()
+    }
+    let scale = |max: f64| normalized.then_some(1.0 / max);
+    let a = accessor.clone();
+    Some(match accessor.data_type() {
+        DataType::F32 => convert(Iter::<[f32; 3]>::new(a, get)?, None),
+        DataType::I8 => convert(Iter::<[i8; 3]>::new(a, get)?, scale(127.0)),
+        DataType::U8 => convert(Iter::<[u8; 3]>::new(a, get)?, scale(255.0)),
+        DataType::I16 => convert(Iter::<[i16; 3]>::new(a, get)?, scale(32767.0)),
+        DataType::U16 => convert(Iter::<[u16; 3]>::new(a, get)?, scale(65535.0)),
+        DataType::U32 => return None,
+    })
+}
+
+/// POSITION's `min` and `max` must be the data's bounds (the specification requires them, and a
+/// file where they are wrong was written by a broken exporter). Compared as stored, within a
+/// float's rounding of the extent.
+fn check_bounds(accessor: &gltf::Accessor<'_>, local: &[DVec3]) -> std::result::Result<(), String> {
+    let declared = |v: Option<serde_json::Value>| -> Option<DVec3> {
+        let a: Vec<f64> = v?.as_array()?.iter().filter_map(serde_json::Value::as_f64).collect();
+        (a.len() == 3).then(|| DVec3::new(a[0], a[1], a[2]))
+    };
+    let (Some(min), Some(max)) = (declared(accessor.min()), declared(accessor.max())) else { return Ok(()) };
+    let lo = local.iter().fold(DVec3::INFINITY, |a, &p| a.min(p));
+    let hi = local.iter().fold(DVec3::NEG_INFINITY, |a, &p| a.max(p));
+    // Quantized data is compared after dequantization; min and max are stored undequantized.
+    if accessor.normalized() {
+        return Ok(());
+    }
+    let tolerance = 1e-5 * (hi - lo).max_element().max(max.abs().max_element()).max(1e-30);
+    if (min - lo).abs().max_element() > tolerance || (max - hi).abs().max_element() > tolerance {
+        return Err(format!("min {min} and max {max} are not the data's bounds ({lo} .. {hi})"));
+    }
+    Ok(())
+}
+
 fn check_accessor(path: &Path, what: &str, accessor: &gltf::Accessor<'_>) -> Result<()> {
     let format = |message: String| HairMeshError::Format { path: path.into(), message };
     if accessor.count() == 0 || accessor.count() > MAX_ELEMENTS {
@@ -240,13 +317,6 @@ fn check_accessor(path: &Path, what: &str, accessor: &gltf::Accessor<'_>) -> Res
             "{what} accessor {} has {} elements",
             accessor.index(),
             accessor.count()
-        )));
-    }
-    if accessor.view().is_none() && accessor.sparse().is_none() {
-        return Err(format(format!(
-            "{what} accessor {} has no data (no bufferView): the file relies on mesh compression \
-             (e.g. KHR_draco_mesh_compression) that hairmesh cannot decode",
-            accessor.index()
         )));
     }
     Ok(())
@@ -272,23 +342,39 @@ fn add_primitive(
         prim.get(&gltf::Semantic::Positions).ok_or_else(|| format(format!("{label}: no POSITION")))?;
     check_accessor(path, "POSITION", &pos_accessor)?;
     let reader = prim.reader(|b| buffers.get(b.index()).map(Vec::as_slice));
-    let local: Vec<DVec3> = reader
-        .read_positions()
-        .ok_or_else(|| format(format!("{label}: POSITION data out of range")))?
-        .map(|p| DVec3::new(f64::from(p[0]), f64::from(p[1]), f64::from(p[2])))
-        .collect();
+    let local: Vec<DVec3> = read_vec3(&pos_accessor, buffers)
+        .ok_or_else(|| format(format!("{label}: POSITION data out of range")))?;
     if local.len() != pos_accessor.count() {
         return Err(format(format!("{label}: POSITION data out of range")));
+    }
+    check_bounds(&pos_accessor, &local)
+        .map_err(|e| format(format!("{label}: POSITION accessor {}: {e}", pos_accessor.index())))?;
+    // Normals are not used, but wrong ones mark a broken exporter whose positions are suspect too.
+    if let Some(normals) = prim.get(&gltf::Semantic::Normals) {
+        let values = read_vec3(&normals, buffers).filter(|v| v.len() == normals.count());
+        let values = values.ok_or_else(|| format(format!("{label}: NORMAL data out of range")))?;
+        let problem = check_bounds(&normals, &values).err().or_else(|| {
+            // Loose enough for 8-bit quantized normals and exporters' rounding.
+            let i = values.iter().position(|n| (n.length() - 1.0).abs() > 0.02)?;
+            Some(format!("normal {i} ({}) is not of unit length", values[i]))
+        });
+        if let Some(problem) = problem {
+            return Err(format(format!("{label}: NORMAL accessor {}: {problem}", normals.index())));
+        }
     }
     let count = local.len();
     let indices: Vec<u32> = match prim.indices() {
         Some(acc) => {
             check_accessor(path, "index", &acc)?;
-            let idx: Vec<u32> = reader
-                .read_indices()
-                .ok_or_else(|| format(format!("{label}: index data out of range")))?
-                .into_u32()
-                .collect();
+            let idx: Vec<u32> = if acc.view().is_none() && acc.sparse().is_none() {
+                vec![0; acc.count()]
+            } else {
+                reader
+                    .read_indices()
+                    .ok_or_else(|| format(format!("{label}: index data out of range")))?
+                    .into_u32()
+                    .collect()
+            };
             if idx.len() != acc.count() {
                 return Err(format(format!("{label}: index data out of range")));
             }
@@ -330,16 +416,26 @@ fn add_primitive(
             }
         }
     }
-    // Morph targets: one layer each, in world space.
-    let targets: Vec<Vec<DVec3>> = reader
-        .read_morph_targets()
-        .filter_map(|(p, _, _)| p)
-        .map(|p| {
-            p.zip(&local)
-                .map(|(d, q)| to_world(*q + DVec3::new(f64::from(d[0]), f64::from(d[1]), f64::from(d[2]))))
-                .collect()
-        })
-        .collect();
+    // Morph targets: one layer each, in world space; each must move every vertex by a finite
+    // offset (a shorter target would leave layers with fewer vertices than the scalp).
+    let mut targets: Vec<Vec<DVec3>> = Vec::new();
+    for (t, target) in prim.morph_targets().enumerate() {
+        let Some(accessor) = target.positions() else { continue };
+        let deltas = read_vec3(&accessor, buffers)
+            .ok_or_else(|| format(format!("{label}: morph target {t}: POSITION data out of range")))?;
+        if deltas.len() != count {
+            return Err(format(format!(
+                "{label}: morph target {t}: POSITION has {} entries for {count} vertices",
+                deltas.len()
+            )));
+        }
+        if let Some(v) = deltas.iter().position(|d| !d.is_finite()) {
+            return Err(format(format!(
+                "{label}: morph target {t}: the offset of vertex {v} is not a finite number"
+            )));
+        }
+        targets.push(deltas.iter().zip(&local).map(|(d, q)| to_world(*q + *d)).collect());
+    }
     if !targets.is_empty() || !mesh.morph_layers.is_empty() {
         if mesh.morph_layers.is_empty() && base == 0 {
             mesh.morph_layers = targets;
@@ -360,6 +456,24 @@ fn add_primitive(
         if flip { vec![base + a, base + c, base + b] } else { vec![base + a, base + b, base + c] }
     }));
     Ok(())
+}
+
+/// The OBJ text with every comment (from `#` to the end of its line) removed: tobj reads a
+/// comment after a face or vertex as more numbers.
+fn without_obj_comments(bytes: &[u8]) -> Vec<u8> {
+    let mut out = Vec::with_capacity(bytes.len());
+    for line in bytes.split_inclusive(|&b| b == b'\n') {
+        match line.iter().position(|&b| b == b'#') {
+            Some(at) => {
+                out.extend_from_slice(&line[..at]);
+                if line.ends_with(b"\n") {
+                    out.push(b'\n');
+                }
+            }
+            None => out.extend_from_slice(line),
+        }
+    }
+    out
 }
 
 /// Every face index of an OBJ file must name an element defined before it (1-based, or
@@ -413,7 +527,7 @@ fn check_obj_indices(bytes: &[u8]) -> std::result::Result<(), String> {
 
 fn load_obj(path: &Path, selector: &ScalpSelector) -> Result<ScalpMesh> {
     let format = |message: String| HairMeshError::Format { path: path.into(), message };
-    let bytes = read_file(path)?;
+    let bytes = without_obj_comments(&read_file(path)?);
     check_obj_indices(&bytes).map_err(format)?;
     let options =
         tobj::LoadOptions { single_index: true, triangulate: false, ignore_points: true, ignore_lines: true };

@@ -118,6 +118,8 @@ fn malformed_files_give_clear_errors() {
             "texture coordinate index 9223372036854775807",
         ),
         ("not_a_corner.obj", b"v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 x\n", "line 4"),
+        // A comment after a face is the OBJ format's, not a corner.
+        ("comment.obj", b"v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3 # a face\nf 1 2 x\n", "line 5"),
         // Every triangle on one line: no area to put roots on.
         ("collinear.obj", b"v 0 0 0\nv 1 0 0\nv 2 0 0\nv 3 0 0\nf 1 2 3\nf 2 3 4\n", "no area"),
     ];
@@ -315,4 +317,159 @@ fn hairkit_data_pointing_at_an_empty_folder_names_the_file_and_the_variable() {
     ] {
         assert!(text.contains(needle), "`{needle}` missing from the failure: {text}");
     }
+}
+
+/// Reasons a valid glTF may be refused: real limitations of a scalp importer, named in words.
+const NAMED_LIMITATIONS: &[&str] =
+    &["no triangles or polygons to use as a scalp", "has no area: every face is degenerate"];
+
+/// The data set's glTF importer corpus (`gltf-sample-assets/MANIFEST.json`, with the Khronos
+/// validator's verdict per file): every valid model imports or names a real limitation, every
+/// invalid one is refused with an error naming the file, and none panics.
+#[test]
+fn every_gltf_sample_asset_imports_or_names_its_limitation() {
+    let manifest_path = testdata("gltf-sample-assets/MANIFEST.json");
+    let root = manifest_path.parent().expect("the corpus folder").to_owned();
+    let manifest: Vec<serde_json::Value> =
+        serde_json::from_slice(&std::fs::read(&manifest_path).expect("MANIFEST.json"))
+            .expect("MANIFEST.json is JSON");
+    assert!(manifest.len() >= 100, "only {} entries", manifest.len());
+    let mut failures = Vec::new();
+    let mut loaded = 0;
+    for entry in &manifest {
+        let file = entry["file"].as_str().expect("file");
+        let expect = entry["expect"].as_str().expect("expect");
+        let path = root.join(file);
+        let result = std::panic::catch_unwind(|| load_scalp(&path, &ScalpSelector::All));
+        let Ok(result) = result else {
+            failures.push(format!("{file}: panicked"));
+            continue;
+        };
+        let name = path.file_name().and_then(|n| n.to_str()).unwrap_or_default();
+        match (expect, result) {
+            ("load", Ok(mesh)) | ("refuse-named-limitation", Ok(mesh)) => {
+                loaded += 1;
+                if !(mesh.area() > 0.0 && mesh.positions.iter().all(|p| p.is_finite())) {
+                    failures.push(format!("{file}: loaded without area or with non-finite positions"));
+                }
+            }
+            ("load", Err(e)) => {
+                let text = e.to_string();
+                if !NAMED_LIMITATIONS.iter().any(|l| text.contains(l)) {
+                    failures.push(format!("{file}: valid but refused: {text}"));
+                }
+            }
+            ("refuse-named-limitation", Err(e)) => {
+                let wanted =
+                    entry["extensions_required"].as_array().into_iter().flatten().filter_map(|x| x.as_str());
+                let text = e.to_string();
+                if !wanted.clone().any(|x| text.contains(x)) {
+                    failures.push(format!(
+                        "{file}: refused without naming {:?}: {text}",
+                        wanted.collect::<Vec<_>>()
+                    ));
+                }
+            }
+            ("refuse", Ok(_)) => {
+                failures.push(format!("{file}: invalid ({}) but loaded", entry["first_errors"]));
+            }
+            ("refuse", Err(e)) => {
+                if !e.to_string().contains(name) {
+                    failures.push(format!("{file}: the error does not name the file: {e}"));
+                }
+            }
+            (other, _) => failures.push(format!("{file}: unknown expectation `{other}`")),
+        }
+    }
+    assert!(failures.is_empty(), "{} of {} files:\n{}", failures.len(), manifest.len(), failures.join("\n"));
+    assert!(loaded >= 50, "only {loaded} files loaded");
+}
+
+/// A one-triangle glTF with one morph target of `deltas` (embedded as a data URI).
+fn morph_gltf(deltas: &[f32]) -> Vec<u8> {
+    use base64::Engine as _;
+    let positions: [f32; 9] = [0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 1.0, 0.0];
+    let bytes: Vec<u8> = positions.iter().chain(deltas).flat_map(|v| v.to_le_bytes()).collect();
+    let data = base64::engine::general_purpose::STANDARD.encode(&bytes);
+    serde_json::to_vec(&serde_json::json!({
+        "asset": {"version": "2.0"},
+        "buffers": [{"uri": format!("data:application/octet-stream;base64,{data}"), "byteLength": bytes.len()}],
+        "bufferViews": [
+            {"buffer": 0, "byteLength": 36},
+            {"buffer": 0, "byteOffset": 36, "byteLength": deltas.len() * 4}
+        ],
+        "accessors": [
+            {"bufferView": 0, "componentType": 5126, "count": 3, "type": "VEC3",
+             "min": [0.0, 0.0, 0.0], "max": [1.0, 1.0, 0.0]},
+            {"bufferView": 1, "componentType": 5126, "count": deltas.len() / 3, "type": "VEC3"}
+        ],
+        "meshes": [{"primitives": [{"attributes": {"POSITION": 0}, "targets": [{"POSITION": 1}]}]}],
+        "nodes": [{"mesh": 0}],
+        "scenes": [{"nodes": [0]}]
+    }))
+    .expect("json")
+}
+
+/// A morph target shorter than its mesh used to panic (in conversion and as an occluder);
+/// non-finite offsets made layers of NaN.
+#[test]
+fn morph_targets_that_do_not_fit_their_mesh_are_refused() {
+    let dir = tempfile::tempdir().expect("temp dir");
+    let ok = [0.0, 0.0, 0.1, 0.0, 0.0, 0.1, 0.0, 0.0, 0.1];
+    let path = dir.path().join("fits.gltf");
+    std::fs::write(&path, morph_gltf(&ok)).expect("write");
+    let mesh = load_scalp(&path, &ScalpSelector::All).expect("a fitting morph target loads");
+    assert_eq!(mesh.morph_layers.len(), 1);
+    assert_eq!(mesh.morph_layers[0].len(), mesh.positions.len());
+    for (name, deltas, expected) in [
+        ("short.gltf", &ok[..6], "morph target 0: POSITION has 2 entries for 3 vertices"),
+        (
+            "nan.gltf",
+            &[0.0, 0.0, f32::NAN, 0.0, 0.0, 0.1, 0.0, 0.0, 0.1][..],
+            "vertex 0 is not a finite number",
+        ),
+        (
+            "inf.gltf",
+            &[0.0, 0.0, 0.1, f32::INFINITY, 0.0, 0.1, 0.0, 0.0, 0.1][..],
+            "vertex 1 is not a finite number",
+        ),
+    ] {
+        let path = dir.path().join(name);
+        std::fs::write(&path, morph_gltf(deltas)).expect("write");
+        let e = std::panic::catch_unwind(|| load_scalp(&path, &ScalpSelector::All))
+            .unwrap_or_else(|_| panic!("{name}: panicked"))
+            .expect_err(name)
+            .to_string();
+        assert!(e.contains(expected) && e.contains(name), "{name}: {e}");
+    }
+}
+
+/// The OBJ format lets a comment end any line; tobj read one after a vertex or face as data.
+#[test]
+fn obj_comments_at_the_end_of_a_line_are_comments() {
+    let dir = tempfile::tempdir().expect("temp dir");
+    let path = dir.path().join("commented.obj");
+    std::fs::write(&path, "# a triangle\nv 0 0 0\nv 1 0 0 # right\nv 0 1 0\nf 1 2 3 # the face\n")
+        .expect("write");
+    let mesh = load_scalp(&path, &ScalpSelector::All).expect("a commented OBJ loads");
+    assert_eq!((mesh.positions.len(), mesh.faces.len()), (3, 1));
+}
+
+/// `KHR_mesh_quantization`: the quantized cube (16-bit positions and morph offsets, with the
+/// dequantization in its node transform) is the float cube.
+#[test]
+fn a_quantized_model_loads_as_its_float_original() {
+    let load = |file: &str| {
+        load_scalp(&testdata(&format!("gltf-sample-assets/{file}")), &ScalpSelector::All).expect(file)
+    };
+    let float = load("assimp/AnimatedMorphCube/glTF/AnimatedMorphCube.gltf");
+    let quantized = load("khronos/AnimatedMorphCube/glTF-Quantized/AnimatedMorphCube.gltf");
+    let (a, b) = (float.bounds().expect("bounds"), quantized.bounds().expect("bounds"));
+    let extent = (a.1 - a.0).max_element();
+    assert!(
+        (a.0 - b.0).abs().max_element() < 1e-3 * extent && (a.1 - b.1).abs().max_element() < 1e-3 * extent,
+        "float {a:?}, quantized {b:?}"
+    );
+    assert_eq!(float.morph_layers.len(), quantized.morph_layers.len());
+    assert!((float.area() - quantized.area()).abs() < 1e-2 * float.area());
 }

@@ -90,7 +90,7 @@ pub fn view_proj(camera: &Camera, width: u32, height: u32) -> Mat4 {
     let aspect = width as f32 / height.max(1) as f32;
     let proj = Mat4::perspective_rh(camera.fov_y, aspect, NEAR, FAR);
     let flip = Mat4::from_scale(Vec3::new(1.0, -1.0, 1.0));
-    flip * proj * Mat4::look_at_rh(camera.eye, camera.target, Vec3::Y)
+    flip * proj * gen_gpu::view_matrix(camera.eye, camera.target)
 }
 
 /// The per-character generation inputs: the camera moved into the character's object space.

@@ -77,6 +77,33 @@ fn main() -> ExitCode {
             ensure!(lit > 5000, "only {lit} lit pixels");
             check_golden("one_character", &frame.image)
         }),
+        // The view's up vector used to be fixed at +Y: a camera looking straight down or up
+        // made a degenerate view and a blank frame.
+        GpuTest::new("cameras_straight_above_and_below_see_the_hair", Requirements::NONE, |ctx| {
+            for (name, eye) in [("above", [0.0, 2.4, 0.0]), ("below", [0.0, 0.6, 0.0])] {
+                let dir = tempfile::tempdir()?;
+                let scene =
+                    scene_with_edit(dir.path(), "one_character", 96, 72, serde_json::json!({}), |json| {
+                        json["camera"]["eye"] = serde_json::json!(eye);
+                        json["camera"]["target"] = serde_json::json!([0.0, 1.55, 0.0]);
+                        Ok(())
+                    })?;
+                let frame =
+                    SceneRenderer::new(ctx, &load_scene(&scene)?, GenerationPath::Compute)?.render(ctx)?;
+                let background = frame.image.pixels.get(..4).context("pixels")?.to_vec();
+                let drawn =
+                    frame.image.pixels.chunks_exact(4).filter(|p| *p != background.as_slice()).count();
+                ensure!(
+                    drawn > 96 * 72 / 10,
+                    "camera {name}: only {drawn} pixels differ from the background"
+                );
+                ensure!(
+                    frame.image.pixels.chunks_exact(4).all(|p| p[3] == 255),
+                    "camera {name}: the frame is not opaque"
+                );
+            }
+            Ok(())
+        }),
         GpuTest::new("small_crowd_matches_its_golden_image_on_both_paths", Requirements::NONE, |ctx| {
             let dir = tempfile::tempdir()?;
             let scene = load_scene(&small_scene(dir.path(), "small_crowd", 256, 160)?)?;
