@@ -50,6 +50,15 @@ pub enum StrandCount {
     Total(u64),
 }
 
+impl std::fmt::Display for StrandCount {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match self {
+            Self::Density(d) => write!(f, "a density of {d} strands per unit²"),
+            Self::Total(n) => write!(f, "{n} strands"),
+        }
+    }
+}
+
 /// Most strands one bundle may hold (the length of every sample set).
 pub const MAX_STRANDS_PER_BUNDLE: u32 = 16_384;
 /// Most strands an asset may hold.
@@ -262,6 +271,13 @@ impl HairAsset {
         if params.sample_sets == 0 || params.sample_sets > 64 {
             return Err(bad(format!("{} sample sets (expected 1..=64)", params.sample_sets)));
         }
+        style.validate().map_err(|e| HairMeshError::InvalidParameter { what: "style", message: e })?;
+        if !hm.layers.iter().flatten().all(|p| p.is_finite()) {
+            return Err(bad(
+                "the hair mesh has positions out of floating-point range (is the length or droop far too large?)"
+                    .into(),
+            ));
+        }
         // The root uvs are part of the rest pose: an edit that moves the scalp keeps them.
         let mut mesh = hm.clone();
         mesh.uvs = Some(root_uvs(hm));
@@ -302,7 +318,7 @@ impl HairAsset {
             }
             other => {
                 return Err(bad(format!(
-                    "{other:?} (expected a positive density or 1..={MAX_TOTAL_STRANDS} strands)"
+                    "{other} (expected a positive density or 1..={MAX_TOTAL_STRANDS} strands)"
                 )));
             }
         };

@@ -131,6 +131,14 @@ pub fn write_asset_replacing(
     replace: Replace,
 ) -> Result<()> {
     crate::output::check_asset_folder(dir, &[], replace)?;
+    // Never write what could not be read back (JSON has no NaN or infinity: they become null).
+    let unreadable = |message: String| HairMeshError::Io { path: dir.to_owned(), message };
+    asset.style.validate().map_err(|e| unreadable(format!("not written: style.{e}")))?;
+    if !asset.mesh().layers.iter().flatten().all(|p| p.is_finite()) {
+        return Err(unreadable(
+            "not written: the hair mesh has a position that is not a finite number".into(),
+        ));
+    }
     let t = &asset.textures;
     let files = texture_files(&t.layout);
     let manifest = Manifest {
@@ -151,6 +159,11 @@ pub fn write_asset_replacing(
     };
     let json = serde_json::to_vec_pretty(&manifest)
         .map_err(|e| HairMeshError::Io { path: dir.join(MANIFEST), message: e.to_string() })?;
+    // The manifest as a reader will see it: an overflow written as `null` is caught here.
+    serde_json::from_slice::<Manifest>(&json)
+        .map_err(|e| e.to_string())
+        .and_then(|m| validate_manifest(&dir.join(MANIFEST), &m).map_err(|e| e.to_string()))
+        .map_err(|e| unreadable(format!("not written, it could not be read back: {e}")))?;
     crate::atomic::replace_dir_atomic(dir, |tmp| {
         for (file, tex) in [
             (&files.hair_mesh, &t.hair_mesh),
@@ -356,7 +369,10 @@ fn validate_manifest(path: &Path, m: &Manifest) -> Result<()> {
     if let Some(i) = l.cells.iter().position(|c| c.x >= l.width - 1 || c.y >= l.height - 1) {
         return Err(err(
             &format!("layout.cells[{i}]"),
-            format!("{:?} does not fit a {}×{} slice", l.cells[i], l.width, l.height),
+            format!(
+                "cell ({}, {}) does not fit a {}×{} slice",
+                l.cells[i].x, l.cells[i].y, l.width, l.height
+            ),
         ));
     }
     if u64::from(l.width) * u64::from(l.height) * u64::from(l.curve_slices()) > MAX_TEXELS {
@@ -388,6 +404,10 @@ fn validate_manifest(path: &Path, m: &Manifest) -> Result<()> {
                 ),
             ));
         }
+    }
+    m.style.validate().map_err(|e| err("style", e))?;
+    if !m.mesh.layers.iter().flatten().all(|p| p.is_finite()) {
+        return Err(err("mesh.layers", "a position is not a finite number".into()));
     }
     let longest = |sets: &[SampleSet]| sets.iter().map(|s| s.points.len()).min().unwrap_or(0);
     for (i, b) in m.bundles.iter().enumerate() {

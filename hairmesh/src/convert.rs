@@ -100,7 +100,49 @@ impl Default for ConvertSettings {
     }
 }
 
+/// The ranges of a conversion's numbers, stated once (the CLI's help repeats them): the hair
+/// length relative to the scalp's size (its bounding-box diagonal), the droop as a fraction of
+/// the length, the lift per unit of length, the comb as a multiple of gravity.
+pub const LENGTH_TO_SIZE: std::ops::RangeInclusive<f64> = 1e-4..=100.0;
+pub const DROOP: std::ops::RangeInclusive<f64> = -10.0..=10.0;
+pub const LIFT: std::ops::RangeInclusive<f64> = 0.0..=10.0;
+pub const COMB: std::ops::RangeInclusive<f64> = -100.0..=100.0;
+
 impl ConvertSettings {
+    /// Every number against its range ([`LENGTH_TO_SIZE`], [`DROOP`], [`LIFT`], [`COMB`]); `size`
+    /// is the scalp's bounding-box diagonal. Values outside make hair that vanishes or overflows.
+    pub fn check_ranges(&self, size: f64) -> Result<()> {
+        let bad =
+            |what: &'static str, message: String| Err(HairMeshError::InvalidParameter { what, message });
+        if let Some(length) = self.length
+            && !(length.is_finite() && LENGTH_TO_SIZE.contains(&(length / size)))
+        {
+            return bad(
+                "length",
+                format!(
+                    "{length:e} (expected {:.3e} to {:.3e} for this scalp: {}..={} × its size {size:.4})",
+                    LENGTH_TO_SIZE.start() * size,
+                    LENGTH_TO_SIZE.end() * size,
+                    LENGTH_TO_SIZE.start(),
+                    LENGTH_TO_SIZE.end()
+                ),
+            );
+        }
+        match self.shape {
+            LayerShape::Extrude { droop } if !DROOP.contains(&droop) => {
+                bad("droop", format!("{droop:e} (expected {}..={})", DROOP.start(), DROOP.end()))
+            }
+            LayerShape::Drape { lift, .. } if !LIFT.contains(&lift) => {
+                bad("lift", format!("{lift:e} (expected {}..={})", LIFT.start(), LIFT.end()))
+            }
+            LayerShape::Drape { comb, .. } if !comb.to_array().iter().all(|c| COMB.contains(c)) => {
+                let [x, y, z] = comb.to_array();
+                bad("comb", format!("{x:e},{y:e},{z:e} (each component {}..={})", COMB.start(), COMB.end()))
+            }
+            _ => Ok(()),
+        }
+    }
+
     /// The settings an asset was converted with, as far as its provenance records them (the
     /// strand count is the asset's total; the style is the asset's).
     pub fn from_asset(asset: &HairAsset) -> Option<Self> {
@@ -158,7 +200,9 @@ pub fn convert_scalp(
             message: format!("{}: the selector `{}` keeps no face", input.display(), settings.scalp),
         });
     };
-    let length = settings.length.unwrap_or(0.6 * lo.distance(hi));
+    let size = lo.distance(hi);
+    let length = settings.length.unwrap_or(0.6 * size);
+    settings.check_ranges(size)?;
     let layers = match settings.shape {
         LayerShape::Extrude { droop } => LayerSource::Extruded(ExtrudeParams {
             layers: settings.layers,

@@ -60,7 +60,7 @@ pub fn load_scalp_with(path: &Path, selector: &ScalpSelector, references: Refere
         let detail = if *selector == ScalpSelector::All {
             String::new()
         } else {
-            format!(" (after selecting {selector:?})")
+            format!(" (after selecting `{selector}`)")
         };
         return Err(HairMeshError::NoFaces { path: path.into(), detail });
     }
@@ -78,7 +78,7 @@ pub fn load_scalp_with(path: &Path, selector: &ScalpSelector, references: Refere
                 if *selector == ScalpSelector::All {
                     String::new()
                 } else {
-                    format!(" after selecting {selector:?}")
+                    format!(" after selecting `{selector}`")
                 }
             ),
         });
@@ -181,7 +181,7 @@ fn check_primitive_accessors(path: &Path, root: &gltf::json::Root) -> Result<()>
             let mut named: Vec<(String, usize)> = prim
                 .attributes
                 .iter()
-                .map(|(semantic, i)| (format!("attributes.{semantic:?}"), i.value()))
+                .map(|(semantic, i)| (format!("attributes.{}", semantic.to_string()), i.value()))
                 .collect();
             named.extend(prim.indices.iter().map(|i| ("indices".to_owned(), i.value())));
             for (t, target) in prim.targets.iter().flatten().enumerate() {

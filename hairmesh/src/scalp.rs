@@ -35,6 +35,18 @@ pub enum ScalpSelector {
     InSphere { center: DVec3, radius: f64 },
 }
 
+/// The CLI form ([`ScalpSelector::parse`] reads it back).
+impl std::fmt::Display for ScalpSelector {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match self {
+            Self::All => write!(f, "all"),
+            Self::Named(name) => write!(f, "name:{name}"),
+            Self::AbovePlane { normal: n, offset } => write!(f, "above:{},{},{},{offset}", n.x, n.y, n.z),
+            Self::InSphere { center: c, radius } => write!(f, "sphere:{},{},{},{radius}", c.x, c.y, c.z),
+        }
+    }
+}
+
 impl ScalpSelector {
     /// Parses the CLI form: `all`, `name:NAME`, `above:NX,NY,NZ,OFFSET` or `sphere:CX,CY,CZ,R`.
     pub fn parse(text: &str) -> Result<Self> {

@@ -154,6 +154,49 @@ impl Default for Style {
     }
 }
 
+impl Style {
+    /// Every number of the style with the range it must lie in: the one place these ranges are
+    /// stated. Lengths are object units; a range wide enough for any head's units still keeps
+    /// the generator's arithmetic finite.
+    pub fn fields(&self) -> [(&'static str, f64, std::ops::RangeInclusive<f64>); 17] {
+        const LENGTH: std::ops::RangeInclusive<f64> = 0.0..=1e4;
+        const PER_LENGTH: std::ops::RangeInclusive<f64> = 0.0..=1e4;
+        const FRACTION: std::ops::RangeInclusive<f64> = 0.0..=1.0;
+        const EXPONENT: std::ops::RangeInclusive<f64> = 0.0..=64.0;
+        [
+            ("width", self.width, LENGTH),
+            ("tip_width", self.tip_width, 0.0..=16.0),
+            ("root_fade", self.root_fade, FRACTION),
+            ("length_variation", self.length_variation, FRACTION),
+            ("curl.radius", self.curl.radius, LENGTH),
+            ("curl.frequency", self.curl.frequency, PER_LENGTH),
+            ("curl.phase", self.curl.phase, -1e6..=1e6),
+            ("wave.amplitude", self.wave.amplitude, LENGTH),
+            ("wave.frequency", self.wave.frequency, PER_LENGTH),
+            ("wave.coherence", self.wave.coherence, FRACTION),
+            ("frizz.amplitude", self.frizz.amplitude, LENGTH),
+            ("frizz.frequency", self.frizz.frequency, PER_LENGTH),
+            ("frizz.exponent", self.frizz.exponent, EXPONENT),
+            ("clump.strength", self.clump.strength, FRACTION),
+            ("clump.exponent", self.clump.exponent, EXPONENT),
+            ("twist", self.twist, -1e4..=1e4),
+            ("stray.fraction", self.stray.fraction, FRACTION),
+        ]
+    }
+
+    /// The first value outside its range ([`Style::fields`]), as `field: problem`; the stray
+    /// amplitude is a length too.
+    pub fn validate(&self) -> Result<(), String> {
+        let stray = ("stray.amplitude", self.stray.amplitude, 0.0..=1e4);
+        for (field, value, range) in self.fields().into_iter().chain([stray]) {
+            if !range.contains(&value) {
+                return Err(format!("{field}: {value:e} is outside {}..={}", range.start(), range.end()));
+            }
+        }
+        Ok(())
+    }
+}
+
 /// PCG hash (Jarzynski & Olano 2020, "Hash Functions for GPU Rendering"): one u32 in, one out.
 pub fn pcg_hash(input: u32) -> u32 {
     let state = input.wrapping_mul(747_796_405).wrapping_add(2_891_336_453);

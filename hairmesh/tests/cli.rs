@@ -199,3 +199,32 @@ fn the_blue_noise_example_reports_quality_and_draws_its_picture() {
         !bad.status.success() && String::from_utf8_lossy(&bad.stderr).contains("--png needs a file name")
     );
 }
+
+/// Numbers far outside any sensible range used to make assets hairkit could not read back (an
+/// overflowing length written as `null`) or hair that vanished: refused, with the range, and
+/// nothing written.
+#[test]
+fn numbers_outside_their_ranges_are_refused_and_nothing_is_written() {
+    let dir = tempfile::tempdir().expect("temp dir");
+    let cap = repo("assets/head_cap.gltf");
+    let style = dir.path().join("style.json");
+    std::fs::write(&style, r#"{"curl": {"radius": 1e300}}"#).expect("write");
+    let out = dir.path().join("out");
+    let out_text = out.to_str().expect("utf-8");
+    for (args, expected) in [
+        (vec!["--length", "1e308"], "invalid length: 1e308"),
+        (vec!["--length", "1e-12"], "invalid length"),
+        (vec!["--droop", "1e300"], "invalid droop: 1e300 (expected -10..=10)"),
+        (vec!["--drape", "0,1.6,0", "--lift", "1e300"], "invalid lift"),
+        (vec!["--drape", "0,1.6,0", "--comb", "1e300,0,0"], "invalid comb"),
+        (vec!["--style", style.to_str().expect("utf-8")], "curl.radius: 1e300 is outside 0..=10000"),
+        (vec!["--density", "nan"], "density"),
+    ] {
+        let mut all = vec!["convert", cap.as_str(), "-o", out_text];
+        all.extend(&args);
+        let (ok, _, stderr) = hairmesh(&all);
+        assert!(!ok && stderr.contains(expected), "{args:?}: {stderr}");
+        assert!(!stderr.contains("panicked"), "{args:?}: {stderr}");
+        assert!(!out.exists(), "{args:?}: wrote an output");
+    }
+}

@@ -343,7 +343,10 @@ impl MotionDesc {
             {
                 return Err((
                     name.into(),
-                    format!("{s:?} (expected degrees within ±180, a period in seconds > 0, a finite phase)"),
+                    format!(
+                        "degrees {}, period {}, phase {} (expected degrees within ±180, a period in seconds > 0, a finite phase)",
+                        s.degrees, s.period, s.phase
+                    ),
                 ));
             }
         }
@@ -1081,7 +1084,9 @@ pub fn merged_style(
     };
     let mut value = serde_json::to_value(base).map_err(|e| invalid(e.to_string()))?;
     merge(&mut value, overrides);
-    serde_json::from_value(value).map_err(|e| invalid(e.to_string()))
+    let style: hairmesh::style::Style = serde_json::from_value(value).map_err(|e| invalid(e.to_string()))?;
+    style.validate().map_err(invalid)?;
+    Ok(style)
 }
 
 fn merge(base: &mut serde_json::Value, overrides: &serde_json::Value) {

@@ -56,10 +56,11 @@ struct ConvertArgs {
     /// Layers above the scalp (1..=64).
     #[arg(long, default_value_t = 4)]
     layers: u32,
-    /// Hair length along the normal, in the file's units [default: 0.6 × the scalp's size].
+    /// Hair length along the normal, in the file's units, 1e-4..=100 × the scalp's size
+    /// (its bounding-box diagonal) [default: 0.6 × the scalp's size].
     #[arg(long)]
     length: Option<f64>,
-    /// Downward pull at the tip as a fraction of the length.
+    /// Downward pull at the tip as a fraction of the length (-10..=10).
     #[arg(long, default_value_t = 0.3)]
     droop: f64,
     /// Strands per unit² of scalp area.
@@ -79,13 +80,14 @@ struct ConvertArgs {
     #[arg(long, value_name = "CX,CY,CZ", value_parser = parse_vec3)]
     drape: Option<glam::DVec3>,
     /// With `--drape`: the direction the hair is combed, added to gravity (e.g. 0,0,-2 combs it
-    /// back when the face looks along +Z).
+    /// back when the face looks along +Z); each component -100..=100.
     #[arg(long, value_name = "X,Y,Z", value_parser = parse_vec3, default_value = "0,0,0")]
     comb: glam::DVec3,
-    /// With `--drape`: how far the hair moves off the head per unit of length.
+    /// With `--drape`: how far the hair moves off the head per unit of length (0..=10).
     #[arg(long, default_value_t = 0.05)]
     lift: f64,
-    /// Style as JSON (fields of hairmesh::style::Style; unknown fields are errors).
+    /// Style as JSON (fields of hairmesh::style::Style; unknown fields and values outside
+    /// their ranges, `Style::fields`, are errors).
     #[arg(long)]
     style: Option<PathBuf>,
     /// Seed of the root sample sets.
@@ -102,6 +104,9 @@ struct ConvertArgs {
     #[arg(long)]
     f16: bool,
 }
+
+/// Warnings printed before the rest are summarized in one line.
+const MAX_WARNINGS_SHOWN: usize = 10;
 
 fn parse_vec3(text: &str) -> Result<glam::DVec3, String> {
     let v: Vec<f64> = text
@@ -215,7 +220,7 @@ fn convert(o: &ConvertArgs) -> Result<()> {
     });
     finish_step(&mut started);
     let Converted { asset, scalp, length } = converted?;
-    for w in &scalp.warnings {
+    for w in hairmesh::terminal::summarized(&scalp.warnings, MAX_WARNINGS_SHOWN) {
         eprintln!("warning: {w}");
     }
     let hm = asset.mesh();
