@@ -195,7 +195,16 @@ pub fn write_crowds(
     mut progress: impl FnMut(u64, u64, &str),
 ) -> Result<CrowdScenes, CrowdError> {
     let out = &options.out;
-    hairmesh::output::check_command_folder(out, CROWD_COMMAND, options.replace)
+    let own = [
+        "heads",
+        "teapots",
+        "head_cap_*",
+        "teapot.gltf",
+        "heads.json",
+        "heads_animated.json",
+        "teapots.json",
+    ];
+    hairmesh::output::check_command_folder(out, CROWD_COMMAND, &own, options.replace)
         .map_err(hairmesh::HairMeshError::from)?;
     std::fs::create_dir_all(out).map_err(io_error(out))?;
     hairmesh::output::mark_folder(out, CROWD_COMMAND).map_err(io_error(out))?;

@@ -94,6 +94,22 @@ fn main() -> ExitCode {
             let (a, b) = (dir.path().join("a"), dir.path().join("b"));
             write(&a)?;
             write(&b)?;
+            // An earlier crowd is written over; a folder of other files only with --force, which
+            // leaves those files alone.
+            write(&b)?;
+            let foreign = dir.path().join("c");
+            std::fs::create_dir(&foreign)?;
+            std::fs::write(foreign.join("notes.txt"), "mine")?;
+            let foreign_text = foreign.to_str().ok_or_else(|| anyhow::anyhow!("non-UTF-8 temp dir"))?;
+            let small =
+                ["crowd", "-o", foreign_text, "--characters", "1", "--strands", "50", "--teapots", "1"];
+            let (ok, _, stderr) = hairkit(&small)?;
+            ensure!(!ok && stderr.contains("notes.txt") && stderr.contains("--force"), "{stderr}");
+            let (ok, _, stderr) = hairkit(&[&small[..], &["--teapot-strands", "50", "--force"]].concat())?;
+            ensure!(
+                ok && foreign.join("notes.txt").exists() && foreign.join("heads.json").exists(),
+                "{stderr}"
+            );
             for name in ["heads.json", "teapots.json"] {
                 let text = std::fs::read_to_string(a.join(name))?;
                 ensure!(text == std::fs::read_to_string(b.join(name))?, "{name}: same seed, same scene");

@@ -238,9 +238,15 @@ fn check_not_working_folder(dir: &Path) -> Result<(), OutputError> {
 }
 
 /// May `command` write its files into the folder `dir`? Yes when it does not exist, is empty,
-/// or holds the marker of an earlier run of the same command; call [`mark_folder`] after
-/// creating it.
-pub fn check_command_folder(dir: &Path, command: &str, replace: Replace) -> Result<(), OutputError> {
+/// holds the marker of an earlier run of the same command (call [`mark_folder`] after creating
+/// it), or holds only names the command writes (`own`; a trailing `*` matches a prefix), as a
+/// folder from before the marker does.
+pub fn check_command_folder(
+    dir: &Path,
+    command: &str,
+    own: &[&str],
+    replace: Replace,
+) -> Result<(), OutputError> {
     // Files are written into the folder, so a symlink to a folder is followed.
     let Ok(meta) = std::fs::metadata(dir) else { return Ok(()) };
     if !meta.is_dir() {
@@ -255,6 +261,15 @@ pub fn check_command_folder(dir: &Path, command: &str, replace: Replace) -> Resu
     }
     let marker = head_of(&dir.join(FOLDER_MARKER), 4096).unwrap_or_default();
     if String::from_utf8_lossy(&marker).trim() == command {
+        return Ok(());
+    }
+    let owned = |name: &String| {
+        own.iter().any(|o| match o.strip_suffix('*') {
+            Some(prefix) => name.starts_with(prefix),
+            None => name == o,
+        })
+    };
+    if names.iter().all(owned) {
         return Ok(());
     }
     if replace == Replace::Anything {

@@ -308,7 +308,8 @@ fn demo(o: &DemoOptions, device: &DeviceArgs) -> Result<()> {
     use hairmesh::hair_mesh::{DrapeParams, ExtrudeParams, HairMesh};
     use hairmesh::style::{Clump, Curl, Style, Wave};
 
-    hairmesh::output::check_command_folder(&o.out, DEMO_COMMAND, Replace::from_force(o.force))?;
+    let own = ["assets", "people.json", "people-*", "head_cap.gltf"];
+    hairmesh::output::check_command_folder(&o.out, DEMO_COMMAND, &own, Replace::from_force(o.force))?;
     if o.characters == 0 || o.characters > 400 {
         bail!("--characters {} (expected 1..=400)", o.characters);
     }
