@@ -193,6 +193,57 @@ fn main() -> ExitCode {
             ensure!(!out.exists());
             Ok(())
         }),
+        // Before the checks a `--stats-json` or `--sim-cache` could overwrite the scene, and a
+        // scene naming a named pipe or a device hung or read without end.
+        GpuTest::new(
+            "outputs_never_replace_inputs_and_special_files_are_refused",
+            Requirements::NONE,
+            |_| {
+                let dir = tempfile::tempdir()?;
+                let scene = small_scene(dir.path(), "one_character", 32, 24)?;
+                let scene_text = scene.to_str().context("utf-8")?;
+                let before = std::fs::read(&scene)?;
+                let out = dir.path().join("out.png");
+                let out_text = out.to_str().context("utf-8")?;
+                let (ok, stderr) =
+                    hair_render(&[scene_text, "-o", out_text, "--stats-json", scene_text, "--force"]);
+                ensure!(!ok && stderr.contains("is an input of this command"), "{stderr}");
+                let (ok, stderr) =
+                    hair_render(&[scene_text, "--simulate", "--sim-cache", scene_text, "--force"]);
+                ensure!(!ok && stderr.contains("is an input of this command"), "{stderr}");
+                ensure!(std::fs::read(&scene)? == before, "the scene changed");
+                // An image path holding something else needs --force.
+                std::fs::write(&out, "not an image")?;
+                let (ok, stderr) = hair_render(&[scene_text, "-o", out_text]);
+                ensure!(
+                    !ok && stderr.contains("not a PNG image written by hairkit")
+                        && stderr.contains("--force"),
+                    "{stderr}"
+                );
+                ensure!(std::fs::read(&out)? == b"not an image", "overwritten");
+                // A scene whose hair is a named pipe, whose occluder is a device.
+                let fifo = dir.path().join("pipe");
+                ensure!(Command::new("mkfifo").arg(&fifo).status()?.success(), "mkfifo");
+                std::os::unix::fs::symlink("/dev/zero", dir.path().join("zero.glb"))?;
+                let json: serde_json::Value = serde_json::from_slice(&before)?;
+                for (field, value, expected) in
+                    [("hair", "pipe", "named pipe"), ("occluder", "zero.glb", "a device")]
+                {
+                    let mut edited = json.clone();
+                    if field == "hair" {
+                        edited["characters"][0]["hair"] = value.into();
+                    } else {
+                        edited["characters"][0]["occluder"]["mesh"] = value.into();
+                    }
+                    let path = dir.path().join(format!("{field}.json"));
+                    std::fs::write(&path, serde_json::to_vec(&edited)?)?;
+                    let (ok, stderr) =
+                        hair_render(&[path.to_str().context("utf-8")?, "-o", out_text, "--force"]);
+                    ensure!(!ok && stderr.contains(expected) && stderr.contains(value), "{field}: {stderr}");
+                }
+                Ok(())
+            },
+        ),
         GpuTest::new("frame_ranges_in_separate_processes_equal_one_run", Requirements::NONE, |_| {
             // `--frames 0..10` in one process equals `0..5` and `5..10` in two, byte for byte:
             // with dynamics (one half reading the simulation cache, the other simulating in

@@ -108,6 +108,8 @@ pub enum OutputError {
         "{output}: refusing to write here: it holds the input {input}, which would be lost; choose another output"
     )]
     HoldsInput { output: PathBuf, input: PathBuf },
+    #[error("{output}: refusing to write here: it is an input of this command; choose another output")]
+    IsInput { output: PathBuf },
     #[error(
         "{output}: refusing to replace it: it holds the current folder or your home folder; choose another output"
     )]
@@ -130,6 +132,9 @@ fn check_inputs(output: &Path, inputs: &[&Path]) -> Result<(), OutputError> {
     let out = canonical_or_absolute(output);
     for input in inputs {
         let input_abs = canonical_or_absolute(input);
+        if input_abs == out {
+            return Err(OutputError::IsInput { output: output.to_owned() });
+        }
         if input_abs.starts_with(&out) {
             return Err(OutputError::HoldsInput { output: output.to_owned(), input: input.to_path_buf() });
         }
@@ -281,6 +286,47 @@ pub fn check_command_folder(
         what: format!("an output folder of `{command}`"),
         found: listing(&names),
     })
+}
+
+/// Bytes free for an unprivileged writer on the file system that holds `path` (or the folder
+/// it would be created in); `None` if that cannot be told.
+pub fn free_bytes(path: &Path) -> Option<u64> {
+    let mut folder = if path.is_dir() { path.to_owned() } else { path.parent()?.to_owned() };
+    if folder.as_os_str().is_empty() {
+        folder = PathBuf::from(".");
+    }
+    // The nearest folder that exists (outputs create their parents).
+    while !folder.exists() {
+        folder = folder.parent().filter(|p| !p.as_os_str().is_empty()).unwrap_or(Path::new(".")).to_owned();
+    }
+    let c_path = std::ffi::CString::new(folder.as_os_str().as_encoded_bytes()).ok()?;
+    let mut stats = std::mem::MaybeUninit::<libc::statvfs>::uninit();
+    // SAFETY: `c_path` is a valid NUL-terminated string and `stats` is writable memory of the
+    // size statvfs fills; it is read only when the call succeeds.
+    let stats = unsafe {
+        if libc::statvfs(c_path.as_ptr(), stats.as_mut_ptr()) != 0 {
+            return None;
+        }
+        stats.assume_init()
+    };
+    #[allow(clippy::useless_conversion, reason = "the field types differ between targets")]
+    Some(u64::from(stats.f_bavail).saturating_mul(u64::from(stats.f_frsize)))
+}
+
+/// Refuses to start writing `bytes` to `path` when its disk cannot hold them (an estimate the
+/// caller makes before hours of work, not a guarantee).
+pub fn check_space(path: &Path, bytes: u64) -> Result<(), OutputError> {
+    match free_bytes(path) {
+        Some(free) if free < bytes => Err(OutputError::Unusable {
+            path: path.to_owned(),
+            problem: format!(
+                "this needs about {} and the disk has {} free",
+                crate::terminal::bytes(bytes),
+                crate::terminal::bytes(free)
+            ),
+        }),
+        _ => Ok(()),
+    }
 }
 
 /// Leaves the marker that lets the next run of `command` write into `dir` again.

@@ -20,6 +20,17 @@ pub fn summarized(warnings: &[String], shown: usize) -> Vec<String> {
     lines
 }
 
+/// A byte count for people: `1.5 GB`, `340 MB`, `12 kB`, `512 bytes`.
+pub fn bytes(n: u64) -> String {
+    let n_f = n as f64;
+    for (unit, size) in [("TB", 1e12), ("GB", 1e9), ("MB", 1e6), ("kB", 1e3)] {
+        if n_f >= size {
+            return format!("{:.1} {unit}", n_f / size);
+        }
+    }
+    format!("{n} bytes")
+}
+
 /// `199998` → `199,998`.
 pub fn thousands(n: usize) -> String {
     let digits = n.to_string();

@@ -10,7 +10,7 @@
 //!
 //! **Frame ranges.** A frame depends only on the scene, its assets and the simulated hair-mesh
 //! positions of that frame. Simulation is sequential (frame `f` needs `0..f`), so it runs once
-//! into a [`SimCache`] — every dynamic character's object-space hair-mesh positions per frame,
+//! into a simulation cache ([`crate::sim_cache`], written and read a frame at a time) — every dynamic character's object-space hair-mesh positions per frame,
 //! f32, keyed on everything the simulation reads — and any process rendering any range reads
 //! the positions of its frames from it. A process without a cache simulates from frame 0 in
 //! memory; positions come out bit for bit the same either way (same f32 operations in the same
@@ -18,16 +18,17 @@
 //!
 //! ```no_run
 //! # fn main() -> Result<(), Box<dyn std::error::Error>> {
-//! use render::animation::{Animation, SimCache};
+//! use render::animation::Animation;
 //! let scene = render::scene::load_scene(std::path::Path::new("scene.json"))?;
 //! let mut instance = render::instance::SceneInstance::load(&scene)?;
 //! let animation = Animation::new(&mut instance)?; // before the renderer: dynamic hair gets its own upload
-//! let cache = SimCache::simulate(&animation, animation.frames(), &|_| {});
-//! cache.write(std::path::Path::new("scene.sim"))?;
+//! let path = std::path::Path::new("scene.sim");
+//! render::sim_cache::write_sim_cache(&animation, animation.frames(), path, &|_| {})?;
+//! let cache = render::sim_cache::SimCache::open(path, &animation)?;
+//! let last = cache.positions(animation.frames() - 1)?;
 //! # Ok(()) }
 //! ```
 
-use std::path::Path;
 use std::sync::Arc;
 use std::time::Instant;
 
@@ -185,7 +186,7 @@ impl Animation {
         !self.dynamic.is_empty() || self.characters.iter().any(|c| c.motion.is_some())
     }
 
-    /// What a [`SimCache`] of this animation must have been made from.
+    /// What a [`SimCache`](crate::sim_cache::SimCache) of this animation must have been made from.
     pub fn cache_key(&self) -> u64 {
         self.key
     }
@@ -233,7 +234,7 @@ impl Simulation<'_> {
     }
 
     /// Each dynamic character's hair-mesh positions in object space at this frame, layer-major
-    /// (what [`SimCache`] stores).
+    /// (what [`SimCache`](crate::sim_cache::SimCache) stores).
     pub fn positions(&self) -> Vec<Vec<Vec3>> {
         let a = self.animation;
         self.sims
@@ -241,162 +242,6 @@ impl Simulation<'_> {
             .zip(&a.dynamic)
             .map(|(sim, d)| sim.object_positions(Affine3A::from_mat4(a.placement(d.character, self.frame))))
             .collect()
-    }
-}
-
-const CACHE_MAGIC: &[u8; 16] = b"hairkit-sim\0v001";
-/// Largest cache file read (positions of every dynamic character for every frame).
-pub const MAX_CACHE_BYTES: u64 = 16 << 30;
-
-/// Simulated hair-mesh positions per frame for every dynamic character of an animation: the
-/// file that lets any process render any frame range ([module docs](self)).
-///
-/// File layout (little endian): the 16-byte magic `hairkit-sim\0v001`, the key (u64), fps
-/// (f32), frames (u32), characters (u32), each character's vertex count (u32), then per frame
-/// per character its positions (3 × f32 per vertex, layer-major, object space).
-#[derive(Clone, Debug, PartialEq)]
-pub struct SimCache {
-    key: u64,
-    fps: f32,
-    vertex_counts: Vec<u32>,
-    /// Per frame, per character.
-    frames: Vec<Vec<Vec<Vec3>>>,
-}
-
-impl SimCache {
-    /// Simulates `frames` frames (from 0) of `animation`, characters in parallel; `progress`
-    /// hears about each frame the first dynamic character finished.
-    pub fn simulate(animation: &Animation, frames: u32, progress: &(dyn Fn(u32) + Sync)) -> Self {
-        let per_character: Vec<Vec<Vec<Vec3>>> = animation
-            .dynamic
-            .par_iter()
-            .map(|d| {
-                let c = &animation.characters[d.character];
-                let at = |t: f64| Affine3A::from_mat4(placement(c, t));
-                let mut sim = d.start.clone();
-                let mut out = Vec::with_capacity(frames as usize);
-                for f in 0..frames {
-                    if f > 0 {
-                        sim.step(1.0 / animation.fps, &at);
-                    }
-                    out.push(sim.object_positions(at(animation.time(f))));
-                    if d.character == animation.dynamic[0].character {
-                        progress(f + 1);
-                    }
-                }
-                out
-            })
-            .collect();
-        // Per character per frame → per frame per character, moving the positions.
-        let mut columns: Vec<_> = per_character.into_iter().map(Vec::into_iter).collect();
-        let frames = (0..frames).map(|_| columns.iter_mut().filter_map(Iterator::next).collect()).collect();
-        Self { key: animation.key, fps: animation.fps, vertex_counts: animation.vertex_counts(), frames }
-    }
-
-    /// Frames held (from frame 0).
-    pub fn frames(&self) -> u32 {
-        self.frames.len() as u32
-    }
-
-    /// Positions of every dynamic character at `frame`, if the cache holds it.
-    pub fn positions(&self, frame: u32) -> Option<&[Vec<Vec3>]> {
-        self.frames.get(frame as usize).map(Vec::as_slice)
-    }
-
-    /// Writes the cache atomically (a reader never sees half a file).
-    pub fn write(&self, path: &Path) -> Result<(), RenderError> {
-        let mut header = Vec::new();
-        header.extend_from_slice(CACHE_MAGIC);
-        header.extend_from_slice(&self.key.to_le_bytes());
-        header.extend_from_slice(&self.fps.to_le_bytes());
-        header.extend_from_slice(&(self.frames.len() as u32).to_le_bytes());
-        header.extend_from_slice(&(self.vertex_counts.len() as u32).to_le_bytes());
-        for n in &self.vertex_counts {
-            header.extend_from_slice(&n.to_le_bytes());
-        }
-        hairmesh::atomic::write_file_atomic(path, |w| {
-            w.write_all(&header)?;
-            for frame in &self.frames {
-                for positions in frame {
-                    let bytes: Vec<u8> =
-                        positions.iter().flat_map(|p| p.to_array()).flat_map(f32::to_le_bytes).collect();
-                    w.write_all(&bytes)?;
-                }
-            }
-            Ok(())
-        })
-        .map_err(|e| RenderError::Animation { path: path.to_owned(), message: format!("writing: {e}") })
-    }
-
-    /// Reads a cache and checks it belongs to `animation` (same key, fps and characters); a
-    /// cache of another scene or an older version of it is refused, naming what differs.
-    pub fn read(path: &Path, animation: &Animation) -> Result<Self, RenderError> {
-        let error = |message: String| RenderError::Animation { path: path.to_owned(), message };
-        let data = hairmesh::input::read_regular(path, MAX_CACHE_BYTES).map_err(|e| error(e.to_string()))?;
-        let truncated = || error("truncated: not a hairkit simulation cache".into());
-        let word = |at: usize| -> Result<[u8; 4], RenderError> {
-            data.get(at..at + 4).and_then(|s| s.try_into().ok()).ok_or_else(truncated)
-        };
-        if data.get(..16) != Some(&CACHE_MAGIC[..]) {
-            return Err(error("not a hairkit simulation cache (or one of another version)".into()));
-        }
-        let key = u64::from_le_bytes(data.get(16..24).and_then(|s| s.try_into().ok()).ok_or_else(truncated)?);
-        let fps = f32::from_le_bytes(word(24)?);
-        let frames = u32::from_le_bytes(word(28)?);
-        let characters = u32::from_le_bytes(word(32)?) as usize;
-        if key != animation.key || fps != animation.fps {
-            return Err(error(
-                "was simulated from another scene, other assets or other dynamics settings: simulate again"
-                    .into(),
-            ));
-        }
-        let expected = animation.vertex_counts();
-        if characters != expected.len() {
-            return Err(error(format!(
-                "holds {characters} characters, the scene simulates {}",
-                expected.len()
-            )));
-        }
-        let mut vertex_counts = Vec::with_capacity(characters);
-        for c in 0..characters {
-            vertex_counts.push(u32::from_le_bytes(word(36 + 4 * c)?));
-        }
-        if vertex_counts != expected {
-            return Err(error(format!(
-                "vertex counts {vertex_counts:?}, the scene's hair meshes have {expected:?}"
-            )));
-        }
-        let body = 36 + 4 * characters;
-        let per_frame: u64 = vertex_counts.iter().map(|&n| u64::from(n) * 12).sum();
-        let want = body as u64 + per_frame * u64::from(frames);
-        if want != data.len() as u64 {
-            return Err(error(format!(
-                "{} bytes, but its header describes {want} ({frames} frames): the file is damaged",
-                data.len()
-            )));
-        }
-        let mut at = body;
-        let mut all = Vec::with_capacity(frames as usize);
-        for _ in 0..frames {
-            let mut frame = Vec::with_capacity(characters);
-            for &n in &vertex_counts {
-                let bytes = &data[at..at + n as usize * 12];
-                let positions: Vec<Vec3> = bytes
-                    .chunks_exact(12)
-                    .map(|c| {
-                        let f = |i: usize| f32::from_le_bytes([c[i], c[i + 1], c[i + 2], c[i + 3]]);
-                        Vec3::new(f(0), f(4), f(8))
-                    })
-                    .collect();
-                if positions.iter().any(|p| !p.is_finite()) {
-                    return Err(error("holds a position that is not finite: the file is damaged".into()));
-                }
-                frame.push(positions);
-                at += n as usize * 12;
-            }
-            all.push(frame);
-        }
-        Ok(Self { key, fps, vertex_counts, frames: all })
     }
 }
 
@@ -427,7 +272,7 @@ impl Player {
     }
 
     /// Puts frame `frame` into `renderer`: `positions` are the dynamic characters' (from a
-    /// [`SimCache`] or a [`Simulation`] at that frame). Every simulated vertex is re-baked, so
+    /// [`SimCache`](crate::sim_cache::SimCache) or a [`Simulation`] at that frame). Every simulated vertex is re-baked, so
     /// the textures depend on this frame's positions only, not on the frames shown before.
     pub fn show(
         &mut self,

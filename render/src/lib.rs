@@ -19,6 +19,7 @@ pub mod passes;
 pub mod raster;
 pub mod scene;
 pub mod shadow;
+pub mod sim_cache;
 pub mod target;
 pub mod volume;
 

@@ -10,10 +10,11 @@ use anyhow::{Context as _, ensure};
 use gen_gpu::GenerationPath;
 use hairkit_tests::harness::{GpuTest, Requirements, run_gpu_tests};
 use hairkit_tests::scenes::scene_with;
-use render::animation::{Animation, Player, SimCache};
+use render::animation::{Animation, Player};
 use render::frame::{RenderedFrame, SceneRenderer};
 use render::instance::SceneInstance;
 use render::scene::load_scene;
+use render::sim_cache::{SimCache, cache_bytes, write_sim_cache};
 
 /// `assets/scenes/dynamics.json` at 96×72 with `effects` (dynamics on), changed by `edit`.
 fn dynamics_scene(
@@ -26,6 +27,14 @@ fn dynamics_scene(
     edit(&mut json);
     std::fs::write(&path, serde_json::to_vec_pretty(&json)?)?;
     Ok(path)
+}
+
+/// The process's peak resident memory (Linux: `VmHWM` of /proc/self/status).
+fn peak_memory_bytes() -> anyhow::Result<u64> {
+    let status = std::fs::read_to_string("/proc/self/status")?;
+    let line = status.lines().find(|l| l.starts_with("VmHWM:")).context("no VmHWM")?;
+    let kb: u64 = line.split_whitespace().nth(1).context("VmHWM value")?.parse()?;
+    Ok(kb * 1024)
 }
 
 fn uploads(frame: &RenderedFrame) -> Vec<&String> {
@@ -135,21 +144,25 @@ fn main() -> ExitCode {
             let scene = load_scene(&path)?;
             let mut instance = SceneInstance::load(&scene)?;
             let animation = Animation::new(&mut instance)?;
-            let cache = SimCache::simulate(&animation, 6, &|_| {});
             let file = dir.path().join("scene.sim");
-            cache.write(&file)?;
-            let back = SimCache::read(&file, &animation)?;
-            ensure!(back == cache, "a cache reads back as written");
+            let written = std::sync::atomic::AtomicU32::new(0);
+            write_sim_cache(&animation, 6, &file, &|f| {
+                written.store(f, std::sync::atomic::Ordering::Relaxed);
+            })?;
+            ensure!(written.into_inner() == 6, "progress reaches the last frame");
+            ensure!(
+                std::fs::metadata(&file)?.len() == cache_bytes(&animation, 6),
+                "the size the estimate says"
+            );
+            let back = SimCache::open(&file, &animation)?;
+            ensure!(back.frames() == 6);
             // The cache equals stepping the simulation in memory, bit for bit.
             let mut live = animation.start();
             for f in 0..6 {
                 while live.frame() < f {
                     live.advance();
                 }
-                ensure!(
-                    back.positions(f) == Some(&live.positions()[..]),
-                    "frame {f} differs from the live run"
-                );
+                ensure!(back.positions(f)? == Some(live.positions()), "frame {f} differs from the live run");
             }
             let bytes = std::fs::read(&file)?;
             let damaged = dir.path().join("damaged.sim");
@@ -160,7 +173,7 @@ fn main() -> ExitCode {
                 ("empty", Vec::new(), "not a hairkit simulation cache"),
             ] {
                 std::fs::write(&damaged, &data)?;
-                let e = SimCache::read(&damaged, &animation).expect_err(what).to_string();
+                let e = SimCache::open(&damaged, &animation).expect_err(what).to_string();
                 ensure!(e.contains(&name) && e.contains(expected), "{what}: {e}");
             }
             // Another scene (stiffer hair) must not read this one's cache.
@@ -169,13 +182,32 @@ fn main() -> ExitCode {
             })?;
             let mut other_instance = SceneInstance::load(&load_scene(&other)?)?;
             let other_animation = Animation::new(&mut other_instance)?;
-            let e = SimCache::read(&file, &other_animation).expect_err("other scene").to_string();
+            let e = SimCache::open(&file, &other_animation).expect_err("other scene").to_string();
             ensure!(e.contains("simulate again"), "{e}");
-            let missing = SimCache::read(&dir.path().join("none.sim"), &animation).expect_err("missing");
+            let missing = SimCache::open(&dir.path().join("none.sim"), &animation).expect_err("missing");
             ensure!(missing.to_string().contains("none.sim"), "{missing}");
-            ensure!(cache.positions(6).is_none(), "frames past the end are absent");
-            let frame = cache.positions(5).context("frame 5")?;
+            ensure!(back.positions(6)?.is_none(), "frames past the end are absent");
+            let frame = back.positions(5)?.context("frame 5")?;
             ensure!(frame.len() == 1 && frame[0].iter().all(|p| p.is_finite()));
+            Ok(())
+        }),
+        // A long animation used to be simulated whole into memory before its cache was written
+        // (growing until the process aborted): now each frame is written as it is made.
+        GpuTest::new("a_long_simulation_streams_its_cache_in_constant_memory", Requirements::NONE, |_| {
+            let dir = tempfile::tempdir()?;
+            let path = dynamics_scene(dir.path(), serde_json::json!({ "dynamics": true }), |v| {
+                v["animation"]["frames"] = 1500.into();
+            })?;
+            let mut instance = SceneInstance::load(&load_scene(&path)?)?;
+            let animation = Animation::new(&mut instance)?;
+            let bytes = cache_bytes(&animation, animation.frames());
+            let peak_before = peak_memory_bytes()?;
+            let file = dir.path().join("long.sim");
+            write_sim_cache(&animation, animation.frames(), &file, &|_| {})?;
+            let grown = peak_memory_bytes()?.saturating_sub(peak_before);
+            ensure!(std::fs::metadata(&file)?.len() == bytes);
+            ensure!(bytes > 20 << 20, "the cache ({bytes} bytes) is too small to tell");
+            ensure!(grown < bytes / 4, "the peak memory grew by {grown} bytes for a {bytes}-byte cache");
             Ok(())
         }),
     ])

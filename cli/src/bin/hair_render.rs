@@ -183,19 +183,28 @@ fn run(cli: &Cli) -> Result<()> {
             anyhow::bail!("--simulate: {} has no character with dynamics", cli.scene.display());
         }
         let started = std::time::Instant::now();
-        let bar = indicatif::ProgressBar::new(u64::from(animation.frames())).with_style(
-            indicatif::ProgressStyle::with_template("simulating [{bar:30}] {pos}/{len} frames {elapsed}")
-                .unwrap_or_else(|_| indicatif::ProgressStyle::default_bar()),
+        let frames = animation.frames();
+        let bytes = render::sim_cache::cache_bytes(&animation, frames);
+        hairmesh::output::check_space(&cache_path, bytes)?;
+        eprintln!(
+            "simulating {frames} frames into {} ({})",
+            cache_path.display(),
+            hairmesh::terminal::bytes(bytes)
         );
-        let cache = render::animation::SimCache::simulate(&animation, animation.frames(), &|f| {
+        let bar = indicatif::ProgressBar::new(u64::from(frames)).with_style(
+            indicatif::ProgressStyle::with_template(
+                "simulating [{bar:30}] {pos}/{len} frames {elapsed} ({eta} left)",
+            )
+            .unwrap_or_else(|_| indicatif::ProgressStyle::default_bar()),
+        );
+        render::sim_cache::write_sim_cache(&animation, frames, &cache_path, &|f| {
             bar.set_position(u64::from(f));
-        });
+        })?;
         bar.finish_and_clear();
-        cache.write(&cache_path)?;
         println!(
             "{} ({} frames of {} character{}, {:.0} ms)",
             cache_path.display(),
-            cache.frames(),
+            frames,
             animation.dynamic_characters(),
             if animation.dynamic_characters() == 1 { "" } else { "s" },
             started.elapsed().as_secs_f64() * 1e3
@@ -232,7 +241,7 @@ fn run(cli: &Cli) -> Result<()> {
     let cache = if animation.dynamic_characters() == 0 {
         None
     } else {
-        match render::animation::SimCache::read(&cache_path, &animation) {
+        match render::sim_cache::SimCache::open(&cache_path, &animation) {
             Ok(c) if c.frames() >= cli.frames.end => Some(c),
             Ok(c) => {
                 eprintln!(
@@ -256,13 +265,19 @@ fn run(cli: &Cli) -> Result<()> {
     let mut live = animation.start();
     let mut player = render::animation::Player::new(&animation);
     let mut last = None;
+    let loop_start = std::time::Instant::now();
     for i in cli.frames.start..cli.frames.end {
         let (frame_eye, frame_target) = scene.frame_camera(i, length);
         let update = if animation.moves() {
             let simulated;
+            let cached;
             let positions = match &cache {
                 // The cache was checked to hold every frame of the range.
-                Some(c) => c.positions(i).with_context(|| format!("{}: frame {i}", cache_path.display()))?,
+                Some(c) => {
+                    cached =
+                        c.positions(i)?.with_context(|| format!("{}: frame {i}", cache_path.display()))?;
+                    &cached
+                }
                 None => {
                     while live.frame() < i {
                         live.advance();
@@ -292,8 +307,17 @@ fn run(cli: &Cli) -> Result<()> {
             Some(u) if u.rebaked > 0 => format!(", {} re-baked in {:.1} ms", u.rebaked, u.rebake_ms),
             _ => String::new(),
         };
+        // Long sequences say how long the rest will take (from the frames so far).
+        let done = i + 1 - cli.frames.start;
+        let left = cli.frames.end - 1 - i;
+        let eta = if left > 0 && done > 0 {
+            let seconds = loop_start.elapsed().as_secs_f64() / f64::from(done) * f64::from(left);
+            format!(", {left} frames ≈ {seconds:.0} s left")
+        } else {
+            String::new()
+        };
         println!(
-            "{} ({}x{}, {} path, {} raster{volumes}{dynamics}, {:.0} ms)",
+            "{} ({}x{}, {} path, {} raster{volumes}{dynamics}, {:.0} ms{eta})",
             file.display(),
             frame.image.width,
             frame.image.height,
@@ -415,6 +439,22 @@ fn check_outputs(cli: &Cli, scene: &render::scene::LoadedScene, length: u32) -> 
         for i in cli.frames.start..cli.frames.end {
             let file = if length > 1 { numbered(out, i) } else { out.clone() };
             hairmesh::output::check_file(&file, kind, &inputs, replace)?;
+        }
+        // What the images may take: PNG at most its raw RGBA bytes, EXR half floats.
+        let frames = u64::from(cli.frames.end - cli.frames.start);
+        let pixels = u64::from(scene.scene.output.width) * u64::from(scene.scene.output.height);
+        let per_image = match kind {
+            FileKind::Exr => pixels * 2 * (3 + u64::from(cli.coverage) + u64::from(cli.depth)),
+            _ => pixels * 4,
+        } + 4096;
+        hairmesh::output::check_space(out, frames * per_image)?;
+        if frames > 1 {
+            eprintln!(
+                "rendering {frames} frames of {}×{} (at most {} of images)",
+                scene.scene.output.width,
+                scene.scene.output.height,
+                hairmesh::terminal::bytes(frames * per_image)
+            );
         }
     }
     Ok(())
