@@ -245,6 +245,13 @@ pub fn write_crowds(
         let asset = HairAsset::build(&hair_mesh, &params, style(&mut rng, 0.2))?;
         let name = format!("heads/hair_{i:03}");
         write_asset(&out.join(&name), &asset, "hairkit crowd (procedural head cap)")?;
+        if i == 0 {
+            // The first asset tells what the rest will take: refuse now, not when the disk is full.
+            let each = hairmesh::output::folder_bytes(&out.join(&name));
+            let rest = u64::from(options.characters - 1)
+                + u64::from(options.teapot_variants.min(options.teapots.max(1)));
+            hairmesh::output::check_space(out, each * rest).map_err(hairmesh::HairMeshError::from)?;
+        }
         let (x, z) = grid_position(i, columns, spacing);
         let x = x + uniform(&mut rng, -0.08, 0.08) as f32;
         let z = z + uniform(&mut rng, -0.08, 0.08) as f32;

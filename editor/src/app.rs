@@ -951,11 +951,17 @@ impl EditorApp {
         let mut gesture: Option<String> = None;
         let mut released = false;
         egui::Grid::new("style").num_columns(2).striped(true).show(ui, |ui| {
+            // The slider spans what is useful for this hair; a typed value may go further, up to
+            // the field's range (`Style::fields`), which the hover text states.
             let mut slider = |ui: &mut egui::Ui, name: &str, value: &mut f64, max: f64| {
                 let label = ui.label(name);
+                let field = style_field(name);
+                let range = Style::range(&field)
+                    .map_or(String::new(), |r| format!("{}: {}..={}", field, r.start(), r.end()));
                 let r = ui
                     .add(egui::Slider::new(value, 0.0..=max).clamping(egui::SliderClamping::Never))
-                    .labelled_by(label.id);
+                    .labelled_by(label.id)
+                    .on_hover_text(range);
                 if r.changed() {
                     gesture = Some(name.to_owned());
                 }
@@ -1000,7 +1006,7 @@ impl EditorApp {
         });
         if let Some(name) = gesture {
             let style = sanitized(style);
-            doc.set_style(style, Some(Gesture::Style(name)));
+            doc.set_style(style.clamped(), Some(Gesture::Style(name)));
             self.interacting = true;
         }
         if color_changed {
@@ -1437,4 +1443,35 @@ fn srgb(c: [f32; 3]) -> Color32 {
 fn occluder_bounds(o: &render::occluder::OccluderGeometry) -> Option<(Vec3, Vec3)> {
     let (lo, hi) = o.bounds;
     (lo.is_finite() && hi.is_finite() && hi.cmpge(lo).all()).then_some((lo, hi))
+}
+
+/// A style slider's label → its field in [`Style::fields`] ("Curl radius" → "curl.radius").
+fn style_field(label: &str) -> String {
+    let lower = label.to_lowercase();
+    match lower.split_once(' ') {
+        Some((group @ ("curl" | "wave" | "frizz" | "clump" | "stray"), rest)) => {
+            format!("{group}.{}", rest.replace(' ', "_"))
+        }
+        _ => lower.replace(' ', "_"),
+    }
+}
+
+#[cfg(test)]
+mod style_field_tests {
+    /// Every style slider's hover text names a real field and its range.
+    #[test]
+    fn slider_labels_name_style_fields() {
+        for label in [
+            "Width",
+            "Tip width",
+            "Curl radius",
+            "Wave coherence",
+            "Frizz exponent",
+            "Stray amplitude",
+            "Twist",
+        ] {
+            let field = super::style_field(label);
+            assert!(hairmesh::style::Style::range(&field).is_some(), "{label} → {field}");
+        }
+    }
 }

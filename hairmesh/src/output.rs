@@ -313,6 +313,22 @@ pub fn free_bytes(path: &Path) -> Option<u64> {
     Some(u64::from(stats.f_bavail).saturating_mul(u64::from(stats.f_frsize)))
 }
 
+/// Bytes of the regular files under `dir` (symlinks not followed): what an output took.
+pub fn folder_bytes(dir: &Path) -> u64 {
+    let mut total = 0;
+    let mut stack = vec![dir.to_owned()];
+    while let Some(d) = stack.pop() {
+        for entry in std::fs::read_dir(&d).into_iter().flatten().flatten() {
+            match entry.file_type() {
+                Ok(t) if t.is_dir() => stack.push(entry.path()),
+                Ok(t) if t.is_file() => total += entry.metadata().map_or(0, |m| m.len()),
+                _ => {}
+            }
+        }
+    }
+    total
+}
+
 /// Refuses to start writing `bytes` to `path` when its disk cannot hold them (an estimate the
 /// caller makes before hours of work, not a guarantee).
 pub fn check_space(path: &Path, bytes: u64) -> Result<(), OutputError> {
@@ -361,4 +377,23 @@ pub fn check_file(
         what: format!("a {}", kind.name()),
         found: format!("it is a {}-byte file of another kind", meta.len()),
     })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn space_is_checked_before_long_work() {
+        let dir = tempfile::tempdir().expect("temp dir");
+        std::fs::create_dir(dir.path().join("sub")).expect("mkdir");
+        std::fs::write(dir.path().join("sub/a"), [0u8; 1000]).expect("write");
+        std::fs::write(dir.path().join("b"), [0u8; 24]).expect("write");
+        assert_eq!(folder_bytes(dir.path()), 1024);
+        let target = dir.path().join("not/yet/there.sim");
+        assert!(free_bytes(&target).is_some_and(|b| b > 0));
+        assert!(check_space(&target, 1).is_ok());
+        let e = check_space(&target, u64::MAX).expect_err("no disk holds that").to_string();
+        assert!(e.contains("this needs about") && e.contains("free"), "{e}");
+    }
 }

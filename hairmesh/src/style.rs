@@ -158,7 +158,7 @@ impl Style {
     /// Every number of the style with the range it must lie in: the one place these ranges are
     /// stated. Lengths are object units; a range wide enough for any head's units still keeps
     /// the generator's arithmetic finite.
-    pub fn fields(&self) -> [(&'static str, f64, std::ops::RangeInclusive<f64>); 17] {
+    pub fn fields(&self) -> [(&'static str, f64, std::ops::RangeInclusive<f64>); 18] {
         const LENGTH: std::ops::RangeInclusive<f64> = 0.0..=1e4;
         const PER_LENGTH: std::ops::RangeInclusive<f64> = 0.0..=1e4;
         const FRACTION: std::ops::RangeInclusive<f64> = 0.0..=1.0;
@@ -181,14 +181,48 @@ impl Style {
             ("clump.exponent", self.clump.exponent, EXPONENT),
             ("twist", self.twist, -1e4..=1e4),
             ("stray.fraction", self.stray.fraction, FRACTION),
+            ("stray.amplitude", self.stray.amplitude, LENGTH),
         ]
     }
 
-    /// The first value outside its range ([`Style::fields`]), as `field: problem`; the stray
-    /// amplitude is a length too.
+    /// The range of the field named as in [`Style::fields`] (`"curl.radius"`).
+    pub fn range(field: &str) -> Option<std::ops::RangeInclusive<f64>> {
+        Self::default().fields().into_iter().find(|(f, _, _)| *f == field).map(|(_, _, r)| r)
+    }
+
+    /// The style with every value brought into its range (a non-number to the range's start):
+    /// what an editor applies after a value was typed in.
+    #[must_use]
+    pub fn clamped(mut self) -> Self {
+        let fix = |v: &mut f64, field: &str| {
+            if let Some(r) = Self::range(field) {
+                *v = if v.is_nan() { *r.start() } else { v.clamp(*r.start(), *r.end()) };
+            }
+        };
+        fix(&mut self.width, "width");
+        fix(&mut self.tip_width, "tip_width");
+        fix(&mut self.root_fade, "root_fade");
+        fix(&mut self.length_variation, "length_variation");
+        fix(&mut self.curl.radius, "curl.radius");
+        fix(&mut self.curl.frequency, "curl.frequency");
+        fix(&mut self.curl.phase, "curl.phase");
+        fix(&mut self.wave.amplitude, "wave.amplitude");
+        fix(&mut self.wave.frequency, "wave.frequency");
+        fix(&mut self.wave.coherence, "wave.coherence");
+        fix(&mut self.frizz.amplitude, "frizz.amplitude");
+        fix(&mut self.frizz.frequency, "frizz.frequency");
+        fix(&mut self.frizz.exponent, "frizz.exponent");
+        fix(&mut self.clump.strength, "clump.strength");
+        fix(&mut self.clump.exponent, "clump.exponent");
+        fix(&mut self.twist, "twist");
+        fix(&mut self.stray.fraction, "stray.fraction");
+        fix(&mut self.stray.amplitude, "stray.amplitude");
+        self
+    }
+
+    /// The first value outside its range ([`Style::fields`]), as `field: problem`.
     pub fn validate(&self) -> Result<(), String> {
-        let stray = ("stray.amplitude", self.stray.amplitude, 0.0..=1e4);
-        for (field, value, range) in self.fields().into_iter().chain([stray]) {
+        for (field, value, range) in self.fields() {
             if !range.contains(&value) {
                 return Err(format!("{field}: {value:e} is outside {}..={}", range.start(), range.end()));
             }
@@ -334,6 +368,24 @@ pub fn rotate_about(v: DVec3, axis: DVec3, angle: f64) -> DVec3 {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// A style typed far outside its ranges is refused by `validate` and repaired by `clamped`;
+    /// the default is inside every range.
+    #[test]
+    fn values_outside_their_ranges_are_refused_or_clamped() {
+        assert!(Style::default().validate().is_ok());
+        let mut wild = Style { width: f64::NAN, twist: 1e300, ..Style::default() };
+        wild.curl.radius = -1.0;
+        wild.clump.strength = 7.0;
+        let e = wild.validate().expect_err("wild");
+        assert!(e.starts_with("width: NaN"), "{e}");
+        let fixed = wild.clamped();
+        assert!(fixed.validate().is_ok(), "{fixed:?}");
+        assert_eq!((fixed.width, fixed.curl.radius, fixed.clump.strength), (0.0, 0.0, 1.0));
+        assert_eq!(Style::range("stray.amplitude"), Some(0.0..=1e4));
+        assert!(Style::range("no.such").is_none());
+        assert_eq!(Style::default().fields().len(), 18);
+    }
 
     #[test]
     fn wave_coherence_puts_a_bundle_in_step() {
