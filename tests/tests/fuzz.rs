@@ -5,7 +5,9 @@
 //! file.
 //!
 //! Loaders: glTF (JSON + buffers) and GLB, OBJ, TressFX `.tfx` and `.tfxbone`, every file of a
-//! hair asset folder, and scene files (with the files they name). The suite runs a fixed
+//! hair asset folder, and scene files (with the files they name). Numbers a user types: the
+//! conversion's options and style (as `hairmesh convert` and the editor pass them) and a
+//! scene's style overrides. The suite runs a fixed
 //! number of cases per loader from a fixed seed (reproducible); a longer run:
 //! `HAIRKIT_FUZZ_CASES=20000 cargo test --release -p hairkit-tests --test fuzz` (about a
 //! minute here). A failure prints the mutations that caused it (shrunk): add the mutated file
@@ -237,4 +239,178 @@ fn scene_files() {
         let loaded = render::scene::load_scene(p).map_err(|e| e.to_string())?;
         render::instance::SceneInstance::load(&loaded).map(drop).map_err(|e| e.to_string())
     });
+}
+
+/// Numbers a user can type that break arithmetic: every option and style value is drawn from
+/// these or from an ordinary range.
+fn hostile_f64() -> impl Strategy<Value = f64> {
+    prop_oneof![
+        Just(f64::NAN),
+        Just(f64::INFINITY),
+        Just(f64::NEG_INFINITY),
+        Just(0.0),
+        Just(-1.0),
+        Just(1e300),
+        Just(-1e300),
+        Just(1e-300),
+        Just(f64::MAX),
+        -10.0..10.0f64,
+    ]
+}
+
+/// Mostly an ordinary value in `ordinary`, sometimes a hostile one: each case has a few bad
+/// values among good ones, so conversions also succeed and their assets are checked.
+fn mostly(ordinary: std::ops::Range<f64>) -> impl Strategy<Value = f64> {
+    prop_oneof![6 => ordinary, 1 => hostile_f64()]
+}
+
+fn runner(name: &str, cases: u32) -> TestRunner {
+    let config = Config { cases, failure_persistence: None, ..Config::default() };
+    let seed: [u8; 32] = std::array::from_fn(|i| name.as_bytes().get(i).copied().unwrap_or(i as u8));
+    TestRunner::new_with_rng(config, TestRng::from_seed(RngAlgorithm::ChaCha, &seed))
+}
+
+/// `hairmesh convert`'s options (the settings the CLI and the editor fill): a conversion either
+/// fails with an error in words or gives an asset that is written and reads back — never a
+/// panic, never an asset hairkit cannot read.
+#[test]
+fn conversion_options() {
+    use hairmesh::convert::{ConvertSettings, LayerShape, convert_scalp};
+    let head = Path::new(env!("CARGO_MANIFEST_DIR")).join("../assets/head_cap.gltf");
+    let dir = tempfile::tempdir().expect("temp dir");
+    let shape = prop_oneof![
+        mostly(0.0..1.0).prop_map(|droop| LayerShape::Extrude { droop }),
+        (mostly(-2.0..2.0), mostly(0.0..0.2), mostly(-2.0..2.0)).prop_map(|(c, lift, y)| LayerShape::Drape {
+            centre: glam::DVec3::new(0.0, 1.6, 0.0),
+            comb: glam::DVec3::new(c, y, 0.0),
+            lift,
+        }),
+    ];
+    let strands = prop_oneof![6 => 1u64..400, 1 => Just(0u64), 1 => Just(u64::MAX), 1 => Just(50_000_001)];
+    let layers = prop_oneof![6 => 1u32..8, 1 => Just(0u32), 1 => Just(65u32)];
+    let sample_sets = prop_oneof![6 => 1u32..3, 1 => Just(0u32), 1 => Just(65u32)];
+    let settings = (
+        layers,
+        proptest::option::weighted(0.5, mostly(0.01..0.3)),
+        shape,
+        strands,
+        proptest::option::weighted(0.15, hostile_f64()),
+        sample_sets,
+        (mostly(0.0..0.005), mostly(0.0..0.05), mostly(-3.0..3.0)),
+    );
+    let mut runner = runner("conversion_options", cases());
+    let converted_count = std::sync::atomic::AtomicU32::new(0);
+    let result = runner.run(&settings, |(layers, length, shape, strands, density, sample_sets, style)| {
+        let mut s = ConvertSettings {
+            layers,
+            length,
+            shape,
+            strands,
+            density,
+            sample_sets,
+            ..ConvertSettings::default()
+        };
+        (s.style.width, s.style.curl.radius, s.style.twist) = style;
+        // Only small conversions finish quickly; a large valid one says nothing more.
+        if s.density.is_some_and(|d| d > 0.0 && d < 1e9) {
+            s.density = Some(1e4);
+        }
+        match convert_scalp(&head, &s, &mut |_| {}) {
+            Err(e) => {
+                let text = e.to_string();
+                prop_assert!(!text.contains("Some(") && !text.contains("Total("), "a debug dump: {text}");
+                Ok(())
+            }
+            Ok(converted) => {
+                converted_count.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
+                let out = dir.path().join("asset");
+                match hairmesh::asset_io::write_asset(
+                    &out,
+                    &converted.asset,
+                    Default::default(),
+                    "metres",
+                    None,
+                ) {
+                    Ok(()) => {
+                        let back = hairmesh::asset_io::read_asset(&out);
+                        prop_assert!(
+                            back.is_ok(),
+                            "written but unreadable: {:?}",
+                            back.err().map(|e| e.to_string())
+                        );
+                    }
+                    Err(e) => prop_assert!(e.to_string().contains("not written"), "{e}"),
+                }
+                Ok(())
+            }
+        }
+    });
+    if let Err(e) = result {
+        panic!("conversion options: {e}");
+    }
+    let converted = converted_count.into_inner();
+    eprintln!("conversion options: {converted} of the cases converted");
+    assert!(converted > 0, "no case converted: the strategy tests only refusals");
+}
+
+/// A scene's per-character style overrides: any JSON value in any style field either merges into
+/// a style inside every range or is refused naming the character's style.
+#[test]
+fn scene_style_overrides() {
+    let base = hairmesh::style::Style::default();
+    let field = prop::sample::select(vec![
+        "width",
+        "tip_width",
+        "root_fade",
+        "length_variation",
+        "twist",
+        "curl",
+        "wave",
+        "frizz",
+        "clump",
+        "stray",
+        "seed",
+    ]);
+    let inner = prop::sample::select(vec![
+        "radius",
+        "frequency",
+        "phase",
+        "amplitude",
+        "coherence",
+        "exponent",
+        "strength",
+        "fraction",
+    ]);
+    let value = prop_oneof![
+        hostile_f64()
+            .prop_map(|v| serde_json::Number::from_f64(v)
+                .map_or(serde_json::Value::Null, serde_json::Value::Number)),
+        Just(serde_json::json!("text")),
+        Just(serde_json::json!([1, 2])),
+        Just(serde_json::json!(-1)),
+        Just(serde_json::json!(u64::MAX)),
+    ];
+    let overrides = proptest::collection::vec((field, inner, value), 1..4);
+    let mut runner = runner("scene_style_overrides", cases());
+    let result = runner.run(&overrides, |edits| {
+        let mut json = serde_json::json!({});
+        for (field, inner, value) in edits {
+            if ["curl", "wave", "frizz", "clump", "stray"].contains(&field) {
+                json[field] = serde_json::json!({ inner: value });
+            } else {
+                json[field] = value;
+            }
+        }
+        match render::scene::merged_style(Path::new("scene.json"), 0, &base, Some(&json)) {
+            Ok(style) => prop_assert!(style.validate().is_ok(), "{json} merged into an invalid style"),
+            Err(e) => {
+                let text = e.to_string();
+                prop_assert!(text.contains("scene.json") && text.contains("characters[0].style"), "{text}");
+            }
+        }
+        Ok(())
+    });
+    if let Err(e) = result {
+        panic!("style overrides: {e}");
+    }
 }
