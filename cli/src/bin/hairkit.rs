@@ -10,7 +10,7 @@
 use std::path::{Path, PathBuf};
 use std::time::Instant;
 
-use anyhow::{Context as _, Result, bail};
+use anyhow::{Context as _, Result};
 use clap::{Args, Parser, Subcommand};
 use gen_gpu::{Context, ContextDesc, GenerationPath, PathChoice, Validation};
 use hairmesh::output::Replace;
@@ -44,11 +44,11 @@ enum Command {
         /// project's own head cap instead.
         #[arg(long)]
         data: Option<PathBuf>,
-        /// Strands per generated hairstyle.
-        #[arg(long, default_value_t = 20_000)]
+        /// Strands per generated hairstyle (1..=2000000).
+        #[arg(long, default_value_t = 20_000, value_parser = clap::value_parser!(u64).range(1..=2_000_000))]
         strands: u64,
-        /// People in the picture (they take the three looks in turn).
-        #[arg(long, default_value_t = 3)]
+        /// People in the picture (they take the three looks in turn; 1..=400).
+        #[arg(long, default_value_t = 3, value_parser = clap::value_parser!(u32).range(1..=400))]
         characters: u32,
         /// Image size, WIDTHxHEIGHT.
         #[arg(long, default_value = "960x400", value_parser = parse_size)]
@@ -310,9 +310,6 @@ fn demo(o: &DemoOptions, device: &DeviceArgs) -> Result<()> {
 
     let own = ["assets", "people.json", "people-*", "head_cap.gltf"];
     hairmesh::output::check_command_folder(&o.out, DEMO_COMMAND, &own, Replace::from_force(o.force))?;
-    if o.characters == 0 || o.characters > 400 {
-        bail!("--characters {} (expected 1..=400)", o.characters);
-    }
     let start = Instant::now();
     let ctx = device.context()?;
     let caps = ctx.capabilities();
