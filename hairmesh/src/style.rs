@@ -164,7 +164,8 @@ impl Style {
         const FRACTION: std::ops::RangeInclusive<f64> = 0.0..=1.0;
         const EXPONENT: std::ops::RangeInclusive<f64> = 0.0..=64.0;
         [
-            ("width", self.width, LENGTH),
+            // Hair of width 0 would silently vanish.
+            ("width", self.width, 1e-9..=1e4),
             ("tip_width", self.tip_width, 0.0..=16.0),
             ("root_fade", self.root_fade, FRACTION),
             ("length_variation", self.length_variation, FRACTION),
@@ -381,7 +382,7 @@ mod tests {
         assert!(e.starts_with("width: NaN"), "{e}");
         let fixed = wild.clamped();
         assert!(fixed.validate().is_ok(), "{fixed:?}");
-        assert_eq!((fixed.width, fixed.curl.radius, fixed.clump.strength), (0.0, 0.0, 1.0));
+        assert_eq!((fixed.width, fixed.curl.radius, fixed.clump.strength), (1e-9, 0.0, 1.0));
         assert_eq!(Style::range("stray.amplitude"), Some(0.0..=1e4));
         assert!(Style::range("no.such").is_none());
         assert_eq!(Style::default().fields().len(), 18);
