@@ -7,10 +7,12 @@
 //! `egui_kittest`; `src/main.rs` through `eframe`.
 //!
 //! **Dragging hair-mesh vertices**: the overlay shows the outer layer (the tips' layer).
-//! Dragging one of its vertices moves it in the view plane through it; the inner layers of
-//! the same column follow in proportion to their height, layer `k` of `L` by `k / L` of the
-//! tip's motion, so the root stays on the scalp and the column keeps its shape. With
-//! *Mirror X* the vertex whose root mirrors this one's across x = 0 moves with it, mirrored.
+//! Dragging one of its vertices moves it in the view plane through it; the layers of the same
+//! column follow by their share of the column's length (layer `k` of `L` of a straight column
+//! by `k / L`), so the root stays on the scalp and the column keeps its shape, and the inner
+//! vertices of the hair mesh follow its surface ([`crate::sculpt`], [`hairmesh::inner`]). With
+//! *Mirror X* the vertex whose root mirrors this one's across x = 0 moves with it, mirrored;
+//! with *Soft selection* the tips around it follow, less the further they are.
 
 use std::path::{Path, PathBuf};
 use std::sync::mpsc::{Receiver, channel};
@@ -19,7 +21,6 @@ use std::time::Instant;
 
 use egui::{Color32, Pos2, Rect, Sense, Stroke, Vec2};
 use glam::{DVec3, Vec3};
-use hairmesh::asset::VertexMove;
 use hairmesh::convert::{ConvertSettings, LayerShape};
 use hairmesh::style::Style;
 use render::scene::Transparency;
@@ -90,8 +91,10 @@ struct VertexDrag {
     /// Outer-layer vertex under the pointer, and its mirror (with Mirror X).
     vertex: u32,
     mirror: Option<u32>,
-    /// Column positions (layers 0..=L) at the start, per dragged vertex.
-    start: Vec<(u32, Vec<DVec3>)>,
+    /// Its tip where the drag started.
+    tip_start: DVec3,
+    /// The columns that move, and the inner vertices that follow them.
+    sculpt: crate::sculpt::TipDrag,
     pointer_start: Pos2,
 }
 
@@ -140,6 +143,8 @@ pub struct EditorApp {
     recent_file: Option<PathBuf>,
     pub show_overlay: bool,
     pub mirror_x: bool,
+    /// Soft-selection radius as a fraction of the hair's length (0: off).
+    pub soft_radius: f64,
     pub hovered_vertex: Option<u32>,
     /// The occluder's depth as the viewport sees it, and the view it was made for: the overlay
     /// hides and does not pick vertices behind the head.
@@ -220,6 +225,7 @@ impl EditorApp {
             recent_file,
             show_overlay: true,
             mirror_x: false,
+            soft_radius: 0.0,
             hovered_vertex: None,
             overlay_depth: None,
             selected_vertex: None,
@@ -401,8 +407,27 @@ impl EditorApp {
         }
     }
 
+    /// The files the document was made from: an export must not replace them.
+    fn inputs(&self) -> Vec<PathBuf> {
+        let Some(doc) = &self.doc else { return Vec::new() };
+        doc.scalp_file().into_iter().chain(doc.save_path.clone()).collect()
+    }
+
+    /// May an export of `kind` replace `path`? Only a new path or an earlier export of its kind
+    /// (the editor has no --force: choose another name, or remove the file first).
+    fn check_export(&self, path: &Path, kind: hairmesh::output::FileKind) -> Result<(), String> {
+        let inputs = self.inputs();
+        let inputs: Vec<&Path> = inputs.iter().map(PathBuf::as_path).collect();
+        hairmesh::output::check_file(path, kind, &inputs, hairmesh::output::Replace::OwnOutput)
+            .map_err(|e| e.to_string().replace(", or pass --force to replace it", ""))
+    }
+
     /// Writes the last preview frame as PNG (atomically).
     pub fn export_png(&mut self, path: &Path) {
+        if let Err(e) = self.check_export(path, hairmesh::output::FileKind::Png) {
+            self.error = Some(e);
+            return;
+        }
         let result = match &self.shown {
             Some(f) => render::output::write_png(path, &f.image).map_err(|e| e.to_string()),
             None => Err(EditorError::NoFrame.to_string()),
@@ -416,6 +441,10 @@ impl EditorApp {
     /// Writes a scene file that renders this view with `hair-render` (the document must be
     /// saved: the scene names its folder).
     pub fn export_scene(&mut self, path: &Path) {
+        if let Err(e) = self.check_export(path, render::scene::SCENE_FILE) {
+            self.error = Some(e);
+            return;
+        }
         match self.scene_file(path) {
             Ok(text) => match hairmesh::atomic::write_file_atomic(path, |w| w.write_all(text.as_bytes())) {
                 Ok(()) => {
@@ -1039,6 +1068,12 @@ impl EditorApp {
         ui.checkbox(&mut e.ao, "Ambient occlusion");
         ui.checkbox(&mut self.show_overlay, "Hair-mesh overlay");
         ui.checkbox(&mut self.mirror_x, "Mirror X (symmetric edits)");
+        ui.horizontal(|ui| {
+            let label = ui.label("Soft selection");
+            ui.add(egui::Slider::new(&mut self.soft_radius, 0.0..=1.0))
+                .labelled_by(label.id)
+                .on_hover_text("Tips within this fraction of the hair's length of the dragged one follow it, less the further they are (0: only the dragged column)");
+        });
         ui.separator();
         // LOD preview: the distance the hair is seen from, and what the generator drew there.
         ui.horizontal(|ui| {
@@ -1144,12 +1179,13 @@ impl EditorApp {
             && let Some(v) = self.press_vertex.take()
         {
             let mirror = if self.mirror_x { mirror_vertex(mesh, v) } else { None };
-            let start = std::iter::once(v).chain(mirror).map(|v| (v, mesh.column(v))).collect();
+            let soft_radius = self.soft_radius * self.doc.as_ref().map_or(0.0, Document::hair_length);
             self.selected_vertex = Some(v);
             self.drag = Some(VertexDrag {
                 vertex: v,
                 mirror,
-                start,
+                tip_start: mesh.layers[outer][v as usize],
+                sculpt: crate::sculpt::TipDrag::new(mesh, v, mirror, soft_radius),
                 pointer_start: ui
                     .input(|i| i.pointer.press_origin())
                     .or(response.interact_pointer_pos())
@@ -1157,21 +1193,13 @@ impl EditorApp {
             });
         }
         let mut moves = Vec::new();
-        if let Some(drag) = &self.drag {
+        if let Some(drag) = &mut self.drag {
             if let Some(pos) = response.interact_pointer_pos() {
                 let delta = pos - drag.pointer_start;
-                let (_, tip_start) = &drag.start[0];
-                let tip = tip_start[outer];
+                let tip = drag.tip_start;
                 let moved =
                     self.camera.drag_point(tip.as_vec3(), glam::Vec2::new(delta.x, delta.y), rect.height());
-                let d = moved.as_dvec3() - tip;
-                for (i, (v, column)) in drag.start.iter().enumerate() {
-                    let d = if i == 0 { d } else { DVec3::new(-d.x, d.y, d.z) };
-                    for (layer, p) in column.iter().enumerate().skip(1) {
-                        let t = layer as f64 / outer as f64;
-                        moves.push(VertexMove { layer: layer as u32, vertex: *v, position: *p + t * d });
-                    }
-                }
+                moves = drag.sculpt.moves(moved.as_dvec3() - tip);
             }
             self.interacting = true;
         } else if response.dragged_by(egui::PointerButton::Primary) {
@@ -1225,7 +1253,7 @@ impl EditorApp {
                 }
             }
             let highlighted: Vec<u32> = match &self.drag {
-                Some(d) => std::iter::once(d.vertex).chain(d.mirror).collect(),
+                Some(d) => std::iter::once(d.vertex).chain(d.mirror).chain(d.sculpt.columns()).collect(),
                 None => self.hovered_vertex.into_iter().chain(self.selected_vertex).collect(),
             };
             for v in highlighted {

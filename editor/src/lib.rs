@@ -13,6 +13,7 @@ pub mod camera;
 pub mod document;
 pub mod presets;
 pub mod preview;
+pub mod sculpt;
 pub mod xwd;
 
 use std::path::PathBuf;

@@ -224,6 +224,18 @@ fn saved_asset_loads_and_renders(_: &gen_gpu::Context) -> Result<()> {
         loaded.hair_path(&loaded.scene.characters[0]).join("hair.json").is_file(),
         "scene names no asset"
     );
+    // Exports write over earlier exports, never over other files or the document's own.
+    h.state_mut().export_scene(&scene);
+    ensure!(h.state().error.is_none(), "re-export failed: {:?}", h.state().error);
+    let notes = dir.path().join("notes.json");
+    std::fs::write(&notes, "[1, 2, 3]")?;
+    h.state_mut().export_scene(&notes);
+    let error = h.state_mut().error.take().unwrap_or_default();
+    ensure!(error.contains("not a hairkit scene file") && std::fs::read(&notes)? == b"[1, 2, 3]", "{error}");
+    h.state_mut().export_png(&out.join("hair.json"));
+    let error = h.state_mut().error.take().unwrap_or_default();
+    ensure!(error.contains("is an input") || error.contains("not a PNG image"), "{error}");
+    ensure!(hairmesh::asset_io::read_asset(&out).is_ok(), "the saved asset was damaged");
     Ok(())
 }
 

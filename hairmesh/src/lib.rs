@@ -13,6 +13,7 @@ mod error;
 mod gltf_source;
 pub mod hair_mesh;
 pub mod import;
+pub mod inner;
 pub mod input;
 pub mod lattice;
 pub mod output;

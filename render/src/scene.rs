@@ -792,6 +792,13 @@ impl LoadedScene {
     }
 }
 
+/// How an earlier scene file is recognized before one is written over it
+/// ([`hairmesh::output`]).
+pub const SCENE_FILE: hairmesh::output::FileKind = hairmesh::output::FileKind::Json {
+    what: "hairkit scene file",
+    keys: &["output", "camera", "characters"],
+};
+
 /// Largest scene file read.
 pub const MAX_SCENE_BYTES: u64 = 64 << 20;
 

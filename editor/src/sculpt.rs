@@ -1,0 +1,150 @@
+//! Dragging hair-mesh tips: the dragged column, its mirror and a soft selection around it move
+//! their tips; every outer column bends evenly under its tip, and the inner vertices follow
+//! the surface ([`hairmesh::inner`]). Kept apart from the UI so it is tested without one.
+
+use glam::DVec3;
+use hairmesh::HairMesh;
+use hairmesh::asset::VertexMove;
+use hairmesh::inner::InnerVertices;
+
+/// One column taking part in a drag.
+#[derive(Clone, Debug)]
+struct Column {
+    vertex: u32,
+    /// How much of the drag it follows (1 for the dragged one, the falloff for the rest).
+    weight: f64,
+    /// Mirrored across x = 0 (it follows the drag with x negated).
+    mirrored: bool,
+}
+
+/// A drag of one tip (with its mirror and soft selection), from the mesh at its start.
+#[derive(Clone, Debug)]
+pub struct TipDrag {
+    rest: HairMesh,
+    columns: Vec<Column>,
+    inner: InnerVertices,
+}
+
+/// Smooth falloff from 1 at the centre to 0 at `radius` (Blender's "smooth" soft selection).
+pub fn falloff(distance: f64, radius: f64) -> f64 {
+    if radius <= 0.0 {
+        return if distance <= 0.0 { 1.0 } else { 0.0 };
+    }
+    let t = (1.0 - distance / radius).clamp(0.0, 1.0);
+    t * t * (3.0 - 2.0 * t)
+}
+
+impl TipDrag {
+    /// Starts dragging the tip of `vertex` (and of `mirror`, mirrored) of `mesh`; tips within
+    /// `soft_radius` of a dragged tip follow with [`falloff`].
+    pub fn new(mesh: &HairMesh, vertex: u32, mirror: Option<u32>, soft_radius: f64) -> Self {
+        let tip = mesh.layers.len() - 1;
+        let tips = &mesh.layers[tip];
+        let mut weights: Vec<(f64, bool)> = vec![(0.0, false); mesh.vertex_count()];
+        for (centre, mirrored) in std::iter::once((vertex, false)).chain(mirror.map(|m| (m, true))) {
+            let c = tips[centre as usize];
+            for (v, p) in tips.iter().enumerate() {
+                let w = falloff(p.distance(c), soft_radius);
+                if w > weights[v].0 {
+                    weights[v] = (w, mirrored);
+                }
+            }
+        }
+        let columns = weights
+            .iter()
+            .enumerate()
+            .filter(|(_, (w, _))| *w > 0.0)
+            .map(|(v, &(weight, mirrored))| Column { vertex: v as u32, weight, mirrored })
+            .collect();
+        Self { rest: mesh.clone(), columns, inner: InnerVertices::new(mesh) }
+    }
+
+    /// Vertices the drag moves (for highlighting).
+    pub fn columns(&self) -> impl Iterator<Item = u32> + '_ {
+        self.columns.iter().map(|c| c.vertex)
+    }
+
+    /// The moves for the dragged tip displaced by `delta` from where it started: every
+    /// column's vertices above the root (outer ones by the column rule, inner ones placed by
+    /// the surface).
+    pub fn moves(&mut self, delta: DVec3) -> Vec<VertexMove> {
+        let tip = self.rest.layers.len() - 1;
+        let mut mesh = self.rest.clone();
+        let mut moves = Vec::new();
+        for c in &self.columns {
+            let d = if c.mirrored { DVec3::new(-delta.x, delta.y, delta.z) } else { delta } * c.weight;
+            for k in 1..=tip {
+                let position =
+                    self.rest.layers[k][c.vertex as usize] + self.inner.along(k as u32, c.vertex) * d;
+                mesh.layers[k][c.vertex as usize] = position;
+                if self.inner.is_outer(k as u32, c.vertex) {
+                    moves.push(VertexMove { layer: k as u32, vertex: c.vertex, position });
+                }
+            }
+        }
+        moves.extend(self.inner.place(&mesh));
+        moves
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn cap() -> HairMesh {
+        let scalp = hairmesh::procedural::head_cap(6, 24);
+        HairMesh::extrude(&scalp, &hairmesh::ExtrudeParams { layers: 4, length: 0.2, ..Default::default() })
+            .expect("extrudes")
+    }
+
+    #[test]
+    fn falloff_is_one_at_the_centre_and_zero_at_the_radius() {
+        assert_eq!(falloff(0.0, 1.0), 1.0);
+        assert_eq!(falloff(1.0, 1.0), 0.0);
+        assert!((falloff(0.5, 1.0) - 0.5).abs() < 1e-12);
+        assert_eq!((falloff(0.0, 0.0), falloff(0.1, 0.0)), (1.0, 0.0));
+    }
+
+    #[test]
+    fn a_drag_without_soft_selection_moves_one_column_evenly() {
+        let mesh = cap();
+        let v = 40;
+        let mut drag = TipDrag::new(&mesh, v, None, 0.0);
+        let d = DVec3::new(0.05, 0.0, 0.0);
+        let moves = drag.moves(d);
+        let tip = mesh.layers.len() - 1;
+        let moved_tip =
+            moves.iter().find(|m| m.vertex == v && m.layer as usize == tip).expect("the tip moves");
+        assert!(moved_tip.position.distance(mesh.layers[tip][v as usize] + d) < 1e-12);
+        for m in &moves {
+            let moved = m.position.distance(mesh.layers[m.layer as usize][m.vertex as usize]);
+            if m.vertex == v {
+                assert!(moved <= d.length() + 1e-12);
+            } else {
+                assert!(moved < 1e-9, "{m:?} moved {moved}");
+            }
+        }
+    }
+
+    #[test]
+    fn soft_selection_moves_neighbours_less_and_a_mirror_mirrored() {
+        let mesh = cap();
+        let tip = mesh.layers.len() - 1;
+        let v = 40;
+        let radius = 0.05;
+        let mut drag = TipDrag::new(&mesh, v, Some(41), radius);
+        assert!(drag.columns().count() > 2, "the soft selection holds neighbours");
+        let d = DVec3::new(0.0, 0.03, 0.0);
+        let moves = drag.moves(d);
+        let tips: Vec<&VertexMove> = moves.iter().filter(|m| m.layer as usize == tip).collect();
+        for m in &tips {
+            let moved = m.position.distance(mesh.layers[tip][m.vertex as usize]);
+            assert!(moved <= d.length() + 1e-12);
+        }
+        assert!(tips.iter().any(|m| {
+            let moved = m.position.distance(mesh.layers[tip][m.vertex as usize]);
+            moved > 1e-6 && moved < d.length() - 1e-6
+        }));
+        assert!(moves.iter().all(|m| m.position.is_finite() && m.layer > 0));
+    }
+}
