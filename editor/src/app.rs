@@ -810,44 +810,53 @@ impl EditorApp {
     }
 
     fn status_bar(&mut self, ui: &mut egui::Ui) {
-        ui.horizontal(|ui| {
-            ui.label(self.device.as_deref().unwrap_or("starting the preview device…"));
-            ui.separator();
-            match &self.shown {
-                Some(s) => {
-                    ui.label(format!(
-                        "{} raster · {} strands · {} vertices · {}×{} {} · {:.0} ms",
-                        s.raster,
-                        s.strands,
-                        s.vertices,
-                        s.size[0],
-                        s.size[1],
-                        if s.draft { "draft" } else { "full" },
-                        s.ms
-                    ));
-                }
-                None => {
-                    ui.label("no preview yet");
-                }
-            }
-            if let Some(e) = &self.preview_error {
-                ui.separator();
-                ui.colored_label(Color32::from_rgb(230, 120, 90), format!("preview: {e}"));
-            }
-            if let Some(job) = &self.conversion {
-                ui.separator();
-                ui.add(egui::Spinner::new());
-                ui.label(format!("converting {}: {}…", job.file.display(), job.step));
-            }
-            if let Some(n) = &self.note {
-                ui.separator();
-                ui.label(n);
-            }
+        // The document's title is laid out first, from the right, so it keeps its place; the
+        // rest fills what is left and is cut short ("…") rather than run under it.
+        ui.with_layout(egui::Layout::right_to_left(egui::Align::Center), |ui| {
             if let Some(doc) = &self.doc {
-                ui.with_layout(egui::Layout::right_to_left(egui::Align::Center), |ui| {
-                    ui.label(format!("{}{}", doc.title(), if doc.is_dirty() { " •" } else { "" }));
-                });
+                ui.label(format!("{}{}", doc.title(), if doc.is_dirty() { " •" } else { "" }));
+                ui.separator();
             }
+            ui.with_layout(egui::Layout::left_to_right(egui::Align::Center), |ui| {
+                let text = |ui: &mut egui::Ui, text: String| ui.add(egui::Label::new(text).truncate());
+                text(ui, self.device.clone().unwrap_or_else(|| "starting the preview device…".into()));
+                ui.separator();
+                match &self.shown {
+                    Some(s) => text(
+                        ui,
+                        format!(
+                            "{} raster · {} strands · {} vertices · {}×{} {} · {:.0} ms",
+                            s.raster,
+                            s.strands,
+                            s.vertices,
+                            s.size[0],
+                            s.size[1],
+                            if s.draft { "draft" } else { "full" },
+                            s.ms
+                        ),
+                    ),
+                    None => text(ui, "no preview yet".into()),
+                };
+                if let Some(e) = &self.preview_error {
+                    ui.separator();
+                    ui.add(
+                        egui::Label::new(
+                            egui::RichText::new(format!("preview: {e}"))
+                                .color(Color32::from_rgb(230, 120, 90)),
+                        )
+                        .truncate(),
+                    );
+                }
+                if let Some(job) = &self.conversion {
+                    ui.separator();
+                    ui.add(egui::Spinner::new());
+                    text(ui, format!("converting {}: {}…", job.file.display(), job.step));
+                }
+                if let Some(n) = &self.note {
+                    ui.separator();
+                    text(ui, n.clone());
+                }
+            });
         });
     }
 

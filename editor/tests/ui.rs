@@ -236,6 +236,12 @@ fn saved_asset_loads_and_renders(_: &gen_gpu::Context) -> Result<()> {
     let error = h.state_mut().error.take().unwrap_or_default();
     ensure!(error.contains("is an input") || error.contains("not a PNG image"), "{error}");
     ensure!(hairmesh::asset_io::read_asset(&out).is_ok(), "the saved asset was damaged");
+    // A long status line is cut short beside the document's title, not drawn under it.
+    h.state_mut().note = Some(format!("exported {}", "/a/very/long/folder".repeat(12)));
+    h.step();
+    let title = h.get_by_label("styled").rect();
+    let note = h.get_by_label_contains("exported /a/very/long/folder").rect();
+    ensure!(!title.intersects(note) && note.max.x <= title.min.x, "the note {note:?} runs under the title {title:?}");
     Ok(())
 }
 
