@@ -121,6 +121,8 @@ pub struct EditorApp {
     /// presets: the estimate from the scalp's bounds sits too low on a scan with a high forehead
     /// and combs the hairline bald.
     pub head_centre: Option<DVec3>,
+    /// The head the conversion settings' selector, length and drape centre were made for.
+    head_file: Option<PathBuf>,
     pub conversion: Option<ConversionJob>,
     preview: Option<PreviewWorker>,
     texture: Option<egui::TextureHandle>,
@@ -208,6 +210,7 @@ impl EditorApp {
             scene: PreviewScene::default(),
             convert: ConvertSettings::default(),
             head_centre: None,
+            head_file: None,
             conversion: None,
             preview: Some(preview),
             texture: None,
@@ -257,12 +260,14 @@ impl EditorApp {
             path.ends_with(sample).then(|| DVec3::from_array(hairmesh::convert::sample_head::SKULL_CENTRE));
         let ext = path.extension().and_then(|e| e.to_str()).unwrap_or_default().to_ascii_lowercase();
         if matches!(ext.as_str(), "glb" | "gltf" | "obj") {
+            self.settings_for_head(path);
             self.start_conversion(path.to_owned());
         } else if path.is_dir() || path.file_name().is_some_and(|n| n == "hair.json") {
             match Document::open_asset(path) {
                 Ok(doc) => {
                     if let Some(s) = ConvertSettings::from_asset(doc.asset()) {
                         self.convert = s;
+                        self.head_file = doc.scalp_file();
                     }
                     self.set_document(doc);
                     self.remember(path);
@@ -272,6 +277,27 @@ impl EditorApp {
         } else {
             self.error = Some(EditorError::UnknownFile { path: path.to_owned() }.to_string());
         }
+    }
+
+    /// Another head than the settings were made for gets the defaults of what depends on the
+    /// head — the scalp selection, the length and the drape centre (another head's would put
+    /// the hair in the wrong place) — and keeps the rest (layers, strands, style).
+    fn settings_for_head(&mut self, head: &Path) {
+        let same = |a: &Path, b: &Path| {
+            a.canonicalize().ok().zip(b.canonicalize().ok()).is_some_and(|(a, b)| a == b)
+        };
+        if self.head_file.as_deref().is_some_and(|h| same(h, head)) {
+            return;
+        }
+        let defaults = ConvertSettings::default();
+        self.convert.scalp = defaults.scalp;
+        self.convert.length = defaults.length;
+        self.convert.shape = match (self.convert.shape, self.head_centre) {
+            (LayerShape::Drape { comb, lift, .. }, Some(centre)) => LayerShape::Drape { centre, comb, lift },
+            (LayerShape::Drape { .. }, None) => defaults.shape,
+            (shape, _) => shape,
+        };
+        self.head_file = Some(head.to_owned());
     }
 
     /// Opens the sample head (from the third-party data set, wherever the resolver finds it)
@@ -287,9 +313,12 @@ impl EditorApp {
             }
         };
         self.convert.scalp = sample_head::SCALP.into();
+        self.convert.length = None;
         if let LayerShape::Drape { centre, .. } = &mut self.convert.shape {
             *centre = DVec3::from_array(sample_head::SKULL_CENTRE);
         }
+        // These settings are the sample head's own.
+        self.head_file = Some(head.clone());
         self.open(&head);
     }
 

@@ -241,7 +241,10 @@ fn saved_asset_loads_and_renders(_: &gen_gpu::Context) -> Result<()> {
     h.step();
     let title = h.get_by_label("styled").rect();
     let note = h.get_by_label_contains("exported /a/very/long/folder").rect();
-    ensure!(!title.intersects(note) && note.max.x <= title.min.x, "the note {note:?} runs under the title {title:?}");
+    ensure!(
+        !title.intersects(note) && note.max.x <= title.min.x,
+        "the note {note:?} runs under the title {title:?}"
+    );
     Ok(())
 }
 
@@ -397,6 +400,19 @@ fn draped_presets_use_the_sample_heads_skull_centre(_: &gen_gpu::Context) -> Res
         matches!(h.state().convert.shape, LayerShape::Drape { centre, .. } if centre == skull),
         "{:?}",
         h.state().convert.shape
+    );
+    // Another head then opened in the same editor does not inherit the sample head's scalp
+    // selection, length or skull centre.
+    let dir = tempfile::tempdir()?;
+    h.state_mut().save_as(&dir.path().join("saved"));
+    h.state_mut().open(&sample_scalp());
+    settle(&mut h)?;
+    let convert = &h.state().convert;
+    ensure!(convert.scalp == "all" && convert.length.is_none(), "{convert:?}");
+    ensure!(
+        !matches!(convert.shape, LayerShape::Drape { centre, .. } if centre == skull),
+        "{:?}",
+        convert.shape
     );
     let mut h = builder().build_ui_state(|ui, app: &mut EditorApp| app.ui(ui), app());
     open_sample(&mut h)?;
