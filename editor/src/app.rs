@@ -1218,12 +1218,16 @@ impl EditorApp {
         {
             let mirror = if self.mirror_x { mirror_vertex(mesh, v) } else { None };
             let soft_radius = self.soft_radius * self.doc.as_ref().map_or(0.0, Document::hair_length);
+            let mut sculpt = crate::sculpt::TipDrag::new(mesh, v, mirror, soft_radius);
+            if let Some(head) = self.doc.as_ref().and_then(Document::head_surface) {
+                sculpt = sculpt.outside(head);
+            }
             self.selected_vertex = Some(v);
             self.drag = Some(VertexDrag {
                 vertex: v,
                 mirror,
                 tip_start: mesh.layers[outer][v as usize],
-                sculpt: crate::sculpt::TipDrag::new(mesh, v, mirror, soft_radius),
+                sculpt,
                 pointer_start: ui
                     .input(|i| i.pointer.press_origin())
                     .or(response.interact_pointer_pos())

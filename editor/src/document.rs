@@ -90,6 +90,8 @@ pub struct Document {
     color: HairColor,
     /// The scalp or head mesh drawn with the hair (it hides the hair behind it).
     pub occluder: Option<Arc<OccluderGeometry>>,
+    /// The occluder as a surface for distance queries, made on first use.
+    head: std::sync::OnceLock<Option<Arc<hairmesh::head::HeadSurface>>>,
     /// Bumped whenever the asset is replaced whole (open, convert, too many changes): the
     /// preview uploads it again.
     pub generation: u64,
@@ -123,6 +125,7 @@ impl Document {
             asset: Arc::new(asset),
             color: HairColor::default(),
             occluder,
+            head: std::sync::OnceLock::new(),
             generation: next_generation(),
             changes: Vec::new(),
             undo: Vec::new(),
@@ -140,13 +143,8 @@ impl Document {
             .map_err(|source| EditorError::Asset { path: path.to_owned(), source })?;
         let dir =
             if path.is_dir() { path.to_owned() } else { path.parent().unwrap_or(Path::new(".")).to_owned() };
-        let occluder = asset.provenance.as_ref().and_then(|p| {
-            let file = PathBuf::from(&p.file);
-            [file.clone(), dir.join(&file)]
-                .into_iter()
-                .find(|f| f.is_file())
-                .and_then(|f| load_occluder(&f).ok())
-        });
+        let occluder =
+            asset.provenance.as_ref().and_then(|p| p.locate(&dir)).and_then(|f| load_occluder(&f).ok());
         Ok(Self::new(Source::Asset { path: dir }, asset, occluder))
     }
 
@@ -165,6 +163,19 @@ impl Document {
             converted.asset,
             occluder,
         ))
+    }
+
+    /// The head (the occluder mesh) for keeping edits outside it, when there is one.
+    pub fn head_surface(&self) -> Option<Arc<hairmesh::head::HeadSurface>> {
+        self.head
+            .get_or_init(|| {
+                let o = self.occluder.as_ref()?;
+                let positions =
+                    o.positions.iter().map(|p| glam::Vec3::new(p[0], p[1], p[2]).as_dvec3()).collect();
+                let triangles = o.indices.chunks_exact(3).map(|t| [t[0], t[1], t[2]]).collect();
+                Some(Arc::new(hairmesh::head::HeadSurface::new(positions, triangles)))
+            })
+            .clone()
     }
 
     pub fn asset(&self) -> &Arc<HairAsset> {

@@ -1,11 +1,18 @@
 //! Dragging hair-mesh tips: the dragged column, its mirror and a soft selection around it move
 //! their tips; every outer column bends evenly under its tip, and the inner vertices follow
-//! the surface ([`hairmesh::inner`]). Kept apart from the UI so it is tested without one.
+//! the surface ([`hairmesh::inner`]). With the head known, every moved vertex is kept a margin
+//! outside it ([`hairmesh::head`]). Kept apart from the UI so it is tested without one.
+
+use std::sync::Arc;
 
 use glam::DVec3;
 use hairmesh::HairMesh;
 use hairmesh::asset::VertexMove;
+use hairmesh::head::HeadSurface;
 use hairmesh::inner::InnerVertices;
+
+/// How far outside the head moved vertices are kept, as a fraction of the head's size.
+pub const HEAD_MARGIN: f64 = 0.005;
 
 /// One column taking part in a drag.
 #[derive(Clone, Debug)]
@@ -23,6 +30,8 @@ pub struct TipDrag {
     rest: HairMesh,
     columns: Vec<Column>,
     inner: InnerVertices,
+    /// The head to keep out of, and the margin.
+    head: Option<(Arc<HeadSurface>, f64)>,
 }
 
 /// Smooth falloff from 1 at the centre to 0 at `radius` (Blender's "smooth" soft selection).
@@ -56,7 +65,16 @@ impl TipDrag {
             .filter(|(_, (w, _))| *w > 0.0)
             .map(|(v, &(weight, mirrored))| Column { vertex: v as u32, weight, mirrored })
             .collect();
-        Self { rest: mesh.clone(), columns, inner: InnerVertices::new(mesh) }
+        Self { rest: mesh.clone(), columns, inner: InnerVertices::new(mesh), head: None }
+    }
+
+    /// Keeps every moved vertex [`HEAD_MARGIN`] × the head's size outside `head`.
+    #[must_use]
+    pub fn outside(mut self, head: Arc<HeadSurface>) -> Self {
+        let (lo, hi) = head.bounds();
+        let margin = HEAD_MARGIN * lo.distance(hi);
+        self.head = Some((head, margin));
+        self
     }
 
     /// Vertices the drag moves (for highlighting).
@@ -83,6 +101,13 @@ impl TipDrag {
             }
         }
         moves.extend(self.inner.place(&mesh));
+        if let Some((head, margin)) = &self.head {
+            for m in &mut moves {
+                if let Some(out) = head.push_out(m.position, *margin) {
+                    m.position = out;
+                }
+            }
+        }
         moves
     }
 }
@@ -95,6 +120,32 @@ mod tests {
         let scalp = hairmesh::procedural::head_cap(6, 24);
         HairMesh::extrude(&scalp, &hairmesh::ExtrudeParams { layers: 4, length: 0.2, ..Default::default() })
             .expect("extrudes")
+    }
+
+    #[test]
+    fn a_grab_into_the_head_leaves_every_vertex_outside_it() {
+        let scalp = hairmesh::procedural::head_cap(6, 24);
+        let mesh = HairMesh::extrude(
+            &scalp,
+            &hairmesh::ExtrudeParams { layers: 4, length: 0.05, ..Default::default() },
+        )
+        .expect("extrudes");
+        let head = Arc::new(HeadSurface::from_mesh(&scalp));
+        let (lo, hi) = head.bounds();
+        let margin = HEAD_MARGIN * lo.distance(hi);
+        let tip = mesh.layers.len() - 1;
+        // The topmost tip, dragged down through the crown with a wide soft selection.
+        let v = (0..mesh.vertex_count())
+            .max_by(|&a, &b| mesh.layers[tip][a].y.total_cmp(&mesh.layers[tip][b].y))
+            .expect("tips") as u32;
+        let mut free = TipDrag::new(&mesh, v, None, 0.06);
+        let mut kept = TipDrag::new(&mesh, v, None, 0.06).outside(head.clone());
+        let grab = DVec3::new(0.0, -0.15, 0.0);
+        let inside = free.moves(grab).iter().filter(|m| head.signed_distance(m.position) < 0.0).count();
+        assert!(inside > 10, "the grab should drive the mesh into the head ({inside} vertices)");
+        let moves = kept.moves(grab);
+        let worst = moves.iter().map(|m| head.signed_distance(m.position)).fold(f64::INFINITY, f64::min);
+        assert!(worst >= margin - 1e-9, "a vertex {worst} from the head, margin {margin}");
     }
 
     #[test]

@@ -144,6 +144,15 @@ pub struct ScalpProvenance {
     pub layers: LayerSource,
 }
 
+impl ScalpProvenance {
+    /// The scalp file on this machine: as recorded, or relative to the asset folder `asset_dir`
+    /// (an asset moved with its head keeps finding it).
+    pub fn locate(&self, asset_dir: &std::path::Path) -> Option<std::path::PathBuf> {
+        let file = std::path::PathBuf::from(&self.file);
+        [file.clone(), asset_dir.join(&file)].into_iter().find(|f| f.is_file())
+    }
+}
+
 /// One hair-mesh vertex moved to a new position (object space).
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct VertexMove {

@@ -182,6 +182,8 @@ pub struct Converted {
     pub asset: HairAsset,
     pub scalp: ScalpMesh,
     pub length: f64,
+    /// Hair-mesh vertices moved out of the head ([`keep_outside`]).
+    pub pushed_out: usize,
 }
 
 /// Imports `input`, builds its hair mesh, textures and root sets, and records the provenance.
@@ -221,11 +223,18 @@ pub fn convert_scalp(
         LayerShape::MorphTargets => LayerSource::MorphTargets,
     };
     progress("building the hair mesh");
-    let hm = match layers {
+    let mut hm = match layers {
         LayerSource::Extruded(e) => HairMesh::extrude(&scalp, &e)?,
         LayerSource::Draped(d) => HairMesh::drape(&scalp, &d)?,
         LayerSource::MorphTargets => HairMesh::from_morph_targets(&scalp)?,
     };
+    // The whole file is the head the hair must stay out of (the scalp is only part of it).
+    let head = if settings.scalp == "all" {
+        scalp.clone()
+    } else {
+        load_scalp_with(input, &ScalpSelector::All, settings.references)?
+    };
+    let pushed_out = keep_outside(&mut hm, &crate::head::HeadSurface::from_mesh(&head));
     let params = AssetParams {
         strands: match settings.density {
             Some(d) => StrandCount::Density(d),
@@ -239,5 +248,25 @@ pub fn convert_scalp(
     let mut asset = HairAsset::build(&hm, &params, settings.style)?;
     asset.provenance =
         Some(ScalpProvenance { file: input.display().to_string(), selector: settings.scalp.clone(), layers });
-    Ok(Converted { asset, scalp, length })
+    Ok(Converted { asset, scalp, length, pushed_out })
+}
+
+/// How close to the head a hair-mesh vertex may come, as a fraction of the head's size.
+pub const HEAD_CLEARANCE: f64 = 1e-3;
+
+/// Moves every hair-mesh vertex above the roots that lies inside `head`, or closer than
+/// [`HEAD_CLEARANCE`] × its size, out to that clearance; returns how many moved.
+pub fn keep_outside(hm: &mut HairMesh, head: &crate::head::HeadSurface) -> usize {
+    let (lo, hi) = head.bounds();
+    let margin = HEAD_CLEARANCE * lo.distance(hi);
+    let mut moved = 0;
+    for layer in hm.layers.iter_mut().skip(1) {
+        for p in layer.iter_mut() {
+            if let Some(q) = head.push_out(*p, margin) {
+                *p = q;
+                moved += 1;
+            }
+        }
+    }
+    moved
 }

@@ -12,6 +12,7 @@ pub mod dynamics;
 mod error;
 mod gltf_source;
 pub mod hair_mesh;
+pub mod head;
 pub mod import;
 pub mod inner;
 pub mod input;

@@ -228,3 +228,42 @@ fn numbers_outside_their_ranges_are_refused_and_nothing_is_written() {
         assert!(!out.exists(), "{args:?}: wrote an output");
     }
 }
+
+/// `hairmesh check` counts the strands that enter the head: none for the head cap's hair (its
+/// conversion keeps the hair mesh outside), and the tips pushed into the skull are found, with
+/// exit status 1.
+#[test]
+fn check_finds_strands_inside_the_head() {
+    let dir = tempfile::tempdir().expect("temp dir");
+    let out = dir.path().join("cap");
+    let out_text = out.to_str().expect("utf-8");
+    let cap = repo("assets/head_cap.gltf");
+    let (ok, _, stderr) = hairmesh(&["convert", &cap, "-o", out_text, "--strands", "2000"]);
+    assert!(ok, "{stderr}");
+    let (ok, stdout, stderr) = hairmesh(&["check", out_text]);
+    assert!(ok && stdout.contains("strands entering the head: 0 (0.00 %)"), "{stdout}{stderr}");
+    // Pull every tip to the middle of the head (the cap is centred at y = 1.6).
+    let (mut asset, _) = hairmesh::asset_io::read_asset(&out).expect("asset");
+    let tip = asset.mesh().layers.len() - 1;
+    let moves: Vec<hairmesh::asset::VertexMove> = (0..asset.mesh().vertex_count() as u32)
+        .map(|v| hairmesh::asset::VertexMove {
+            layer: tip as u32,
+            vertex: v,
+            position: glam::DVec3::new(0.0, 1.62, 0.0),
+        })
+        .collect();
+    asset.move_vertices(&moves).expect("move");
+    let inside = dir.path().join("inside");
+    hairmesh::asset_io::write_asset(&inside, &asset, Default::default(), "metres", Some(&cap))
+        .expect("write");
+    let (ok, stdout, stderr) = hairmesh(&["check", inside.to_str().expect("utf-8"), "--head", &cap]);
+    assert!(!ok && stderr.contains("strands enter the head"), "{stdout}{stderr}");
+    let entering: u64 = stdout
+        .lines()
+        .find_map(|l| l.strip_prefix("strands entering the head: "))
+        .and_then(|l| l.split_whitespace().next())
+        .and_then(|n| n.parse().ok())
+        .expect("a count");
+    assert!(entering > 1000, "{stdout}");
+    assert!(stdout.contains("hair-mesh vertices inside:"), "{stdout}");
+}

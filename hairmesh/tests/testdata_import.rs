@@ -473,3 +473,31 @@ fn a_quantized_model_loads_as_its_float_original() {
     assert_eq!(float.morph_layers.len(), quantized.morph_layers.len());
     assert!((float.area() - quantized.area()).abs() < 1e-2 * float.area());
 }
+
+/// Hair laid over the sample head went through its ears and shoulders: the conversion now moves
+/// every hair-mesh vertex out of the whole head mesh (not only the scalp selection).
+#[test]
+fn converted_hair_meshes_stay_outside_the_head() {
+    use hairmesh::convert::{ConvertSettings, LayerShape, convert_scalp, sample_head};
+    let head_file = testdata(sample_head::PATH);
+    let settings = ConvertSettings {
+        scalp: sample_head::SCALP.into(),
+        layers: 6,
+        length: Some(4.5),
+        shape: LayerShape::Drape {
+            centre: glam::DVec3::from_array(sample_head::SKULL_CENTRE),
+            comb: glam::DVec3::new(0.0, 0.0, -2.5),
+            lift: 0.04,
+        },
+        strands: 2000,
+        ..ConvertSettings::default()
+    };
+    let converted = convert_scalp(&head_file, &settings, &mut |_| {}).expect("converts");
+    assert!(converted.pushed_out > 100, "the drape alone enters the head ({} moved)", converted.pushed_out);
+    let head =
+        hairmesh::head::HeadSurface::from_mesh(&load_scalp(&head_file, &ScalpSelector::All).expect("head"));
+    let mesh = converted.asset.mesh();
+    let worst =
+        mesh.layers[1..].iter().flatten().map(|p| head.signed_distance(*p)).fold(f64::INFINITY, f64::min);
+    assert!(worst > 0.0, "a hair-mesh vertex {worst} inside the head");
+}

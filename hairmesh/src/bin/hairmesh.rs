@@ -5,6 +5,7 @@
 //!                  [--scalp SELECTOR] [--morph-layers | --drape CX,CY,CZ [--comb X,Y,Z] [--lift X]] [--style FILE] [--seed N] [--sample-sets N] [--layout lattice|blocks]
 //!                  [--f16]
 //! hairmesh info PATH          (an asset folder, hair.json, .tfx, .tfxbone or .hair)
+//! hairmesh check ASSET [--head HEAD]   (strands entering the head; exit status 1 if any)
 //! hairmesh head-cap -o FILE   (write the project's procedural head cap as glTF)
 //! ```
 
@@ -135,6 +136,14 @@ enum Command {
     Convert(Box<ConvertArgs>),
     /// Describe an asset or a strand file.
     Info { path: PathBuf },
+    /// Check an asset's strands against the head: how many enter it (exit status 1 if any).
+    Check {
+        /// The asset folder (or its hair.json).
+        asset: PathBuf,
+        /// The head mesh (.gltf, .glb, .obj) [default: the scalp file the asset was converted from].
+        #[arg(long)]
+        head: Option<PathBuf>,
+    },
     /// Write the project's procedural head cap (the demo's scalp) as glTF.
     HeadCap {
         #[arg(short, long)]
@@ -160,6 +169,7 @@ fn run(cli: Cli) -> Result<()> {
     match cli.command {
         Command::Convert(args) => convert(&args),
         Command::Info { path } => info(&path),
+        Command::Check { asset, head } => check(&asset, head.as_deref()),
         Command::HeadCap { out, force } => {
             hairmesh::output::check_file(&out, FileKind::GLTF, &[], Replace::from_force(force))?;
             hairmesh::procedural::write_gltf(&out, &hairmesh::procedural::head_cap(8, 32), "head cap")
@@ -219,7 +229,7 @@ fn convert(o: &ConvertArgs) -> Result<()> {
         started = Some(Instant::now());
     });
     finish_step(&mut started);
-    let Converted { asset, scalp, length } = converted?;
+    let Converted { asset, scalp, length, pushed_out } = converted?;
     for w in hairmesh::terminal::summarized(&scalp.warnings, MAX_WARNINGS_SHOWN) {
         eprintln!("warning: {w}");
     }
@@ -247,6 +257,9 @@ fn convert(o: &ConvertArgs) -> Result<()> {
     );
     println!("bundles:        {} ({quads} quads, {} triangles)", hm.faces.len(), hm.faces.len() - quads);
     println!("layers:         {} (hair length {length:.4})", hm.layer_count());
+    if pushed_out > 0 {
+        println!("kept outside:   {pushed_out} hair-mesh vertices moved out of the head");
+    }
     println!("strands:        {}", asset.total_strands());
     println!(
         "textures:       {}×{} texels, {} curve slices, {texture_bytes} bytes on the GPU ({})",
@@ -265,6 +278,41 @@ fn convert(o: &ConvertArgs) -> Result<()> {
             u64::from(w) * u64::from(h)
         }
     );
+    Ok(())
+}
+
+fn check(path: &Path, head: Option<&Path>) -> Result<()> {
+    let (asset, _) = read_asset(path)?;
+    let dir = if path.is_dir() { path } else { path.parent().unwrap_or(Path::new(".")) };
+    let head = match head {
+        Some(h) => h.to_owned(),
+        None => asset.provenance.as_ref().and_then(|p| p.locate(dir)).with_context(|| {
+            format!(
+                "{}: the asset names no scalp file that exists here; give the head with --head",
+                path.display()
+            )
+        })?,
+    };
+    let mesh = hairmesh::import::load_scalp(&head, &hairmesh::ScalpSelector::All)?;
+    let surface = hairmesh::head::HeadSurface::from_mesh(&mesh);
+    let c = step("checking the strands", || Ok(hairmesh::head::check_strands(&asset, &surface)))?;
+    let share = |n: u64| 100.0 * n as f64 / c.strands.max(1) as f64;
+    println!("{} against {}", path.display(), head.display());
+    println!("strands:                  {}", c.strands);
+    println!("strands entering the head: {} ({:.2} %)", c.entering, share(c.entering));
+    if c.entering > 0 {
+        println!("deepest point inside:     {:.4} (file units)", c.deepest);
+    }
+    println!("hair-mesh vertices inside: {}", c.vertices_inside);
+    if c.entering > 0 || c.vertices_inside > 0 {
+        bail!(
+            "{}: {} of {} strands enter the head {}",
+            path.display(),
+            c.entering,
+            c.strands,
+            head.display()
+        );
+    }
     Ok(())
 }
 
