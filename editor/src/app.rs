@@ -147,6 +147,10 @@ pub struct EditorApp {
     pub mirror_x: bool,
     /// Soft-selection radius as a fraction of the hair's length (0: off).
     pub soft_radius: f64,
+    /// Painting the scalp: the head's faces and the selection (while the mode is on).
+    pub scalp_paint: Option<crate::scalp_paint::ScalpPaint>,
+    /// The scalp brush's radius in viewport pixels.
+    pub brush_radius: f32,
     pub hovered_vertex: Option<u32>,
     /// The occluder's depth as the viewport sees it, and the view it was made for: the overlay
     /// hides and does not pick vertices behind the head.
@@ -229,6 +233,8 @@ impl EditorApp {
             show_overlay: true,
             mirror_x: false,
             soft_radius: 0.0,
+            scalp_paint: None,
+            brush_radius: 30.0,
             hovered_vertex: None,
             overlay_depth: None,
             selected_vertex: None,
@@ -896,12 +902,43 @@ impl EditorApp {
     }
 
     fn conversion_panel(&mut self, ui: &mut egui::Ui) {
+        // Scalp painting: the way to choose a scalp without typing a selector.
+        ui.horizontal(|ui| match &self.scalp_paint {
+            None => {
+                let can = self.doc.as_ref().and_then(Document::scalp_file).is_some();
+                if ui
+                    .add_enabled(can, egui::Button::new("Paint scalp"))
+                    .on_hover_text(
+                        "Paint the faces that grow hair with a brush; the hair is converted again from them",
+                    )
+                    .clicked()
+                {
+                    self.start_scalp_paint();
+                }
+            }
+            Some(paint) => {
+                ui.label(format!("{} faces painted", paint.count()));
+                if ui.button("Apply").clicked() {
+                    self.apply_scalp_paint();
+                } else if ui.button("Cancel").clicked() {
+                    self.scalp_paint = None;
+                }
+            }
+        });
+        if self.scalp_paint.is_some() {
+            ui.horizontal(|ui| {
+                let label = ui.label("Brush");
+                ui.add(egui::Slider::new(&mut self.brush_radius, 4.0..=200.0).suffix(" px"))
+                    .labelled_by(label.id);
+            });
+            ui.label("Drag to paint, Shift-drag to erase, Alt-drag to orbit.");
+        }
         let c = &mut self.convert;
         egui::Grid::new("conversion").num_columns(2).show(ui, |ui| {
             let l = ui.label("Scalp faces");
             ui.text_edit_singleline(&mut c.scalp)
                 .labelled_by(l.id)
-                .on_hover_text("all, name:NAME, above:NX,NY,NZ,OFFSET, sphere:CX,CY,CZ,R");
+                .on_hover_text("all, name:NAME, above:NX,NY,NZ,OFFSET, sphere:CX,CY,CZ,R, faces:LIST (Paint scalp writes it)");
             ui.end_row();
             let l = ui.label("Layers");
             ui.add(egui::DragValue::new(&mut c.layers).range(1..=hairmesh::hair_mesh::MAX_LAYERS))
@@ -1213,6 +1250,7 @@ impl EditorApp {
         }
         let primary = response.drag_started_by(egui::PointerButton::Primary);
         if primary
+            && self.scalp_paint.is_none()
             && self.show_overlay
             && let Some(v) = self.press_vertex.take()
         {
@@ -1244,7 +1282,9 @@ impl EditorApp {
                 moves = drag.sculpt.moves(moved.as_dvec3() - tip);
             }
             self.interacting = true;
-        } else if response.dragged_by(egui::PointerButton::Primary) {
+        } else if response.dragged_by(egui::PointerButton::Primary)
+            && (self.scalp_paint.is_none() || ui.input(|i| i.modifiers.alt))
+        {
             let d = response.drag_delta();
             self.camera.orbit(glam::Vec2::new(d.x, d.y));
             self.interacting = true;
@@ -1274,7 +1314,7 @@ impl EditorApp {
         }
 
         // Overlay: the outer layer's edges and vertices, the hovered or dragged column.
-        if self.show_overlay {
+        if self.show_overlay && self.scalp_paint.is_none() {
             let edge = Stroke::new(1.0, Color32::from_rgba_unmultiplied(120, 200, 255, 90));
             let far_edge = Stroke::new(1.0, Color32::from_rgba_unmultiplied(120, 200, 255, 22));
             for face in &mesh.faces {
@@ -1309,6 +1349,9 @@ impl EditorApp {
                 }
             }
         }
+        if self.scalp_paint.is_some() {
+            self.paint_scalp(ui, &response, &painter, rect, &projection, depth.as_deref());
+        }
         if !moves.is_empty()
             && let Some(doc) = self.doc.as_mut()
             && let Err(e) = doc.move_vertices(&moves, Some(Gesture::Drag))
@@ -1323,6 +1366,83 @@ impl EditorApp {
         }
         if frame_requested {
             self.frame_hair();
+        }
+    }
+
+    /// Scalp painting in the viewport: drag to add faces under the brush, Shift-drag to remove
+    /// them, Alt-drag to orbit; the painted faces are drawn over the head.
+    fn paint_scalp(
+        &mut self,
+        ui: &egui::Ui,
+        response: &egui::Response,
+        painter: &egui::Painter,
+        rect: Rect,
+        projection: &Projection,
+        depth: Option<&DepthGrid>,
+    ) {
+        let eye = self.camera.eye();
+        let radius = self.brush_radius;
+        let (alt, shift) = ui.input(|i| (i.modifiers.alt, i.modifiers.shift));
+        let Some(paint) = &mut self.scalp_paint else { return };
+        if response.dragged_by(egui::PointerButton::Primary)
+            && !alt
+            && let Some(pos) = response.interact_pointer_pos()
+        {
+            let centre = glam::Vec2::new(pos.x - rect.min.x, pos.y - rect.min.y);
+            paint.dab(projection, depth, eye, centre, radius, !shift);
+            self.interacting = true;
+        }
+        let fill = Color32::from_rgba_unmultiplied(255, 170, 60, 70);
+        let mut mesh = egui::Mesh::default();
+        for tri in paint.selected_triangles() {
+            let corners: Vec<Pos2> = tri
+                .iter()
+                .filter_map(|p| {
+                    projection.project(p.as_vec3()).map(|(px, _)| rect.min + Vec2::new(px.x, px.y))
+                })
+                .collect();
+            if let [a, b, c] = corners[..] {
+                let base = mesh.vertices.len() as u32;
+                for p in [a, b, c] {
+                    mesh.colored_vertex(p, fill);
+                }
+                mesh.add_triangle(base, base + 1, base + 2);
+            }
+        }
+        painter.add(egui::Shape::mesh(mesh));
+        if let Some(pos) = response.hover_pos() {
+            let colour =
+                if shift { Color32::from_rgb(255, 110, 90) } else { Color32::from_rgb(255, 200, 80) };
+            painter.circle_stroke(pos, radius, Stroke::new(1.5, colour));
+        }
+    }
+
+    /// Starts painting the scalp of the open scalp document (its file's faces, the current
+    /// selection to start from).
+    pub fn start_scalp_paint(&mut self) {
+        let Some(file) = self.doc.as_ref().and_then(Document::scalp_file) else {
+            self.error = Some("open a scalp mesh (.glb, .gltf, .obj) to paint its scalp".into());
+            return;
+        };
+        let selector = hairmesh::ScalpSelector::parse(&self.convert.scalp).unwrap_or_default();
+        match hairmesh::import::load_faces(&file, self.convert.references) {
+            Ok(mesh) => self.scalp_paint = Some(crate::scalp_paint::ScalpPaint::new(mesh, &selector)),
+            Err(e) => self.error = Some(e.to_string()),
+        }
+    }
+
+    /// Ends painting: the painted faces become the scalp selection and the head is converted
+    /// again with it.
+    pub fn apply_scalp_paint(&mut self) {
+        let Some(paint) = self.scalp_paint.take() else { return };
+        if paint.count() == 0 {
+            self.error = Some("no face is painted: paint the scalp first".into());
+            self.scalp_paint = Some(paint);
+            return;
+        }
+        self.convert.scalp = paint.selector().to_string();
+        if let Some(file) = self.doc.as_ref().and_then(Document::scalp_file) {
+            self.start_conversion(file);
         }
     }
 

@@ -13,6 +13,7 @@ pub mod camera;
 pub mod document;
 pub mod presets;
 pub mod preview;
+pub mod scalp_paint;
 pub mod sculpt;
 pub mod xwd;
 

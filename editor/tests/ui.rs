@@ -427,10 +427,76 @@ fn draped_presets_use_the_sample_heads_skull_centre(_: &gen_gpu::Context) -> Res
     Ok(())
 }
 
+/// A scripted brush stroke over the sample head adds the faces under it (facing the camera,
+/// not hidden by the head) to its scalp, and Apply converts the head again from them.
+fn scalp_painting_adds_the_faces_under_the_brush(_: &gen_gpu::Context) -> Result<()> {
+    use editor::scalp_paint::ScalpPaint;
+    use hairmesh::ScalpSelector;
+    let mut h = editor();
+    hairmesh::convert::sample_head::locate()?;
+    h.state_mut().open_sample_head();
+    settle(&mut h)?;
+    h.state_mut().start_scalp_paint();
+    h.step();
+    let before = h.state().scalp_paint.as_ref().context("paint mode")?.selected.clone();
+    let (rect, camera, radius) = (h.state().viewport_rect, h.state().camera, h.state().brush_radius);
+    let projection = Projection::new(&camera, glam::Vec2::new(rect.width(), rect.height()));
+    // A stroke across the middle of the view.
+    let path: Vec<egui::Pos2> =
+        (0..=8).map(|k| rect.center() + egui::vec2(-60.0 + 15.0 * k as f32, 10.0)).collect();
+    h.drag_at(path[0]);
+    h.step();
+    for p in &path[1..] {
+        h.hover_at(*p);
+        h.step();
+    }
+    h.drop_at(path[8]);
+    h.step();
+    let painted = h.state().scalp_paint.as_ref().context("paint mode")?.clone();
+    // What the brush can reach along that path, as the painter computes it.
+    let doc = h.state().doc.as_ref().context("doc")?;
+    let occluder = doc.occluder.as_ref().context("the head")?;
+    let positions: Vec<glam::Vec3> =
+        occluder.positions.iter().map(|p| glam::Vec3::new(p[0], p[1], p[2])).collect();
+    let depth = editor::camera::DepthGrid::rasterize(&projection, &positions, &occluder.indices);
+    let mut reach = ScalpPaint::new(painted.mesh.clone(), &ScalpSelector::Faces(vec![]));
+    for p in &path {
+        reach.dab(
+            &projection,
+            Some(&depth),
+            camera.eye(),
+            glam::Vec2::new(p.x - rect.min.x, p.y - rect.min.y),
+            radius,
+            true,
+        );
+    }
+    let added: Vec<usize> = (0..before.len()).filter(|&i| painted.selected[i] && !before[i]).collect();
+    ensure!(added.len() > 20, "the stroke added {} faces", added.len());
+    ensure!(added.iter().all(|&i| reach.selected[i]), "a face outside the brush's reach was painted");
+    ensure!((0..before.len()).all(|i| !before[i] || painted.selected[i]), "painting removed faces");
+    // Apply: the painted faces are the scalp the head is converted with.
+    h.state_mut().apply_scalp_paint();
+    settle(&mut h)?;
+    let selector = painted.selector().to_string();
+    ensure!(
+        h.state().convert.scalp == selector && selector.starts_with("faces:"),
+        "{}",
+        h.state().convert.scalp
+    );
+    let asset = h.state().doc.as_ref().context("doc")?.asset().clone();
+    ensure!(
+        asset.provenance.as_ref().is_some_and(|p| p.selector == selector),
+        "the provenance keeps the faces"
+    );
+    ensure!(hair_pixels(&h) > 500, "no hair after converting the painted scalp");
+    Ok(())
+}
+
 fn main() -> std::process::ExitCode {
     let t = |name: &str, f: fn(&gen_gpu::Context) -> Result<()>| GpuTest::new(name, Requirements::NONE, f);
     run_gpu_tests(vec![
         t("presets_convert_and_render", presets_convert_and_render),
+        t("scalp_painting_adds_the_faces_under_the_brush", scalp_painting_adds_the_faces_under_the_brush),
         t(
             "draped_presets_use_the_sample_heads_skull_centre",
             draped_presets_use_the_sample_heads_skull_centre,

@@ -35,19 +35,28 @@ pub fn load_scalp(path: &Path, selector: &ScalpSelector) -> Result<ScalpMesh> {
     load_scalp_with(path, selector, References::InsideFolder)
 }
 
+/// Every face of the file as imported, before a selection and before welding: the faces a
+/// `faces:` selector ([`ScalpSelector::Faces`]) numbers, as the editor's scalp brush paints
+/// them.
+pub fn load_faces(path: &Path, references: References) -> Result<ScalpMesh> {
+    import(path, &ScalpSelector::All, references)
+}
+
+fn import(path: &Path, selector: &ScalpSelector, references: References) -> Result<ScalpMesh> {
+    let ext = path.extension().and_then(|e| e.to_str()).map(str::to_ascii_lowercase).unwrap_or_default();
+    match ext.as_str() {
+        "gltf" | "glb" => load_gltf(path, selector, references),
+        "obj" => load_obj(path, selector),
+        _ => Err(HairMeshError::Format {
+            path: path.into(),
+            message: "unknown file type (expected .gltf, .glb or .obj)".into(),
+        }),
+    }
+}
+
 /// [`load_scalp`], with the glTF's buffers read from where `references` allows.
 pub fn load_scalp_with(path: &Path, selector: &ScalpSelector, references: References) -> Result<ScalpMesh> {
-    let ext = path.extension().and_then(|e| e.to_str()).map(str::to_ascii_lowercase).unwrap_or_default();
-    let mut mesh = match ext.as_str() {
-        "gltf" | "glb" => load_gltf(path, selector, references)?,
-        "obj" => load_obj(path, selector)?,
-        _ => {
-            return Err(HairMeshError::Format {
-                path: path.into(),
-                message: "unknown file type (expected .gltf, .glb or .obj)".into(),
-            });
-        }
-    };
+    let mut mesh = import(path, selector, references)?;
     if mesh.positions.iter().any(|p| !p.is_finite()) {
         return Err(HairMeshError::Format {
             path: path.into(),

@@ -33,7 +33,13 @@ pub enum ScalpSelector {
     AbovePlane { normal: DVec3, offset: f64 },
     /// Faces whose centroid lies inside the sphere.
     InSphere { center: DVec3, radius: f64 },
+    /// These faces of the file, by their index in import order (what the editor's scalp brush
+    /// paints; sorted, without repeats).
+    Faces(Vec<u32>),
 }
+
+/// Most faces a `faces:` selector may list.
+pub const MAX_SELECTED_FACES: usize = 1 << 24;
 
 /// The CLI form ([`ScalpSelector::parse`] reads it back).
 impl std::fmt::Display for ScalpSelector {
@@ -43,6 +49,7 @@ impl std::fmt::Display for ScalpSelector {
             Self::Named(name) => write!(f, "name:{name}"),
             Self::AbovePlane { normal: n, offset } => write!(f, "above:{},{},{},{offset}", n.x, n.y, n.z),
             Self::InSphere { center: c, radius } => write!(f, "sphere:{},{},{},{radius}", c.x, c.y, c.z),
+            Self::Faces(faces) => write!(f, "faces:{}", face_ranges(faces)),
         }
     }
 }
@@ -64,6 +71,29 @@ impl ScalpSelector {
         if text == "all" {
             return Ok(Self::All);
         }
+        if let Some(list) = text.strip_prefix("faces:") {
+            let mut faces = Vec::new();
+            for part in list.split(',').map(str::trim).filter(|p| !p.is_empty()) {
+                let index =
+                    |s: &str| s.trim().parse::<u32>().map_err(|e| bad(format!("`{s}` in `faces:`: {e}")));
+                let (a, b) = match part.split_once('-') {
+                    Some((a, b)) => (index(a)?, index(b)?),
+                    None => (index(part)?, index(part)?),
+                };
+                if a > b || faces.len() + (b - a) as usize >= MAX_SELECTED_FACES {
+                    return Err(bad(format!(
+                        "`{part}` in `faces:`: a range START-END with START ≤ END, and at most {MAX_SELECTED_FACES} faces"
+                    )));
+                }
+                faces.extend(a..=b);
+            }
+            faces.sort_unstable();
+            faces.dedup();
+            if faces.is_empty() {
+                return Err(bad("`faces:` lists no face".into()));
+            }
+            return Ok(Self::Faces(faces));
+        }
         if let Some(name) = text.strip_prefix("name:") {
             return Ok(Self::Named(name.to_owned()));
         }
@@ -82,14 +112,16 @@ impl ScalpSelector {
             }
             return Ok(Self::InSphere { center: DVec3::new(v[0], v[1], v[2]), radius: v[3] });
         }
-        Err(bad(format!("`{text}` (expected all, name:NAME, above:NX,NY,NZ,OFFSET or sphere:CX,CY,CZ,R)")))
+        Err(bad(format!(
+            "`{text}` (expected all, name:NAME, above:NX,NY,NZ,OFFSET, sphere:CX,CY,CZ,R or faces:LIST)"
+        )))
     }
 
     /// Whether a face with this centroid is kept by a spatial predicate (`Named` and `All`
     /// keep everything here; names are applied while importing).
     pub fn keeps_centroid(&self, c: DVec3) -> bool {
         match self {
-            Self::All | Self::Named(_) => true,
+            Self::All | Self::Named(_) | Self::Faces(_) => true,
             Self::AbovePlane { normal, offset } => normal.dot(c) > *offset,
             Self::InSphere { center, radius } => c.distance_squared(*center) < radius * radius,
         }
@@ -109,7 +141,18 @@ impl ScalpMesh {
 
     /// Keeps the faces a spatial selector accepts, then drops unused vertices.
     pub fn select(&mut self, selector: &ScalpSelector) {
-        let keep: Vec<bool> = self.faces.iter().map(|f| selector.keeps_centroid(self.centroid(f))).collect();
+        let keep: Vec<bool> = match selector {
+            ScalpSelector::Faces(list) => {
+                let mut keep = vec![false; self.faces.len()];
+                for &f in list {
+                    if let Some(k) = keep.get_mut(f as usize) {
+                        *k = true;
+                    }
+                }
+                keep
+            }
+            _ => self.faces.iter().map(|f| selector.keeps_centroid(self.centroid(f))).collect(),
+        };
         let mut i = 0;
         self.faces.retain(|_| {
             i += 1;
@@ -221,8 +264,41 @@ impl ScalpMesh {
     }
 }
 
+/// `0-12,15,20-22`: sorted face indices as ranges.
+fn face_ranges(faces: &[u32]) -> String {
+    let mut parts = Vec::new();
+    let mut i = 0;
+    while i < faces.len() {
+        let mut j = i;
+        while j + 1 < faces.len() && faces[j + 1] == faces[j] + 1 {
+            j += 1;
+        }
+        parts.push(if i == j { faces[i].to_string() } else { format!("{}-{}", faces[i], faces[j]) });
+        i = j + 1;
+    }
+    parts.join(",")
+}
+
 #[cfg(test)]
 mod tests {
+
+    #[test]
+    fn painted_faces_round_trip_as_ranges_and_select_by_index() {
+        let selector = ScalpSelector::parse("faces:5,0-3,4,9, 11-12,3").expect("parses");
+        assert_eq!(selector, ScalpSelector::Faces(vec![0, 1, 2, 3, 4, 5, 9, 11, 12]));
+        assert_eq!(selector.to_string(), "faces:0-5,9,11-12");
+        assert_eq!(ScalpSelector::parse(&selector.to_string()).expect("again"), selector);
+        for bad in ["faces:", "faces:3-1", "faces:x", "faces:0-4294967295"] {
+            assert!(ScalpSelector::parse(bad).is_err(), "{bad}");
+        }
+        let mut mesh = crate::procedural::head_cap(4, 8);
+        let all = mesh.faces.clone();
+        mesh.select(&ScalpSelector::Faces(vec![1, 3, 1000]));
+        assert_eq!(mesh.faces.len(), 2);
+        let corners = |f: &Vec<u32>| f.len();
+        assert_eq!(mesh.faces.iter().map(corners).collect::<Vec<_>>(), [all[1].len(), all[3].len()]);
+    }
+
     use super::*;
 
     #[test]
