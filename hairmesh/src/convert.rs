@@ -223,18 +223,21 @@ pub fn convert_scalp(
         LayerShape::MorphTargets => LayerSource::MorphTargets,
     };
     progress("building the hair mesh");
-    let mut hm = match layers {
-        LayerSource::Extruded(e) => HairMesh::extrude(&scalp, &e)?,
-        LayerSource::Draped(d) => HairMesh::drape(&scalp, &d)?,
-        LayerSource::MorphTargets => HairMesh::from_morph_targets(&scalp)?,
-    };
     // The whole file is the head the hair must stay out of (the scalp is only part of it).
     let head = if settings.scalp == "all" {
         scalp.clone()
     } else {
         load_scalp_with(input, &ScalpSelector::All, settings.references)?
     };
-    let pushed_out = keep_outside(&mut hm, &crate::head::HeadSurface::from_mesh(&head));
+    let head = crate::head::HeadSurface::from_mesh(&head);
+    let (lo, hi) = head.bounds();
+    let clearance = HEAD_CLEARANCE * lo.distance(hi);
+    let mut hm = match layers {
+        LayerSource::Extruded(e) => HairMesh::extrude(&scalp, &e)?,
+        LayerSource::Draped(d) => HairMesh::drape_over(&scalp, &d, Some((&head, clearance)))?,
+        LayerSource::MorphTargets => HairMesh::from_morph_targets(&scalp)?,
+    };
+    let pushed_out = keep_outside(&mut hm, &head);
     let params = AssetParams {
         strands: match settings.density {
             Some(d) => StrandCount::Density(d),

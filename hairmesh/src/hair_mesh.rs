@@ -153,6 +153,17 @@ impl HairMesh {
     /// that line hangs from its root. Roots keep their positions; neighbouring roots get
     /// neighbouring paths, so bundles stay well shaped.
     pub fn drape(scalp: &ScalpMesh, params: &DrapeParams) -> Result<Self> {
+        Self::drape_over(scalp, params, None)
+    }
+
+    /// [`HairMesh::drape`] over a head: every step of the march that would enter `head` (or come
+    /// closer than `clearance`) is moved out onto it, so hair slides over ears and shoulders
+    /// instead of through them.
+    pub fn drape_over(
+        scalp: &ScalpMesh,
+        params: &DrapeParams,
+        head: Option<(&crate::head::HeadSurface, f64)>,
+    ) -> Result<Self> {
         let bad = |message: String| HairMeshError::InvalidParameter { what: "drape", message };
         if params.layers == 0 || params.layers > MAX_LAYERS {
             return Err(bad(format!("{} layers (expected 1..={MAX_LAYERS})", params.layers)));
@@ -189,6 +200,9 @@ impl HairMesh {
                     s += ds;
                     if hanging {
                         p += gravity * ds;
+                        if let Some(q) = head.and_then(|(h, clearance)| h.push_out(p, clearance)) {
+                            p = q;
+                        }
                         continue;
                     }
                     let radius = (radius0 + params.lift * s).max(1e-12);
@@ -199,6 +213,9 @@ impl HairMesh {
                     let angle = (ds / radius).min(dir.angle_between(flow));
                     dir = glam::DQuat::from_axis_angle(axis, angle).mul_vec3(dir).normalize();
                     p = params.centre + dir * radius;
+                    if let Some(q) = head.and_then(|(h, clearance)| h.push_out(p, clearance)) {
+                        p = q;
+                    }
                     hanging = dir.dot(gravity) >= 0.0;
                 }
                 layer.push(p);

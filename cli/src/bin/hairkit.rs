@@ -327,7 +327,14 @@ fn demo(o: &DemoOptions, device: &DeviceArgs) -> Result<()> {
         .with_context(|| format!("writing into {}", o.out.display()))?;
     let people = demo_people(o.data.as_deref(), &o.out)?;
     let (head, scalp) = (people.head, people.scalp);
-    let long = HairMesh::drape(
+    // The long hair slides over the whole head mesh (ears, shoulders), not only around the skull.
+    let head_surface = hairmesh::head::HeadSurface::from_mesh(
+        &hairmesh::import::load_scalp(&head, &hairmesh::ScalpSelector::All)
+            .with_context(|| format!("{}", head.display()))?,
+    );
+    let (lo, hi) = head_surface.bounds();
+    let clearance = hairmesh::convert::HEAD_CLEARANCE * lo.distance(hi);
+    let mut long = HairMesh::drape_over(
         &scalp,
         &DrapeParams {
             layers: 6,
@@ -337,7 +344,9 @@ fn demo(o: &DemoOptions, device: &DeviceArgs) -> Result<()> {
             gravity: glam::DVec3::NEG_Y,
             comb: glam::DVec3::new(0.0, 0.0, -2.5),
         },
+        Some((&head_surface, clearance)),
     )?;
+    hairmesh::convert::keep_outside(&mut long, &head_surface);
     let short = HairMesh::extrude(
         &scalp,
         &ExtrudeParams { layers: 3, length: 0.45, droop: 0.5, ..ExtrudeParams::default() },
