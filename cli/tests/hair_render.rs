@@ -74,6 +74,15 @@ fn main() -> ExitCode {
                     }),
                     "characters[0].occluder.mesh",
                 ),
+                // A folder where a mesh belongs (the long fuzz run found `"mesh": "."`): named once,
+                // with the scene and the field.
+                (
+                    "occluder_folder.json",
+                    Box::new(|v| {
+                        v["characters"][0]["occluder"] = serde_json::json!({ "mesh": "." });
+                    }),
+                    "is a folder, not a mesh file",
+                ),
                 (
                     "point_shadow.json",
                     Box::new(|v| {

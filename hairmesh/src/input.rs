@@ -37,7 +37,9 @@ fn invalid(message: String) -> std::io::Error {
     std::io::Error::new(std::io::ErrorKind::InvalidInput, message)
 }
 
-fn kind_of(meta: &std::fs::Metadata) -> &'static str {
+/// What a path is, in words, for messages: "a folder", "a named pipe", "a device", "a socket",
+/// "a file".
+pub fn describe(meta: &std::fs::Metadata) -> &'static str {
     use std::os::unix::fs::FileTypeExt;
     let t = meta.file_type();
     if t.is_dir() {
@@ -49,7 +51,7 @@ fn kind_of(meta: &std::fs::Metadata) -> &'static str {
     } else if t.is_socket() {
         "a socket"
     } else {
-        "not a regular file"
+        "a file"
     }
 }
 
@@ -59,12 +61,12 @@ pub fn open_regular(path: &Path) -> std::io::Result<File> {
     use std::os::unix::fs::OpenOptionsExt;
     let meta = std::fs::metadata(path)?;
     if !meta.is_file() {
-        return Err(invalid(format!("is {}, not a regular file", kind_of(&meta))));
+        return Err(invalid(format!("is {}, not a regular file", describe(&meta))));
     }
     let file = std::fs::OpenOptions::new().read(true).custom_flags(libc::O_NONBLOCK).open(path)?;
     let meta = file.metadata()?;
     if !meta.is_file() {
-        return Err(invalid(format!("is {}, not a regular file", kind_of(&meta))));
+        return Err(invalid(format!("is {}, not a regular file", describe(&meta))));
     }
     Ok(file)
 }

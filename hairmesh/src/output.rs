@@ -182,23 +182,6 @@ fn is_asset_manifest(path: &Path) -> bool {
     serde_json::from_slice::<Format>(&bytes).is_ok_and(|f| f.format == crate::asset_io::FORMAT)
 }
 
-/// What `path` is, when it is not what is expected: for error messages.
-fn describe(meta: &std::fs::Metadata) -> &'static str {
-    use std::os::unix::fs::FileTypeExt;
-    let t = meta.file_type();
-    if t.is_dir() {
-        "a folder"
-    } else if t.is_fifo() {
-        "a named pipe"
-    } else if t.is_char_device() || t.is_block_device() {
-        "a device"
-    } else if t.is_socket() {
-        "a socket"
-    } else {
-        "a file"
-    }
-}
-
 /// May a hair asset be written to the folder `dir` (replacing what is there)?
 pub fn check_asset_folder(dir: &Path, inputs: &[&Path], replace: Replace) -> Result<(), OutputError> {
     check_inputs(dir, inputs)?;
@@ -209,7 +192,7 @@ pub fn check_asset_folder(dir: &Path, inputs: &[&Path], replace: Replace) -> Res
             _ => Err(OutputError::NotOwnOutput {
                 path: dir.to_owned(),
                 what: "a hair asset folder".into(),
-                found: format!("it is {}", describe(&meta)),
+                found: format!("it is {}", crate::input::describe(&meta)),
             }),
         };
     }
@@ -257,7 +240,7 @@ pub fn check_command_folder(
     if !meta.is_dir() {
         return Err(OutputError::Unusable {
             path: dir.to_owned(),
-            problem: format!("it is {}", describe(&meta)),
+            problem: format!("it is {}", crate::input::describe(&meta)),
         });
     }
     let names = entries(dir)?;
@@ -366,7 +349,7 @@ pub fn check_file(
     if !meta.is_file() {
         return Err(OutputError::Unusable {
             path: path.to_owned(),
-            problem: format!("it is {}, not a file", describe(&meta)),
+            problem: format!("it is {}, not a file", crate::input::describe(&meta)),
         });
     }
     if meta.len() == 0 || kind.recognizes(path) {

@@ -7,7 +7,7 @@ use crate::scene::SceneError;
 pub enum RenderError {
     #[error(transparent)]
     Scene(#[from] SceneError),
-    #[error("{path}: {source}")]
+    #[error("{}", asset_message(path, source))]
     Asset {
         path: std::path::PathBuf,
         #[source]
@@ -27,4 +27,10 @@ pub enum RenderError {
     Animation { path: std::path::PathBuf, message: String },
     #[error("{path}: lights[{light}]: {message}")]
     Light { path: std::path::PathBuf, light: usize, message: String },
+}
+
+/// An asset error names its file once: hairmesh's errors mostly start with the path already.
+fn asset_message(path: &std::path::Path, source: &hairmesh::HairMeshError) -> String {
+    let text = source.to_string();
+    if text.contains(&path.display().to_string()) { text } else { format!("{}: {text}", path.display()) }
 }

@@ -921,11 +921,12 @@ fn validate_with(loaded: &LoadedScene, characters: bool) -> Result<(), SceneErro
             finite(&format!("{field}.occluder.color"), &occluder.color)?;
             validate_transform(&format!("{field}.occluder.transform"), &occluder.transform)?;
             let mesh = loaded.resolve(&occluder.mesh);
-            if !mesh.exists() {
-                return Err(invalid(
-                    &format!("{field}.occluder.mesh"),
-                    format!("{} does not exist", mesh.display()),
-                ));
+            if !mesh.is_file() {
+                let what = match std::fs::metadata(&mesh) {
+                    Ok(m) => format!("is {}, not a mesh file", hairmesh::input::describe(&m)),
+                    Err(_) => "does not exist".into(),
+                };
+                return Err(invalid(&format!("{field}.occluder.mesh"), format!("{} {what}", mesh.display())));
             }
         }
     }

@@ -9,8 +9,8 @@
 //! conversion's options and style (as `hairmesh convert` and the editor pass them) and a
 //! scene's style overrides. The suite runs a fixed
 //! number of cases per loader from a fixed seed (reproducible); a longer run:
-//! `HAIRKIT_FUZZ_CASES=20000 cargo test --release -p hairkit-tests --test fuzz` (about a
-//! minute here). A failure prints the mutations that caused it (shrunk): add the mutated file
+//! `HAIRKIT_FUZZ_CASES=20000 cargo test --release -p hairkit-tests --test fuzz` (a few
+//! minutes on two cores). A failure prints the mutations that caused it (shrunk): add the mutated file
 //! as a regression test. Found so far: an EXR header that made the decoder allocate 791 TB
 //! (asset textures are now checked from their header first) and an OBJ face index that
 //! overflowed inside tobj (face indices are now checked first).
