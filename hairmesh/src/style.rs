@@ -159,30 +159,36 @@ impl Style {
     /// stated. Lengths are object units; a range wide enough for any head's units still keeps
     /// the generator's arithmetic finite.
     pub fn fields(&self) -> [(&'static str, f64, std::ops::RangeInclusive<f64>); 18] {
+        let mut copy = *self;
+        copy.fields_mut().map(|(name, value, range)| (name, *value, range))
+    }
+
+    /// [`Style::fields`], each value to be changed in place.
+    fn fields_mut(&mut self) -> [(&'static str, &mut f64, std::ops::RangeInclusive<f64>); 18] {
         const LENGTH: std::ops::RangeInclusive<f64> = 0.0..=1e4;
         const PER_LENGTH: std::ops::RangeInclusive<f64> = 0.0..=1e4;
         const FRACTION: std::ops::RangeInclusive<f64> = 0.0..=1.0;
         const EXPONENT: std::ops::RangeInclusive<f64> = 0.0..=64.0;
         [
             // Hair of width 0 would silently vanish.
-            ("width", self.width, 1e-9..=1e4),
-            ("tip_width", self.tip_width, 0.0..=16.0),
-            ("root_fade", self.root_fade, FRACTION),
-            ("length_variation", self.length_variation, FRACTION),
-            ("curl.radius", self.curl.radius, LENGTH),
-            ("curl.frequency", self.curl.frequency, PER_LENGTH),
-            ("curl.phase", self.curl.phase, -1e6..=1e6),
-            ("wave.amplitude", self.wave.amplitude, LENGTH),
-            ("wave.frequency", self.wave.frequency, PER_LENGTH),
-            ("wave.coherence", self.wave.coherence, FRACTION),
-            ("frizz.amplitude", self.frizz.amplitude, LENGTH),
-            ("frizz.frequency", self.frizz.frequency, PER_LENGTH),
-            ("frizz.exponent", self.frizz.exponent, EXPONENT),
-            ("clump.strength", self.clump.strength, FRACTION),
-            ("clump.exponent", self.clump.exponent, EXPONENT),
-            ("twist", self.twist, -1e4..=1e4),
-            ("stray.fraction", self.stray.fraction, FRACTION),
-            ("stray.amplitude", self.stray.amplitude, LENGTH),
+            ("width", &mut self.width, 1e-9..=1e4),
+            ("tip_width", &mut self.tip_width, 0.0..=16.0),
+            ("root_fade", &mut self.root_fade, FRACTION),
+            ("length_variation", &mut self.length_variation, FRACTION),
+            ("curl.radius", &mut self.curl.radius, LENGTH),
+            ("curl.frequency", &mut self.curl.frequency, PER_LENGTH),
+            ("curl.phase", &mut self.curl.phase, -1e6..=1e6),
+            ("wave.amplitude", &mut self.wave.amplitude, LENGTH),
+            ("wave.frequency", &mut self.wave.frequency, PER_LENGTH),
+            ("wave.coherence", &mut self.wave.coherence, FRACTION),
+            ("frizz.amplitude", &mut self.frizz.amplitude, LENGTH),
+            ("frizz.frequency", &mut self.frizz.frequency, PER_LENGTH),
+            ("frizz.exponent", &mut self.frizz.exponent, EXPONENT),
+            ("clump.strength", &mut self.clump.strength, FRACTION),
+            ("clump.exponent", &mut self.clump.exponent, EXPONENT),
+            ("twist", &mut self.twist, -1e4..=1e4),
+            ("stray.fraction", &mut self.stray.fraction, FRACTION),
+            ("stray.amplitude", &mut self.stray.amplitude, LENGTH),
         ]
     }
 
@@ -195,29 +201,9 @@ impl Style {
     /// what an editor applies after a value was typed in.
     #[must_use]
     pub fn clamped(mut self) -> Self {
-        let fix = |v: &mut f64, field: &str| {
-            if let Some(r) = Self::range(field) {
-                *v = if v.is_nan() { *r.start() } else { v.clamp(*r.start(), *r.end()) };
-            }
-        };
-        fix(&mut self.width, "width");
-        fix(&mut self.tip_width, "tip_width");
-        fix(&mut self.root_fade, "root_fade");
-        fix(&mut self.length_variation, "length_variation");
-        fix(&mut self.curl.radius, "curl.radius");
-        fix(&mut self.curl.frequency, "curl.frequency");
-        fix(&mut self.curl.phase, "curl.phase");
-        fix(&mut self.wave.amplitude, "wave.amplitude");
-        fix(&mut self.wave.frequency, "wave.frequency");
-        fix(&mut self.wave.coherence, "wave.coherence");
-        fix(&mut self.frizz.amplitude, "frizz.amplitude");
-        fix(&mut self.frizz.frequency, "frizz.frequency");
-        fix(&mut self.frizz.exponent, "frizz.exponent");
-        fix(&mut self.clump.strength, "clump.strength");
-        fix(&mut self.clump.exponent, "clump.exponent");
-        fix(&mut self.twist, "twist");
-        fix(&mut self.stray.fraction, "stray.fraction");
-        fix(&mut self.stray.amplitude, "stray.amplitude");
+        for (_, value, range) in self.fields_mut() {
+            *value = if value.is_nan() { *range.start() } else { value.clamp(*range.start(), *range.end()) };
+        }
         self
     }
 
