@@ -71,8 +71,7 @@ impl TipDrag {
     /// Keeps every moved vertex [`HEAD_MARGIN`] × the head's size outside `head`.
     #[must_use]
     pub fn outside(mut self, head: Arc<HeadSurface>) -> Self {
-        let (lo, hi) = head.bounds();
-        let margin = HEAD_MARGIN * lo.distance(hi);
+        let margin = HEAD_MARGIN * head.size();
         self.head = Some((head, margin));
         self
     }
@@ -131,8 +130,7 @@ mod tests {
         )
         .expect("extrudes");
         let head = Arc::new(HeadSurface::from_mesh(&scalp));
-        let (lo, hi) = head.bounds();
-        let margin = HEAD_MARGIN * lo.distance(hi);
+        let margin = HEAD_MARGIN * head.size();
         let tip = mesh.layers.len() - 1;
         // The topmost tip, dragged down through the crown with a wide soft selection.
         let v = (0..mesh.vertex_count())

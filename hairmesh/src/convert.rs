@@ -18,7 +18,7 @@ use serde::{Deserialize, Serialize};
 
 use crate::asset::{AssetParams, HairAsset, LayerSource, ScalpProvenance, StrandCount};
 use crate::hair_mesh::{DrapeParams, ExtrudeParams, HairMesh};
-use crate::import::load_scalp_with;
+use crate::import::load_scalp_and_head;
 use crate::input::References;
 use crate::style::Style;
 use crate::texture::SliceLayout;
@@ -195,7 +195,8 @@ pub fn convert_scalp(
 ) -> Result<Converted> {
     let selector = ScalpSelector::parse(&settings.scalp)?;
     progress(&format!("importing {}", input.display()));
-    let scalp = load_scalp_with(input, &selector, settings.references)?;
+    // The whole file is the head the hair must stay out of (the scalp is only part of it).
+    let (scalp, head) = load_scalp_and_head(input, &selector, settings.references)?;
     let Some((lo, hi)) = scalp.bounds() else {
         return Err(HairMeshError::InvalidParameter {
             what: "scalp",
@@ -223,18 +224,10 @@ pub fn convert_scalp(
         LayerShape::MorphTargets => LayerSource::MorphTargets,
     };
     progress("building the hair mesh");
-    // The whole file is the head the hair must stay out of (the scalp is only part of it).
-    let head = if settings.scalp == "all" {
-        scalp.clone()
-    } else {
-        load_scalp_with(input, &ScalpSelector::All, settings.references)?
-    };
     let head = crate::head::HeadSurface::from_mesh(&head);
-    let (lo, hi) = head.bounds();
-    let clearance = HEAD_CLEARANCE * lo.distance(hi);
     let mut hm = match layers {
         LayerSource::Extruded(e) => HairMesh::extrude(&scalp, &e)?,
-        LayerSource::Draped(d) => HairMesh::drape_over(&scalp, &d, Some((&head, clearance)))?,
+        LayerSource::Draped(d) => HairMesh::drape_over(&scalp, &d, Some((&head, clearance(&head))))?,
         LayerSource::MorphTargets => HairMesh::from_morph_targets(&scalp)?,
     };
     let pushed_out = keep_outside(&mut hm, &head);
@@ -257,11 +250,15 @@ pub fn convert_scalp(
 /// How close to the head a hair-mesh vertex may come, as a fraction of the head's size.
 pub const HEAD_CLEARANCE: f64 = 1e-3;
 
+/// [`HEAD_CLEARANCE`] × the size of `head`: how far out of it hair is kept.
+pub fn clearance(head: &crate::head::HeadSurface) -> f64 {
+    HEAD_CLEARANCE * head.size()
+}
+
 /// Moves every hair-mesh vertex above the roots that lies inside `head`, or closer than
 /// [`HEAD_CLEARANCE`] × its size, out to that clearance; returns how many moved.
 pub fn keep_outside(hm: &mut HairMesh, head: &crate::head::HeadSurface) -> usize {
-    let (lo, hi) = head.bounds();
-    let margin = HEAD_CLEARANCE * lo.distance(hi);
+    let margin = clearance(head);
     let mut moved = 0;
     for layer in hm.layers.iter_mut().skip(1) {
         for p in layer.iter_mut() {

@@ -147,6 +147,12 @@ impl HeadSurface {
         (self.lo, self.lo + size)
     }
 
+    /// The size the margins and tolerances scale with: the diagonal of [`HeadSurface::bounds`].
+    pub fn size(&self) -> f64 {
+        let (lo, hi) = self.bounds();
+        lo.distance(hi)
+    }
+
     /// The nearest point of the surface to `p`; `None` for a surface without triangles or a
     /// non-finite `p`.
     pub fn nearest(&self, p: DVec3) -> Option<Nearest> {
@@ -310,8 +316,7 @@ pub struct StrandCheck {
 /// styled positions) and counts those that enter `head`.
 pub fn check_strands(asset: &crate::asset::HairAsset, head: &HeadSurface) -> StrandCheck {
     use rayon::prelude::*;
-    let (lo, hi) = head.bounds();
-    let tolerance = CHECK_TOLERANCE * lo.distance(hi);
+    let tolerance = CHECK_TOLERANCE * head.size();
     let per_bundle: Vec<StrandCheck> = (0..asset.bundles.len() as u32)
         .into_par_iter()
         .map(|b| {

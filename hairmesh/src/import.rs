@@ -56,7 +56,27 @@ fn import(path: &Path, selector: &ScalpSelector, references: References) -> Resu
 
 /// [`load_scalp`], with the glTF's buffers read from where `references` allows.
 pub fn load_scalp_with(path: &Path, selector: &ScalpSelector, references: References) -> Result<ScalpMesh> {
-    let mut mesh = import(path, selector, references)?;
+    finish(path, import(path, selector, references)?, selector)
+}
+
+/// [`load_scalp_with`], and the whole file as the head the scalp belongs to (every face,
+/// welded), from one reading of the file (a `name:` selector is applied while importing, so
+/// it reads the file again).
+pub fn load_scalp_and_head(
+    path: &Path,
+    selector: &ScalpSelector,
+    references: References,
+) -> Result<(ScalpMesh, ScalpMesh)> {
+    let whole = import(path, &ScalpSelector::All, references)?;
+    let scalp = match selector {
+        ScalpSelector::Named(_) => import(path, selector, references)?,
+        _ => whole.clone(),
+    };
+    Ok((finish(path, scalp, selector)?, finish(path, whole, &ScalpSelector::All)?))
+}
+
+/// An imported mesh checked, its selected faces kept and welded.
+fn finish(path: &Path, mut mesh: ScalpMesh, selector: &ScalpSelector) -> Result<ScalpMesh> {
     if mesh.positions.iter().any(|p| !p.is_finite()) {
         return Err(HairMeshError::Format {
             path: path.into(),

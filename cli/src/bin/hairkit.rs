@@ -332,8 +332,7 @@ fn demo(o: &DemoOptions, device: &DeviceArgs) -> Result<()> {
         &hairmesh::import::load_scalp(&head, &hairmesh::ScalpSelector::All)
             .with_context(|| format!("{}", head.display()))?,
     );
-    let (lo, hi) = head_surface.bounds();
-    let clearance = hairmesh::convert::HEAD_CLEARANCE * lo.distance(hi);
+    let clearance = hairmesh::convert::clearance(&head_surface);
     let mut long = HairMesh::drape_over(
         &scalp,
         &DrapeParams {
