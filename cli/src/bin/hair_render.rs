@@ -174,10 +174,10 @@ fn run(cli: &Cli) -> Result<()> {
         ),
         None => cli.frames.end,
     };
-    check_outputs(cli, &scene, length)?;
+    let cache_path = cli.sim_cache.clone().unwrap_or_else(|| cli.scene.with_extension("sim"));
+    let image_kind = check_outputs(cli, &scene, length, &cache_path)?;
     let mut instance = render::instance::SceneInstance::load(&scene)?;
     let animation = render::animation::Animation::new(&mut instance)?;
-    let cache_path = cli.sim_cache.clone().unwrap_or_else(|| cli.scene.with_extension("sim"));
     if cli.simulate {
         if animation.dynamic_characters() == 0 {
             anyhow::bail!("--simulate: {} has no character with dynamics", cli.scene.display());
@@ -229,14 +229,7 @@ fn run(cli: &Cli) -> Result<()> {
         print!("{}", renderer.graph());
     }
     let Some(out) = &cli.out else { return Ok(()) };
-    let exr = match out.extension().and_then(|e| e.to_str()).map(str::to_ascii_lowercase).as_deref() {
-        Some("png") => false,
-        Some("exr") => true,
-        _ => anyhow::bail!("{}: the output must end in .png or .exr", out.display()),
-    };
-    if !exr && (cli.depth || cli.coverage) {
-        anyhow::bail!("--depth and --coverage need an .exr output (PNG is 8-bit sRGB colour)");
-    }
+    let exr = image_kind == Some(FileKind::Exr);
     // Hair-mesh positions per frame: from the cache when it holds the range, else simulated here.
     let cache = if animation.dynamic_characters() == 0 {
         None
@@ -421,13 +414,18 @@ fn run(cli: &Cli) -> Result<()> {
 
 /// Every file this run would write may be written (before anything is loaded or simulated):
 /// none is an input, and each is new or an earlier output of its kind unless `--force`.
-fn check_outputs(cli: &Cli, scene: &render::scene::LoadedScene, length: u32) -> Result<()> {
+/// Returns the kind of image `-o` asks for.
+fn check_outputs(
+    cli: &Cli,
+    scene: &render::scene::LoadedScene,
+    length: u32,
+    cache: &std::path::Path,
+) -> Result<Option<FileKind>> {
     let inputs = scene.input_files();
     let inputs: Vec<&std::path::Path> = inputs.iter().map(PathBuf::as_path).collect();
     let replace = Replace::from_force(cli.force);
     if cli.simulate {
-        let cache = cli.sim_cache.clone().unwrap_or_else(|| cli.scene.with_extension("sim"));
-        hairmesh::output::check_file(&cache, FileKind::SimCache, &inputs, replace)?;
+        hairmesh::output::check_file(cache, FileKind::SimCache, &inputs, replace)?;
     }
     if let Some(path) = &cli.stats_json {
         hairmesh::output::check_file(path, STATS_JSON, &inputs, replace)?;
@@ -436,6 +434,9 @@ fn check_outputs(cli: &Cli, scene: &render::scene::LoadedScene, length: u32) -> 
         let kind = FileKind::from_extension(out)
             .filter(|k| matches!(k, FileKind::Png | FileKind::Exr))
             .with_context(|| format!("{}: the output must end in .png or .exr", out.display()))?;
+        if kind != FileKind::Exr && (cli.depth || cli.coverage) {
+            anyhow::bail!("--depth and --coverage need an .exr output (PNG is 8-bit sRGB colour)");
+        }
         for i in cli.frames.start..cli.frames.end {
             let file = if length > 1 { numbered(out, i) } else { out.clone() };
             hairmesh::output::check_file(&file, kind, &inputs, replace)?;
@@ -456,8 +457,9 @@ fn check_outputs(cli: &Cli, scene: &render::scene::LoadedScene, length: u32) -> 
                 hairmesh::terminal::bytes(frames * per_image)
             );
         }
+        return Ok(Some(kind));
     }
-    Ok(())
+    Ok(None)
 }
 
 /// What a user should know when a frame outgrew a budget: the OIT node pool (its overflow is
