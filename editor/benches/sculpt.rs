@@ -14,7 +14,7 @@ use std::time::Instant;
 
 use anyhow::{Context, Result};
 use editor::sculpt::TipDrag;
-use hairmesh::convert::{ConvertSettings, LayerShape, convert_scalp, sample_head};
+use hairmesh::convert::{convert_scalp, sample_head};
 
 fn median(mut v: Vec<f64>) -> f64 {
     v.sort_by(f64::total_cmp);
@@ -27,18 +27,7 @@ fn ms(start: Instant) -> f64 {
 
 fn main() -> Result<()> {
     let head = sample_head::locate()?;
-    let settings = ConvertSettings {
-        scalp: sample_head::SCALP.into(),
-        layers: 6,
-        length: Some(4.5),
-        shape: LayerShape::Drape {
-            centre: glam::DVec3::from_array(sample_head::SKULL_CENTRE),
-            comb: glam::DVec3::new(0.0, 0.0, -2.5),
-            lift: 0.04,
-        },
-        strands: 20_000,
-        ..ConvertSettings::default()
-    };
+    let settings = sample_head::long_hair(20_000);
     let mut asset = convert_scalp(&head, &settings, &mut |_| {})?.asset;
     let mesh = asset.mesh().clone();
     let tip = mesh.layers.len() - 1;

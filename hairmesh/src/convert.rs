@@ -42,6 +42,23 @@ pub mod sample_head {
     pub const SCALP: &str = "above:0,0.8192,-0.5735,1.3435";
     /// The centre of its skull, which draped hair flows around.
     pub const SKULL_CENTRE: [f64; 3] = [0.0, 1.9, -0.2];
+
+    /// The demo's long hair on it: laid over the head around the skull and combed back, 4.5
+    /// units long in 6 layers, with `strands` strands.
+    pub fn long_hair(strands: u64) -> super::ConvertSettings {
+        super::ConvertSettings {
+            scalp: SCALP.into(),
+            layers: 6,
+            length: Some(4.5),
+            shape: super::LayerShape::Drape {
+                centre: glam::DVec3::from_array(SKULL_CENTRE),
+                comb: glam::DVec3::new(0.0, 0.0, -2.5),
+                lift: 0.04,
+            },
+            strands,
+            ..super::ConvertSettings::default()
+        }
+    }
 }
 
 /// How the layers above the scalp are made.

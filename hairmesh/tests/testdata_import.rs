@@ -478,20 +478,9 @@ fn a_quantized_model_loads_as_its_float_original() {
 /// it over the whole head mesh (not only the scalp selection) and moves out what is left.
 #[test]
 fn converted_hair_meshes_stay_outside_the_head() {
-    use hairmesh::convert::{ConvertSettings, LayerShape, convert_scalp, sample_head};
+    use hairmesh::convert::{LayerShape, convert_scalp, sample_head};
     let head_file = testdata(sample_head::PATH);
-    let settings = ConvertSettings {
-        scalp: sample_head::SCALP.into(),
-        layers: 6,
-        length: Some(4.5),
-        shape: LayerShape::Drape {
-            centre: glam::DVec3::from_array(sample_head::SKULL_CENTRE),
-            comb: glam::DVec3::new(0.0, 0.0, -2.5),
-            lift: 0.04,
-        },
-        strands: 2000,
-        ..ConvertSettings::default()
-    };
+    let settings = sample_head::long_hair(2000);
     let converted = convert_scalp(&head_file, &settings, &mut |_| {}).expect("converts");
     let head =
         hairmesh::head::HeadSurface::from_mesh(&load_scalp(&head_file, &ScalpSelector::All).expect("head"));
@@ -499,8 +488,15 @@ fn converted_hair_meshes_stay_outside_the_head() {
     let scalp =
         load_scalp(&head_file, &ScalpSelector::parse(sample_head::SCALP).expect("selector")).expect("scalp");
     let LayerShape::Drape { centre, comb, lift } = settings.shape else { unreachable!("a drape") };
-    let params =
-        hairmesh::DrapeParams { layers: 6, length: 4.5, centre, comb, lift, gravity: glam::DVec3::NEG_Y };
+    let length = settings.length.expect("a length");
+    let params = hairmesh::DrapeParams {
+        layers: settings.layers,
+        length,
+        centre,
+        comb,
+        lift,
+        gravity: glam::DVec3::NEG_Y,
+    };
     let blind = hairmesh::HairMesh::drape(&scalp, &params).expect("drapes");
     let inside = blind.layers[1..].iter().flatten().filter(|p| head.signed_distance(**p) < 0.0).count();
     assert!(inside > 100, "the blind drape put only {inside} vertices inside the head");
