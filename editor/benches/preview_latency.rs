@@ -62,7 +62,7 @@ fn main() -> Result<()> {
 fn measure(name: &str, scene: &PreviewScene) -> Result<()> {
     let scalp = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../assets/head_cap.gltf");
     let settings = ConvertSettings { strands: 20_000, ..ConvertSettings::default() };
-    let mut doc = Document::convert_scalp(&scalp, &settings, &mut |_| {})?;
+    let mut doc = Document::convert_scalp(&scalp, &settings, None, &mut |_| {})?;
     let mut worker = PreviewWorker::start(|| {});
     let mut camera = OrbitCamera::default();
     let (lo, hi) = doc.asset().bounds();

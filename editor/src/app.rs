@@ -22,6 +22,7 @@ use std::time::Instant;
 use egui::{Color32, Pos2, Rect, Sense, Stroke, Vec2};
 use glam::{DVec3, Vec3};
 use hairmesh::convert::{ConvertSettings, LayerShape};
+use hairmesh::head_frame::HeadFrame;
 use hairmesh::style::Style;
 use render::scene::Transparency;
 
@@ -117,10 +118,10 @@ pub struct EditorApp {
     pub scene: PreviewScene,
     /// Conversion settings shown in the panel (those of the open scalp, or the next one).
     pub convert: ConvertSettings,
-    /// The centre of the open head's skull when it is known (the sample head's), for draped
-    /// presets: the estimate from the scalp's bounds sits too low on a scan with a high forehead
-    /// and combs the hairline bald.
-    pub head_centre: Option<DVec3>,
+    /// The open head's frame (centre, up, front, size): estimated when a head is converted
+    /// for the first time, then the artist's to correct; presets, the drape and gravity follow
+    /// it.
+    pub head_frame: Option<HeadFrame>,
     /// The head the conversion settings' selector, length and drape centre were made for.
     head_file: Option<PathBuf>,
     pub conversion: Option<ConversionJob>,
@@ -151,6 +152,8 @@ pub struct EditorApp {
     pub scalp_paint: Option<crate::scalp_paint::ScalpPaint>,
     /// The scalp brush's radius in viewport pixels.
     pub brush_radius: f32,
+    /// Where the suggested hairline is (skull radii; [`hairmesh::head_frame::HAIRLINE_OFFSET`]).
+    pub hairline_offset: f64,
     pub hovered_vertex: Option<u32>,
     /// The occluder's depth as the viewport sees it, and the view it was made for: the overlay
     /// hides and does not pick vertices behind the head.
@@ -213,7 +216,7 @@ impl EditorApp {
             camera: OrbitCamera::default(),
             scene: PreviewScene::default(),
             convert: ConvertSettings::default(),
-            head_centre: None,
+            head_frame: None,
             head_file: None,
             conversion: None,
             preview: Some(preview),
@@ -235,6 +238,7 @@ impl EditorApp {
             soft_radius: 0.0,
             scalp_paint: None,
             brush_radius: 30.0,
+            hairline_offset: hairmesh::head_frame::HAIRLINE_OFFSET,
             hovered_vertex: None,
             overlay_depth: None,
             selected_vertex: None,
@@ -260,10 +264,6 @@ impl EditorApp {
     }
 
     fn open_now(&mut self, path: &Path) {
-        // The sample head's skull centre is known, whichever way it was opened.
-        let sample = Path::new(hairmesh::convert::sample_head::PATH);
-        self.head_centre =
-            path.ends_with(sample).then(|| DVec3::from_array(hairmesh::convert::sample_head::SKULL_CENTRE));
         let ext = path.extension().and_then(|e| e.to_str()).unwrap_or_default().to_ascii_lowercase();
         if matches!(ext.as_str(), "glb" | "gltf" | "obj") {
             self.settings_for_head(path);
@@ -275,6 +275,7 @@ impl EditorApp {
                         self.convert = s;
                         self.head_file = doc.scalp_file();
                     }
+                    self.head_frame = doc.frame();
                     self.set_document(doc);
                     self.remember(path);
                 }
@@ -286,8 +287,9 @@ impl EditorApp {
     }
 
     /// Another head than the settings were made for gets the defaults of what depends on the
-    /// head — the scalp selection, the length and the drape centre (another head's would put
-    /// the hair in the wrong place) — and keeps the rest (layers, strands, style).
+    /// head — the scalp (the hairline suggested by its frame, `auto`), the length, the frame
+    /// (estimated again) and the drape (another head's centre would put the hair in the wrong
+    /// place) — and keeps the rest (layers, strands, style).
     fn settings_for_head(&mut self, head: &Path) {
         let same = |a: &Path, b: &Path| {
             a.canonicalize().ok().zip(b.canonicalize().ok()).is_some_and(|(a, b)| a == b)
@@ -296,13 +298,13 @@ impl EditorApp {
             return;
         }
         let defaults = ConvertSettings::default();
-        self.convert.scalp = defaults.scalp;
+        self.convert.scalp = hairmesh::ScalpSelector::Auto.to_string();
         self.convert.length = defaults.length;
-        self.convert.shape = match (self.convert.shape, self.head_centre) {
-            (LayerShape::Drape { comb, lift, .. }, Some(centre)) => LayerShape::Drape { centre, comb, lift },
-            (LayerShape::Drape { .. }, None) => defaults.shape,
-            (shape, _) => shape,
-        };
+        self.convert.up = defaults.up;
+        if matches!(self.convert.shape, LayerShape::Drape { .. }) {
+            self.convert.shape = defaults.shape;
+        }
+        self.head_frame = None;
         self.head_file = Some(head.to_owned());
     }
 
@@ -320,9 +322,11 @@ impl EditorApp {
         };
         self.convert.scalp = sample_head::SCALP.into();
         self.convert.length = None;
-        if let LayerShape::Drape { centre, .. } = &mut self.convert.shape {
-            *centre = DVec3::from_array(sample_head::SKULL_CENTRE);
+        self.convert.up = DVec3::Y;
+        if matches!(self.convert.shape, LayerShape::Drape { .. }) {
+            self.convert.shape = ConvertSettings::default().shape;
         }
+        self.head_frame = None;
         // These settings are the sample head's own.
         self.head_file = Some(head.clone());
         self.open(&head);
@@ -337,8 +341,9 @@ impl EditorApp {
         let (progress_send, progress) = channel();
         let (result_send, result) = channel();
         let thread_file = file.clone();
+        let frame = self.head_frame;
         let spawned = std::thread::Builder::new().name("hair conversion".into()).spawn(move || {
-            let doc = Document::convert_scalp(&thread_file, &settings, &mut |step| {
+            let doc = Document::convert_scalp(&thread_file, &settings, frame, &mut |step| {
                 let _ = progress_send.send(step.to_owned());
             });
             let _ = result_send.send(doc);
@@ -379,6 +384,12 @@ impl EditorApp {
                     job.started.elapsed().as_secs_f64(),
                     doc.asset().total_strands()
                 ));
+                if self.head_frame.is_none() {
+                    self.head_frame = doc.frame();
+                }
+                if let Some(f) = &self.head_frame {
+                    self.convert.up = f.up;
+                }
                 self.set_document(doc);
                 self.remember(&job.file);
             }
@@ -531,17 +542,13 @@ impl EditorApp {
     /// again in the background).
     pub fn apply_preset(&mut self, preset: &Preset) {
         let Some(doc) = &mut self.doc else { return };
-        let (lo, hi) = point_bounds(&doc.asset().mesh().layers[0]);
-        let (length, mut shape) = preset.layers_for(lo, hi);
-        // A head centre already set in the panel (the artist's), else the known skull centre of
-        // the open head, is better than the estimate from the scalp's bounds.
-        if let LayerShape::Drape { centre, .. } = &mut shape {
-            match (&self.convert.shape, self.head_centre) {
-                (LayerShape::Drape { centre: set, .. }, _) if *set != DVec3::ZERO => *centre = *set,
-                (_, Some(known)) => *centre = known,
-                _ => {}
-            }
-        }
+        // The head's frame (estimated, perhaps corrected); a scalp without a head is guessed
+        // to be a cap facing +Z.
+        let frame = self.head_frame.unwrap_or_else(|| {
+            let (lo, hi) = point_bounds(&doc.asset().mesh().layers[0]);
+            crate::presets::scalp_frame(lo, hi)
+        });
+        let (length, shape) = preset.layers_on(&frame);
         let rescale = if let Source::Scalp { file, .. } = &doc.source { Some(file.clone()) } else { None };
         let style_length = if rescale.is_some() { length } else { doc.hair_length() };
         doc.set_style(preset.style_for(style_length), None);
@@ -549,6 +556,7 @@ impl EditorApp {
             self.convert.length = Some(length);
             self.convert.layers = preset.layers;
             self.convert.shape = shape;
+            self.convert.up = frame.up;
             self.start_conversion(file);
         }
     }
@@ -925,20 +933,38 @@ impl EditorApp {
                 }
             }
         });
-        if self.scalp_paint.is_some() {
+        if let Some(paint) = &mut self.scalp_paint {
             ui.horizontal(|ui| {
                 let label = ui.label("Brush");
                 ui.add(egui::Slider::new(&mut self.brush_radius, 4.0..=200.0).suffix(" px"))
                     .labelled_by(label.id);
             });
+            if let Some(frame) = &self.head_frame {
+                ui.horizontal(|ui| {
+                    let label = ui.label("Hairline");
+                    let slider = egui::Slider::new(&mut self.hairline_offset, -0.8..=0.6)
+                        .suffix(" radii")
+                        .custom_formatter(|v, _| format!("{v:+.2}"));
+                    let moved = ui.add(slider).labelled_by(label.id).on_hover_text(
+                        "Height of the suggested hairline over the skull's centre (tilted: high on the forehead, low at the nape)",
+                    );
+                    let suggest = ui.button("Suggest").on_hover_text(
+                        "Select the faces above the hairline suggested by the head's frame (replaces the painting)",
+                    );
+                    if moved.changed() || suggest.clicked() {
+                        paint.suggest_hairline(frame, self.hairline_offset);
+                    }
+                });
+            }
             ui.label("Drag to paint, Shift-drag to erase, Alt-drag to orbit.");
         }
+        self.head_frame_row(ui);
         let c = &mut self.convert;
         egui::Grid::new("conversion").num_columns(2).show(ui, |ui| {
             let l = ui.label("Scalp faces");
             ui.text_edit_singleline(&mut c.scalp)
                 .labelled_by(l.id)
-                .on_hover_text("all, name:NAME, above:NX,NY,NZ,OFFSET, sphere:CX,CY,CZ,R, faces:LIST (Paint scalp writes it)");
+                .on_hover_text("auto (the suggested hairline), all, name:NAME, above:NX,NY,NZ,OFFSET, sphere:CX,CY,CZ,R, faces:LIST (Paint scalp writes it)");
             ui.end_row();
             let l = ui.label("Layers");
             ui.add(egui::DragValue::new(&mut c.layers).range(1..=hairmesh::hair_mesh::MAX_LAYERS))
@@ -1032,6 +1058,46 @@ impl EditorApp {
             }
             if busy {
                 ui.add(egui::Spinner::new());
+            }
+        });
+    }
+
+    /// The head's frame in words, and the corrections an artist may need: a scan whose back
+    /// was taken for its face, or one turned on its side.
+    fn head_frame_row(&mut self, ui: &mut egui::Ui) {
+        let Some(frame) = &mut self.head_frame else { return };
+        let axis = |d: DVec3| -> String {
+            let names = [(DVec3::X, "+X"), (DVec3::NEG_X, "−X"), (DVec3::Y, "+Y"), (DVec3::NEG_Y, "−Y")];
+            let names = names.into_iter().chain([(DVec3::Z, "+Z"), (DVec3::NEG_Z, "−Z")]);
+            names
+                .into_iter()
+                .find(|(a, _)| a.dot(d) > 0.9999)
+                .map_or_else(|| format!("({:.2}, {:.2}, {:.2})", d.x, d.y, d.z), |(_, n)| n.to_owned())
+        };
+        ui.horizontal_wrapped(|ui| {
+            ui.label(format!(
+                "Head: up {}, face {}, skull radius {:.3}",
+                axis(frame.up),
+                axis(frame.front),
+                frame.radius
+            ))
+            .on_hover_text("Estimated from the head mesh; presets, the drape and gravity follow it");
+            let mut changed = None;
+            if ui.small_button("Turn face").on_hover_text("Turn the face direction 90° about up").clicked() {
+                changed = Some(frame.turned(90.0));
+            }
+            if ui.small_button("Flip face").on_hover_text("The face is on the other side").clicked() {
+                changed = Some(frame.flipped());
+            }
+            let up_axes = [DVec3::Y, DVec3::Z, DVec3::X, DVec3::NEG_Y, DVec3::NEG_Z, DVec3::NEG_X];
+            if ui.small_button("Next up").on_hover_text("Take the file's next axis as up").clicked() {
+                let i = up_axes.iter().position(|a| a.dot(frame.up) > 0.9999).map_or(0, |i| i + 1);
+                changed = frame.with_up(up_axes[i % up_axes.len()]);
+            }
+            if let Some(f) = changed {
+                *frame = f;
+                self.convert.up = f.up;
+                self.note = Some("head frame changed: apply a preset or convert again to use it".into());
             }
         });
     }
@@ -1426,7 +1492,10 @@ impl EditorApp {
         };
         let selector = hairmesh::ScalpSelector::parse(&self.convert.scalp).unwrap_or_default();
         match hairmesh::import::load_faces(&file, self.convert.references) {
-            Ok(mesh) => self.scalp_paint = Some(crate::scalp_paint::ScalpPaint::new(mesh, &selector)),
+            Ok(mesh) => {
+                let paint = crate::scalp_paint::ScalpPaint::new(mesh, &selector, self.head_frame.as_ref());
+                self.scalp_paint = Some(paint);
+            }
             Err(e) => self.error = Some(e.to_string()),
         }
     }

@@ -17,6 +17,7 @@ use std::sync::Arc;
 use glam::DVec3;
 use hairmesh::asset::{AssetChange, HairAsset, VertexMove};
 use hairmesh::convert::ConvertSettings;
+use hairmesh::head_frame::HeadFrame;
 use hairmesh::style::Style;
 use render::occluder::OccluderGeometry;
 
@@ -92,6 +93,8 @@ pub struct Document {
     pub occluder: Option<Arc<OccluderGeometry>>,
     /// The occluder as a surface for distance queries, made on first use.
     head: std::sync::OnceLock<Option<Arc<hairmesh::head::HeadSurface>>>,
+    /// The head's frame estimated from the occluder, made on first use (or by the conversion).
+    frame: std::sync::OnceLock<Option<HeadFrame>>,
     /// Bumped whenever the asset is replaced whole (open, convert, too many changes): the
     /// preview uploads it again.
     pub generation: u64,
@@ -126,6 +129,7 @@ impl Document {
             color: HairColor::default(),
             occluder,
             head: std::sync::OnceLock::new(),
+            frame: std::sync::OnceLock::new(),
             generation: next_generation(),
             changes: Vec::new(),
             undo: Vec::new(),
@@ -149,20 +153,36 @@ impl Document {
     }
 
     /// Converts a scalp file (runs for seconds on large scalps: call it off the UI thread).
+    /// Gravity pulls against `frame`'s up; without a frame, the head's is estimated first.
     pub fn convert_scalp(
         file: &Path,
         settings: &ConvertSettings,
+        frame: Option<HeadFrame>,
         progress: &mut dyn FnMut(&str),
     ) -> Result<Self, EditorError> {
-        let converted = hairmesh::convert::convert_scalp(file, settings, progress)
-            .map_err(|source| EditorError::Asset { path: file.to_owned(), source })?;
         progress("loading the head mesh");
         let occluder = load_occluder(file).ok();
-        Ok(Self::new(
-            Source::Scalp { file: file.to_owned(), settings: settings.clone() },
-            converted.asset,
-            occluder,
-        ))
+        let frame = match frame {
+            Some(f) => Some(f),
+            None => {
+                progress("estimating the head's frame");
+                occluder.as_deref().and_then(estimate_frame)
+            }
+        };
+        let mut settings = settings.clone();
+        if let Some(f) = &frame {
+            settings.up = f.up;
+        }
+        let converted = hairmesh::convert::convert_scalp(file, &settings, progress)
+            .map_err(|source| EditorError::Asset { path: file.to_owned(), source })?;
+        let doc = Self::new(Source::Scalp { file: file.to_owned(), settings }, converted.asset, occluder);
+        let _ = doc.frame.set(frame);
+        Ok(doc)
+    }
+
+    /// The head's frame (centre, up, front, size) estimated from the occluder, if there is one.
+    pub fn frame(&self) -> Option<HeadFrame> {
+        *self.frame.get_or_init(|| self.occluder.as_deref().and_then(estimate_frame))
     }
 
     /// The head (the occluder mesh) for keeping edits outside it, when there is one.
@@ -397,6 +417,20 @@ fn merge_into(last: &mut Edit, edit: Edit) -> Option<Edit> {
         (_, edit) => return Some(edit),
     }
     None
+}
+
+/// The frame of the head an occluder shows.
+fn estimate_frame(o: &OccluderGeometry) -> Option<HeadFrame> {
+    let mesh = hairmesh::ScalpMesh {
+        positions: o
+            .positions
+            .iter()
+            .map(|p| DVec3::new(f64::from(p[0]), f64::from(p[1]), f64::from(p[2])))
+            .collect(),
+        faces: o.indices.chunks_exact(3).map(<[u32]>::to_vec).collect(),
+        ..hairmesh::ScalpMesh::default()
+    };
+    HeadFrame::estimate(&mesh)
 }
 
 /// Reads a mesh to draw with the hair, refusing what the renderer cannot use.

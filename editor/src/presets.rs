@@ -1,16 +1,18 @@
 //! Hairstyle presets: a way to make the layers (when the document came from a scalp) and a
-//! style, both in proportion to the head, so one preset looks the same on heads modelled in
-//! metres or in centimetres.
+//! style, both relative to the head's frame (its skull's centre and radius, its up and front;
+//! [`hairmesh::head_frame`]), so one preset looks the same on heads modelled in metres or in
+//! centimetres, facing any way.
 
 use glam::DVec3;
 use hairmesh::convert::LayerShape;
+use hairmesh::head_frame::HeadFrame;
 use hairmesh::style::{Clump, Curl, Frizz, Stray, Style, Wave};
 
 /// A named hairstyle.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Preset {
     pub name: &'static str,
-    /// Hair length as a fraction of the scalp's bounding-box diagonal.
+    /// Hair length in skull radii.
     pub length: f64,
     pub layers: u32,
     pub shape: PresetShape,
@@ -24,8 +26,8 @@ pub struct Preset {
 pub enum PresetShape {
     /// Out along the normals, drooping by this fraction of the length.
     Extrude { droop: f64 },
-    /// Laid over the head and combed back (away from +Z, where the sample head faces), lifted
-    /// off it by `lift` per unit of length.
+    /// Laid over the head and combed back (away from the face), lifted off it by `lift` per
+    /// unit of length.
     DrapeBack { lift: f64 },
 }
 
@@ -33,7 +35,7 @@ pub enum PresetShape {
 pub const PRESETS: &[Preset] = &[
     Preset {
         name: "Short curly",
-        length: 0.11,
+        length: 0.35,
         layers: 3,
         shape: PresetShape::Extrude { droop: 0.5 },
         style: Style {
@@ -52,7 +54,7 @@ pub const PRESETS: &[Preset] = &[
     },
     Preset {
         name: "Long wavy",
-        length: 0.75,
+        length: 2.4,
         layers: 6,
         shape: PresetShape::DrapeBack { lift: 0.04 },
         style: Style {
@@ -74,7 +76,7 @@ pub const PRESETS: &[Preset] = &[
     },
     Preset {
         name: "Straight bob",
-        length: 0.5,
+        length: 1.6,
         layers: 5,
         shape: PresetShape::DrapeBack { lift: 0.06 },
         style: Style {
@@ -93,7 +95,7 @@ pub const PRESETS: &[Preset] = &[
     },
     Preset {
         name: "Frizzy",
-        length: 0.3,
+        length: 0.96,
         layers: 4,
         shape: PresetShape::Extrude { droop: 0.6 },
         style: Style {
@@ -127,22 +129,37 @@ impl Preset {
         }
     }
 
-    /// How to make the layers on a scalp whose roots span `lo`–`hi`: (hair length, shape).
-    pub fn layers_for(&self, lo: DVec3, hi: DVec3) -> (f64, LayerShape) {
-        let length = self.length * lo.distance(hi);
+    /// How to make the layers on the head of `frame`: (hair length, shape). Gravity pulls
+    /// against the frame's up ([`hairmesh::convert::ConvertSettings::up`]).
+    pub fn layers_on(&self, frame: &HeadFrame) -> (f64, LayerShape) {
+        let length = self.length * frame.radius;
         let shape = match self.shape {
             PresetShape::Extrude { droop } => LayerShape::Extrude { droop },
             PresetShape::DrapeBack { lift } => {
-                LayerShape::Drape { centre: drape_centre(lo, hi), comb: DVec3::new(0.0, 0.0, -2.5), lift }
+                // `+ 0.0` makes −0 components 0 for the panel.
+                LayerShape::Drape { centre: frame.centre, comb: frame.front * -COMB_BACK + 0.0, lift }
             }
         };
         (length, shape)
     }
 }
 
-/// Where draped hair flows around for a scalp spanning `lo`–`hi`: below the middle of the
-/// scalp by a third of its height (about the skull's centre for a scalp cap).
-pub fn drape_centre(lo: DVec3, hi: DVec3) -> DVec3 {
+/// How hard draped presets comb the hair back, as a multiple of gravity.
+pub const COMB_BACK: f64 = 2.5;
+
+/// A skull's radius per bounding-box diagonal of its scalp (the sample head's), for a scalp
+/// without a head to estimate the frame from.
+const RADIUS_PER_SCALP_DIAGONAL: f64 = 0.31;
+
+/// A frame guessed from a scalp spanning `lo`–`hi` alone (no head): +Y up, facing +Z, the
+/// centre below the middle of the scalp by a third of its height (about the skull's centre for
+/// a scalp cap).
+pub fn scalp_frame(lo: DVec3, hi: DVec3) -> HeadFrame {
     let c = 0.5 * (lo + hi);
-    DVec3::new(c.x, c.y - (hi.y - lo.y) / 3.0, c.z)
+    HeadFrame {
+        centre: DVec3::new(c.x, c.y - (hi.y - lo.y) / 3.0, c.z),
+        up: DVec3::Y,
+        front: DVec3::Z,
+        radius: RADIUS_PER_SCALP_DIAGONAL * lo.distance(hi),
+    }
 }

@@ -5,6 +5,7 @@
 //! without a window.
 
 use glam::{DVec3, Vec2, Vec3};
+use hairmesh::head_frame::{HAIRLINE_OFFSET, HeadFrame};
 use hairmesh::{ScalpMesh, ScalpSelector};
 
 use crate::camera::{DepthGrid, Projection};
@@ -24,8 +25,9 @@ pub struct ScalpPaint {
 }
 
 impl ScalpPaint {
-    /// The faces of `mesh` with `selector`'s selection to start from.
-    pub fn new(mesh: ScalpMesh, selector: &ScalpSelector) -> Self {
+    /// The faces of `mesh` with `selector`'s selection to start from (`auto`: the hairline
+    /// `frame` suggests, the frame estimated from `mesh` when not given).
+    pub fn new(mesh: ScalpMesh, selector: &ScalpSelector, frame: Option<&HeadFrame>) -> Self {
         let centroids: Vec<DVec3> = mesh.faces.iter().map(|f| mesh.centroid(f)).collect();
         let normals = mesh
             .faces
@@ -56,9 +58,19 @@ impl ScalpPaint {
                 s
             }
             ScalpSelector::Named(_) => vec![true; mesh.faces.len()],
+            ScalpSelector::Auto => {
+                let frame = frame.copied().or_else(|| HeadFrame::estimate(&mesh));
+                hairline(&mesh, frame.as_ref(), HAIRLINE_OFFSET)
+            }
             other => centroids.iter().map(|c| other.keeps_centroid(*c)).collect(),
         };
         Self { mesh, centroids, normals, selected }
+    }
+
+    /// Selects the faces above the hairline of `frame` at `offset` (skull radii;
+    /// [`HAIRLINE_OFFSET`] is the suggested one) and nothing else.
+    pub fn suggest_hairline(&mut self, frame: &HeadFrame, offset: f64) {
+        self.selected = hairline(&self.mesh, Some(frame), offset);
     }
 
     /// Faces selected.
@@ -113,6 +125,17 @@ impl ScalpPaint {
     }
 }
 
+/// Per face of `mesh`: above the hairline of `frame` (none without a frame).
+fn hairline(mesh: &ScalpMesh, frame: Option<&HeadFrame>, offset: f64) -> Vec<bool> {
+    let mut selected = vec![false; mesh.faces.len()];
+    if let Some(frame) = frame {
+        for f in frame.hairline_faces(mesh, offset) {
+            selected[f as usize] = true;
+        }
+    }
+    selected
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -121,7 +144,7 @@ mod tests {
     #[test]
     fn a_dab_selects_the_faces_under_it_on_the_near_side_only() {
         let cap = hairmesh::procedural::head_cap(8, 32);
-        let mut paint = ScalpPaint::new(cap, &ScalpSelector::Faces(vec![0]));
+        let mut paint = ScalpPaint::new(cap, &ScalpSelector::Faces(vec![0]), None);
         assert_eq!(paint.count(), 1);
         let mut camera = OrbitCamera::default();
         let (lo, hi) = paint.mesh.bounds().expect("bounds");

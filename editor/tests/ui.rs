@@ -354,11 +354,16 @@ fn real_window_under_xvfb_shows_hair(_: &gen_gpu::Context) -> Result<()> {
 /// window with each is kept in the test target folder (`editor-preset-*.png`) to look at.
 fn presets_convert_and_render(_: &gen_gpu::Context) -> Result<()> {
     let mut h = builder().wgpu().build_ui_state(|ui, app: &mut EditorApp| app.ui(ui), app());
-    // HAIRKIT_EDITOR_SAMPLE_HEAD=1: on the LeePerrySmith scan (slower; for looking at the presets).
+    // HAIRKIT_EDITOR_SAMPLE_HEAD=1: on the LeePerrySmith scan; HAIRKIT_EDITOR_HEAD=FILE: on
+    // that head (slower; for looking at the presets).
     if std::env::var("HAIRKIT_EDITOR_SAMPLE_HEAD").is_ok_and(|v| v == "1") {
         h.state_mut().convert.strands = 20_000;
         hairmesh::convert::sample_head::locate()?;
         h.state_mut().open_sample_head();
+        settle(&mut h)?;
+    } else if let Some(head) = std::env::var_os("HAIRKIT_EDITOR_HEAD") {
+        h.state_mut().convert.strands = 20_000;
+        h.state_mut().open(Path::new(&head));
         settle(&mut h)?;
     } else {
         open_sample(&mut h)?;
@@ -383,47 +388,92 @@ fn presets_convert_and_render(_: &gen_gpu::Context) -> Result<()> {
     Ok(())
 }
 
-/// Draped presets on the sample head flow around its skull's centre, not the estimate from the
-/// scalp's bounds (which sits too low on the scan and combs the hairline bald); on a scalp
-/// without a known centre the estimate stands.
-fn draped_presets_use_the_sample_heads_skull_centre(_: &gen_gpu::Context) -> Result<()> {
+/// Presets follow the open head's frame, estimated when the head is first converted: draped
+/// hair flows around its skull's centre and is combed away from its face; another head opened
+/// in the same editor gets its own frame and the suggested hairline (`auto`), not the previous
+/// head's.
+fn presets_follow_the_head_frame(_: &gen_gpu::Context) -> Result<()> {
     use hairmesh::convert::{LayerShape, sample_head};
     let long_wavy = editor::presets::PRESETS.iter().find(|p| p.name == "Long wavy").context("preset")?;
     let mut h = builder().build_ui_state(|ui, app: &mut EditorApp| app.ui(ui), app());
-    sample_head::locate()?;
-    h.state_mut().open_sample_head();
-    settle(&mut h)?;
-    h.state_mut().apply_preset(long_wavy);
-    settle(&mut h)?;
-    let skull = glam::DVec3::from_array(sample_head::SKULL_CENTRE);
-    ensure!(
-        matches!(h.state().convert.shape, LayerShape::Drape { centre, .. } if centre == skull),
-        "{:?}",
-        h.state().convert.shape
-    );
-    // Another head then opened in the same editor does not inherit the sample head's scalp
-    // selection, length or skull centre.
-    let dir = tempfile::tempdir()?;
-    h.state_mut().save_as(&dir.path().join("saved"));
-    h.state_mut().open(&sample_scalp());
-    settle(&mut h)?;
-    let convert = &h.state().convert;
-    ensure!(convert.scalp == "all" && convert.length.is_none(), "{convert:?}");
-    ensure!(
-        !matches!(convert.shape, LayerShape::Drape { centre, .. } if centre == skull),
-        "{:?}",
-        convert.shape
-    );
-    let mut h = builder().build_ui_state(|ui, app: &mut EditorApp| app.ui(ui), app());
-    open_sample(&mut h)?;
-    h.state_mut().apply_preset(long_wavy);
-    settle(&mut h)?;
-    ensure!(h.state().head_centre.is_none());
-    ensure!(
-        matches!(h.state().convert.shape, LayerShape::Drape { centre, .. } if centre != skull),
-        "{:?}",
-        h.state().convert.shape
-    );
+    let lee = sample_head::locate()?;
+    let sintel = data_set::require("heads/sintel/sintel_bust.obj");
+    let mut frames = Vec::new();
+    for (i, head) in [lee, sintel].iter().enumerate() {
+        if i == 0 {
+            h.state_mut().open_sample_head();
+        } else {
+            h.state_mut().save_as(&tempfile::tempdir()?.path().join("saved"));
+            h.state_mut().open(head);
+            ensure!(h.state().convert.scalp == "auto", "{}", h.state().convert.scalp);
+        }
+        settle(&mut h)?;
+        let frame = h.state().head_frame.with_context(|| format!("{}: no head frame", head.display()))?;
+        h.state_mut().apply_preset(long_wavy);
+        settle(&mut h)?;
+        let convert = &h.state().convert;
+        ensure!(
+            matches!(convert.shape, LayerShape::Drape { centre, comb, .. }
+                if centre == frame.centre && comb.dot(frame.front) < 0.0),
+            "{}: {:?} for {frame:?}",
+            head.display(),
+            convert.shape
+        );
+        ensure!(convert.up == frame.up, "{}: up {}", head.display(), convert.up);
+        let length = convert.length.context("a length")?;
+        ensure!(
+            (length / frame.radius - long_wavy.length).abs() < 1e-9,
+            "{}: length {length}",
+            head.display()
+        );
+        frames.push(frame);
+    }
+    ensure!(frames[0].centre != frames[1].centre, "the second head kept the first one's frame");
+    Ok(())
+}
+
+/// Every preset on both test heads, as the editor makes it from the estimated head frame and
+/// the suggested hairline: strands entering the head and hanging over the face, counted by
+/// `hairmesh check`'s code.
+fn presets_on_both_heads_stay_off_the_face(_: &gen_gpu::Context) -> Result<()> {
+    use hairmesh::convert::{ConvertSettings, convert_scalp};
+    use hairmesh::head_frame::HeadFrame;
+    let heads =
+        [hairmesh::convert::sample_head::locate()?, data_set::require("heads/sintel/sintel_bust.obj")];
+    let mut report = Vec::new();
+    for head in &heads {
+        let mesh = hairmesh::import::load_scalp(head, &hairmesh::ScalpSelector::All)?;
+        let surface = hairmesh::head::HeadSurface::from_mesh(&mesh);
+        let frame = HeadFrame::estimate(&mesh).context("a frame")?;
+        for preset in editor::presets::PRESETS {
+            let (length, shape) = preset.layers_on(&frame);
+            let settings = ConvertSettings {
+                scalp: "auto".into(),
+                layers: preset.layers,
+                length: Some(length),
+                shape,
+                up: frame.up,
+                strands: 3000,
+                style: preset.style_for(length),
+                ..ConvertSettings::default()
+            };
+            let asset = convert_scalp(head, &settings, &mut |_| {})?.asset;
+            let c = hairmesh::head::check_strands(&asset, &surface, Some(&frame));
+            let share = |n: u64| 100.0 * n as f64 / c.strands as f64;
+            let line = format!(
+                "{} on {}: {:.1} % of strands enter the head (deepest {:.3} radii), {:.1} % over the face",
+                preset.name,
+                head.file_name().unwrap_or_default().to_string_lossy(),
+                share(c.entering),
+                c.deepest / frame.radius,
+                share(c.over_face)
+            );
+            eprintln!("{line}");
+            report.push((line, c));
+        }
+    }
+    let over_face: Vec<&String> = report.iter().filter(|(_, c)| c.over_face > 0).map(|(l, _)| l).collect();
+    ensure!(over_face.is_empty(), "hair over the face: {over_face:#?}");
     Ok(())
 }
 
@@ -459,7 +509,7 @@ fn scalp_painting_adds_the_faces_under_the_brush(_: &gen_gpu::Context) -> Result
     let positions: Vec<glam::Vec3> =
         occluder.positions.iter().map(|p| glam::Vec3::new(p[0], p[1], p[2])).collect();
     let depth = editor::camera::DepthGrid::rasterize(&projection, &positions, &occluder.indices);
-    let mut reach = ScalpPaint::new(painted.mesh.clone(), &ScalpSelector::Faces(vec![]));
+    let mut reach = ScalpPaint::new(painted.mesh.clone(), &ScalpSelector::Faces(vec![]), None);
     for p in &path {
         reach.dab(
             &projection,
@@ -497,10 +547,8 @@ fn main() -> std::process::ExitCode {
     run_gpu_tests(vec![
         t("presets_convert_and_render", presets_convert_and_render),
         t("scalp_painting_adds_the_faces_under_the_brush", scalp_painting_adds_the_faces_under_the_brush),
-        t(
-            "draped_presets_use_the_sample_heads_skull_centre",
-            draped_presets_use_the_sample_heads_skull_centre,
-        ),
+        t("presets_follow_the_head_frame", presets_follow_the_head_frame),
+        t("presets_on_both_heads_stay_off_the_face", presets_on_both_heads_stay_off_the_face),
         t("real_window_under_xvfb_shows_hair", real_window_under_xvfb_shows_hair),
         t("window_snapshot_shows_the_preview", window_snapshot_shows_the_preview),
         t(

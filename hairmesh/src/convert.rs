@@ -84,6 +84,10 @@ pub struct ConvertSettings {
     /// Hair length in the file's units; `None` = 0.6 × the scalp's bounding-box diagonal.
     pub length: Option<f64>,
     pub shape: LayerShape,
+    /// The head's up: gravity pulls the other way while the layers droop or drape
+    /// ([`crate::head_frame::HeadFrame::up`] for a head in any orientation).
+    #[serde(default = "file_up")]
+    pub up: DVec3,
     /// Total strands, shared by area (ignored when `density` is set).
     pub strands: u64,
     /// Strands per unit² of scalp area instead of a total.
@@ -99,6 +103,11 @@ pub struct ConvertSettings {
     pub references: References,
 }
 
+/// glTF's up, the default of every file.
+fn file_up() -> DVec3 {
+    DVec3::Y
+}
+
 impl Default for ConvertSettings {
     fn default() -> Self {
         Self {
@@ -106,6 +115,7 @@ impl Default for ConvertSettings {
             layers: 4,
             length: None,
             shape: LayerShape::Extrude { droop: 0.3 },
+            up: file_up(),
             strands: 20_000,
             density: None,
             seed: 1,
@@ -164,18 +174,26 @@ impl ConvertSettings {
     /// strand count is the asset's total; the style is the asset's).
     pub fn from_asset(asset: &HairAsset) -> Option<Self> {
         let p = asset.provenance.as_ref()?;
-        let (layers, length, shape) = match p.layers {
-            LayerSource::Extruded(e) => (e.layers, Some(e.length), LayerShape::Extrude { droop: e.droop }),
-            LayerSource::Draped(d) => {
-                (d.layers, Some(d.length), LayerShape::Drape { centre: d.centre, comb: d.comb, lift: d.lift })
+        let (layers, length, shape, gravity) = match p.layers {
+            LayerSource::Extruded(e) => {
+                (e.layers, Some(e.length), LayerShape::Extrude { droop: e.droop }, e.gravity)
             }
-            LayerSource::MorphTargets => (asset.mesh().layer_count() as u32, None, LayerShape::MorphTargets),
+            LayerSource::Draped(d) => (
+                d.layers,
+                Some(d.length),
+                LayerShape::Drape { centre: d.centre, comb: d.comb, lift: d.lift },
+                d.gravity,
+            ),
+            LayerSource::MorphTargets => {
+                (asset.mesh().layer_count() as u32, None, LayerShape::MorphTargets, DVec3::NEG_Y)
+            }
         };
         Some(Self {
             scalp: p.selector.clone(),
             layers,
             length,
             shape,
+            up: (-gravity).try_normalize().unwrap_or(DVec3::Y),
             strands: asset.total_strands(),
             style: asset.style,
             ..Self::default()
@@ -223,19 +241,25 @@ pub fn convert_scalp(
     let size = lo.distance(hi);
     let length = settings.length.unwrap_or(0.6 * size);
     settings.check_ranges(size)?;
+    if settings.up.try_normalize().is_none() {
+        return Err(HairMeshError::InvalidParameter {
+            what: "up",
+            message: format!("{} has no direction", settings.up),
+        });
+    }
     let layers = match settings.shape {
         LayerShape::Extrude { droop } => LayerSource::Extruded(ExtrudeParams {
             layers: settings.layers,
             length,
             droop,
-            ..ExtrudeParams::default()
+            gravity: -settings.up,
         }),
         LayerShape::Drape { centre, comb, lift } => LayerSource::Draped(DrapeParams {
             layers: settings.layers,
             length,
             centre,
             lift,
-            gravity: DVec3::NEG_Y,
+            gravity: -settings.up,
             comb,
         }),
         LayerShape::MorphTargets => LayerSource::MorphTargets,
@@ -247,7 +271,7 @@ pub fn convert_scalp(
         LayerSource::Draped(d) => HairMesh::drape_over(&scalp, &d, Some((&head, clearance(&head))))?,
         LayerSource::MorphTargets => HairMesh::from_morph_targets(&scalp)?,
     };
-    let pushed_out = keep_outside(&mut hm, &head);
+    let pushed_out = keep_outside(&mut hm, &head, &settings.style);
     let params = AssetParams {
         strands: match settings.density {
             Some(d) => StrandCount::Density(d),
@@ -272,12 +296,26 @@ pub fn clearance(head: &crate::head::HeadSurface) -> f64 {
     HEAD_CLEARANCE * head.size()
 }
 
-/// Moves every hair-mesh vertex above the roots that lies inside `head`, or closer than
-/// [`HEAD_CLEARANCE`] × its size, out to that clearance; returns how many moved.
-pub fn keep_outside(hm: &mut HairMesh, head: &crate::head::HeadSurface) -> usize {
-    let margin = clearance(head);
+/// How far out of `head` the vertices of each layer of a hair mesh with `layers` layers are
+/// kept for hair styled with `style`: the clearance, plus as far as the style may move a strand
+/// off its place in the bundle at that layer ([`Style::max_displacement`] faded in from the root
+/// as the style fades in), so that curls and waves do not dip into the head.
+pub fn layer_margins(head: &crate::head::HeadSurface, style: &Style, layers: usize) -> Vec<f64> {
+    let reach = style.max_displacement();
+    (0..layers)
+        .map(|k| {
+            let tau = k as f64 / (layers.max(2) - 1) as f64;
+            clearance(head) + reach * crate::style::smoothstep(0.0, style.root_fade, tau)
+        })
+        .collect()
+}
+
+/// Moves every hair-mesh vertex above the roots that lies inside `head`, or closer than its
+/// layer's margin ([`layer_margins`] for `style`), out to that margin; returns how many moved.
+pub fn keep_outside(hm: &mut HairMesh, head: &crate::head::HeadSurface, style: &Style) -> usize {
+    let margins = layer_margins(head, style, hm.layers.len());
     let mut moved = 0;
-    for layer in hm.layers.iter_mut().skip(1) {
+    for (layer, margin) in hm.layers.iter_mut().zip(margins).skip(1) {
         for p in layer.iter_mut() {
             if let Some(q) = head.push_out(*p, margin) {
                 *p = q;

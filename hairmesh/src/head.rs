@@ -310,11 +310,19 @@ pub struct StrandCheck {
     pub deepest: f64,
     /// Hair-mesh vertices above the roots inside the head.
     pub vertices_inside: u64,
+    /// Strands with a point in front of the face ([`crate::head_frame::HeadFrame::over_face`];
+    /// 0 without a frame).
+    pub over_face: u64,
 }
 
 /// Samples every strand of `asset` ([`CHECK_POINTS_PER_STRAND`] points, the CPU reference's
-/// styled positions) and counts those that enter `head`.
-pub fn check_strands(asset: &crate::asset::HairAsset, head: &HeadSurface) -> StrandCheck {
+/// styled positions) and counts those that enter `head`, and those that hang in front of the
+/// face of `frame`.
+pub fn check_strands(
+    asset: &crate::asset::HairAsset,
+    head: &HeadSurface,
+    frame: Option<&crate::head_frame::HeadFrame>,
+) -> StrandCheck {
     use rayon::prelude::*;
     let tolerance = CHECK_TOLERANCE * head.size();
     let per_bundle: Vec<StrandCheck> = (0..asset.bundles.len() as u32)
@@ -323,14 +331,17 @@ pub fn check_strands(asset: &crate::asset::HairAsset, head: &HeadSurface) -> Str
             let mut c = StrandCheck::default();
             for j in 0..asset.bundles[b as usize].strands {
                 let root = asset.root_parameter(b, j);
+                let mut over_face = false;
                 let depth = (1..=CHECK_POINTS_PER_STRAND)
                     .map(|k| {
                         let p =
                             asset.strand_point(b, j, root, f64::from(k) / f64::from(CHECK_POINTS_PER_STRAND));
+                        over_face |= frame.is_some_and(|f| f.over_face(p));
                         -head.signed_distance(p)
                     })
                     .fold(f64::NEG_INFINITY, f64::max);
                 c.strands += 1;
+                c.over_face += u64::from(over_face);
                 if depth > tolerance {
                     c.entering += 1;
                     c.deepest = c.deepest.max(depth);
@@ -344,6 +355,7 @@ pub fn check_strands(asset: &crate::asset::HairAsset, head: &HeadSurface) -> Str
         entering: a.entering + c.entering,
         deepest: a.deepest.max(c.deepest),
         vertices_inside: 0,
+        over_face: a.over_face + c.over_face,
     });
     total.vertices_inside = asset
         .mesh()

@@ -13,6 +13,7 @@ mod error;
 mod gltf_source;
 pub mod hair_mesh;
 pub mod head;
+pub mod head_frame;
 pub mod import;
 pub mod inner;
 pub mod input;

@@ -36,6 +36,9 @@ pub enum ScalpSelector {
     /// These faces of the file, by their index in import order (what the editor's scalp brush
     /// paints; sorted, without repeats).
     Faces(Vec<u32>),
+    /// The suggested hairline of the head frame estimated from the whole file
+    /// ([`crate::head_frame`]): the crown, the back and the sides above the ears, not the face.
+    Auto,
 }
 
 /// Most faces a `faces:` selector may list.
@@ -46,6 +49,7 @@ impl std::fmt::Display for ScalpSelector {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
         match self {
             Self::All => write!(f, "all"),
+            Self::Auto => write!(f, "auto"),
             Self::Named(name) => write!(f, "name:{name}"),
             Self::AbovePlane { normal: n, offset } => write!(f, "above:{},{},{},{offset}", n.x, n.y, n.z),
             Self::InSphere { center: c, radius } => write!(f, "sphere:{},{},{},{radius}", c.x, c.y, c.z),
@@ -55,7 +59,8 @@ impl std::fmt::Display for ScalpSelector {
 }
 
 impl ScalpSelector {
-    /// Parses the CLI form: `all`, `name:NAME`, `above:NX,NY,NZ,OFFSET` or `sphere:CX,CY,CZ,R`.
+    /// Parses the CLI form: `all`, `auto`, `name:NAME`, `above:NX,NY,NZ,OFFSET`,
+    /// `sphere:CX,CY,CZ,R` or `faces:LIST`.
     pub fn parse(text: &str) -> Result<Self> {
         let bad = |message: String| HairMeshError::InvalidParameter { what: "scalp selector", message };
         let numbers = |list: &str, n: usize| -> Result<Vec<f64>> {
@@ -70,6 +75,9 @@ impl ScalpSelector {
         };
         if text == "all" {
             return Ok(Self::All);
+        }
+        if text == "auto" {
+            return Ok(Self::Auto);
         }
         if let Some(list) = text.strip_prefix("faces:") {
             let mut faces = Vec::new();
@@ -113,7 +121,7 @@ impl ScalpSelector {
             return Ok(Self::InSphere { center: DVec3::new(v[0], v[1], v[2]), radius: v[3] });
         }
         Err(bad(format!(
-            "`{text}` (expected all, name:NAME, above:NX,NY,NZ,OFFSET, sphere:CX,CY,CZ,R or faces:LIST)"
+            "`{text}` (expected all, auto, name:NAME, above:NX,NY,NZ,OFFSET, sphere:CX,CY,CZ,R or faces:LIST)"
         )))
     }
 
@@ -121,7 +129,7 @@ impl ScalpSelector {
     /// keep everything here; names are applied while importing).
     pub fn keeps_centroid(&self, c: DVec3) -> bool {
         match self {
-            Self::All | Self::Named(_) | Self::Faces(_) => true,
+            Self::All | Self::Auto | Self::Named(_) | Self::Faces(_) => true,
             Self::AbovePlane { normal, offset } => normal.dot(c) > *offset,
             Self::InSphere { center, radius } => c.distance_squared(*center) < radius * radius,
         }
@@ -147,6 +155,15 @@ impl ScalpMesh {
                 for &f in list {
                     if let Some(k) = keep.get_mut(f as usize) {
                         *k = true;
+                    }
+                }
+                keep
+            }
+            ScalpSelector::Auto => {
+                let mut keep = vec![false; self.faces.len()];
+                if let Some(frame) = crate::head_frame::HeadFrame::estimate(self) {
+                    for f in frame.hairline_faces(self, crate::head_frame::HAIRLINE_OFFSET) {
+                        keep[f as usize] = true;
                     }
                 }
                 keep

@@ -242,6 +242,7 @@ fn check_finds_strands_inside_the_head() {
     assert!(ok, "{stderr}");
     let (ok, stdout, stderr) = hairmesh(&["check", out_text]);
     assert!(ok && stdout.contains("strands entering the head: 0 (0.00 %)"), "{stdout}{stderr}");
+    assert!(stdout.contains("head frame:") && stdout.contains("strands over the face:"), "{stdout}");
     // Pull every tip to the middle of the head (the cap is centred at y = 1.6).
     let (mut asset, _) = hairmesh::asset_io::read_asset(&out).expect("asset");
     let tip = asset.mesh().layers.len() - 1;

@@ -345,24 +345,22 @@ fn demo(o: &DemoOptions, device: &DeviceArgs) -> Result<()> {
         },
         Some((&head_surface, clearance)),
     )?;
-    hairmesh::convert::keep_outside(&mut long, &head_surface);
+    let long_style = Style {
+        width: 0.008,
+        wave: Wave { amplitude: 0.06, frequency: 1.2, coherence: 0.0 },
+        clump: Clump { strength: 0.45, exponent: 1.2 },
+        length_variation: 0.2,
+        seed: 7,
+        ..Style::default()
+    };
+    // Far enough out that the waves stay out of the head.
+    hairmesh::convert::keep_outside(&mut long, &head_surface, &long_style);
     let short = HairMesh::extrude(
         &scalp,
         &ExtrudeParams { layers: 3, length: 0.45, droop: 0.5, ..ExtrudeParams::default() },
     )?;
     let looks = [
-        (
-            "long, combed back",
-            long,
-            Style {
-                width: 0.008,
-                wave: Wave { amplitude: 0.06, frequency: 1.2, coherence: 0.0 },
-                clump: Clump { strength: 0.45, exponent: 1.2 },
-                length_variation: 0.2,
-                seed: 7,
-                ..Style::default()
-            },
-        ),
+        ("long, combed back", long, long_style),
         (
             "short and curly",
             short,

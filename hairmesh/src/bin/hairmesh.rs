@@ -2,10 +2,10 @@
 //!
 //! ```text
 //! hairmesh convert INPUT -o DIR [--layers N] [--length X] [--droop X] [--density D | --strands N]
-//!                  [--scalp SELECTOR] [--morph-layers | --drape CX,CY,CZ [--comb X,Y,Z] [--lift X]] [--style FILE] [--seed N] [--sample-sets N] [--layout lattice|blocks]
+//!                  [--scalp SELECTOR] [--morph-layers | --drape CX,CY,CZ [--comb X,Y,Z] [--lift X]] [--up X,Y,Z] [--style FILE] [--seed N] [--sample-sets N] [--layout lattice|blocks]
 //!                  [--f16]
 //! hairmesh info PATH          (an asset folder, hair.json, .tfx, .tfxbone or .hair)
-//! hairmesh check ASSET [--head HEAD]   (strands entering the head; exit status 1 if any)
+//! hairmesh check ASSET [--head HEAD]   (strands entering the head, exit status 1 if any; strands over its face)
 //! hairmesh head-cap -o FILE   (write the project's procedural head cap as glTF)
 //! ```
 
@@ -70,7 +70,9 @@ struct ConvertArgs {
     /// Total strands, shared by area [default: 20000].
     #[arg(long)]
     strands: Option<u64>,
-    /// Which faces are scalp: all, name:NAME, above:NX,NY,NZ,OFFSET, sphere:CX,CY,CZ,R.
+    /// Which faces are scalp: all, auto (the hairline suggested by the head's estimated frame:
+    /// crown, back and sides, not the face), name:NAME, above:NX,NY,NZ,OFFSET,
+    /// sphere:CX,CY,CZ,R, faces:LIST (indices and ranges, e.g. 4,10-20).
     #[arg(long, default_value = "all")]
     scalp: String,
     /// Take the layers from the file's morph targets (one per layer) instead of extruding.
@@ -87,6 +89,9 @@ struct ConvertArgs {
     /// With `--drape`: how far the hair moves off the head per unit of length (0..=10).
     #[arg(long, default_value_t = 0.05)]
     lift: f64,
+    /// The head's up (gravity pulls the other way), e.g. 0,0,1 for a Z-up file.
+    #[arg(long, value_name = "X,Y,Z", value_parser = parse_vec3, default_value = "0,1,0")]
+    up: glam::DVec3,
     /// Style as JSON (fields of hairmesh::style::Style; unknown fields and values outside
     /// their ranges, `Style::fields`, are errors).
     #[arg(long)]
@@ -205,6 +210,7 @@ fn convert(o: &ConvertArgs) -> Result<()> {
         } else {
             LayerShape::Extrude { droop: o.droop }
         },
+        up: o.up,
         strands: o.strands.unwrap_or(20_000),
         density: o.density,
         seed: o.seed,
@@ -295,7 +301,9 @@ fn check(path: &Path, head: Option<&Path>) -> Result<()> {
     };
     let mesh = hairmesh::import::load_scalp(&head, &hairmesh::ScalpSelector::All)?;
     let surface = hairmesh::head::HeadSurface::from_mesh(&mesh);
-    let c = step("checking the strands", || Ok(hairmesh::head::check_strands(&asset, &surface)))?;
+    let frame = step("estimating the head's frame", || Ok(hairmesh::head_frame::HeadFrame::estimate(&mesh)))?;
+    let c =
+        step("checking the strands", || Ok(hairmesh::head::check_strands(&asset, &surface, frame.as_ref())))?;
     let share = |n: u64| 100.0 * n as f64 / c.strands.max(1) as f64;
     println!("{} against {}", path.display(), head.display());
     println!("strands:                  {}", c.strands);
@@ -304,6 +312,18 @@ fn check(path: &Path, head: Option<&Path>) -> Result<()> {
         println!("deepest point inside:     {:.4} (file units)", c.deepest);
     }
     println!("hair-mesh vertices inside: {}", c.vertices_inside);
+    match frame {
+        Some(f) => {
+            let [x, y, z] = f.centre.to_array();
+            println!(
+                "head frame:               centre {x:.4},{y:.4},{z:.4}, radius {:.4}, up {}, front {}",
+                f.radius, f.up, f.front
+            );
+            println!("strands over the face:    {} ({:.2} %)", c.over_face, share(c.over_face));
+        }
+        None => println!("head frame:               none (the head has no face with area)"),
+    }
+    // Hair over the face is a look (a fringe), reported; hair inside the head is an error.
     if c.entering > 0 || c.vertices_inside > 0 {
         bail!(
             "{}: {} of {} strands enter the head {}",
