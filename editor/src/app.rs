@@ -27,6 +27,8 @@ use hairmesh::style::Style;
 use render::scene::Transparency;
 
 use crate::EditorError;
+
+mod modelling;
 use crate::camera::{DepthGrid, OrbitCamera, Projection, pick};
 use crate::document::{Document, Gesture, Source};
 use crate::presets::{PRESETS, Preset};
@@ -158,8 +160,12 @@ pub struct EditorApp {
     /// The occluder's depth as the viewport sees it, and the view it was made for: the overlay
     /// hides and does not pick vertices behind the head.
     overlay_depth: Option<(OverlayView, Arc<DepthGrid>)>,
-    /// The outer-layer vertex last clicked or dragged (F frames it; Escape clears it).
-    pub selected_vertex: Option<u32>,
+    /// The selected columns (outer-layer tips), sorted: what G/R/S transform and F frames.
+    pub selection: Vec<u32>,
+    /// A grab, rotation or scale of the selection in progress.
+    modal: Option<modelling::Modal>,
+    /// A selection box being dragged out.
+    box_select: Option<modelling::BoxSelect>,
     drag: Option<VertexDrag>,
     /// The vertex under the pointer when the primary button went down.
     press_vertex: Option<u32>,
@@ -241,7 +247,9 @@ impl EditorApp {
             hairline_offset: hairmesh::head_frame::HAIRLINE_OFFSET,
             hovered_vertex: None,
             overlay_depth: None,
-            selected_vertex: None,
+            selection: Vec::new(),
+            modal: None,
+            box_select: None,
             drag: None,
             press_vertex: None,
             interacting: false,
@@ -410,7 +418,9 @@ impl EditorApp {
         self.doc = Some(doc);
         self.drag = None;
         self.hovered_vertex = None;
-        self.selected_vertex = None;
+        self.selection.clear();
+        self.modal = None;
+        self.box_select = None;
     }
 
     fn remember(&mut self, path: &Path) {
@@ -834,14 +844,11 @@ impl EditorApp {
         });
     }
 
-    /// Frames the selected hair-mesh column (the last vertex clicked or dragged), or the whole
-    /// hair without a selection.
+    /// Frames the selected hair-mesh columns, or the whole hair without a selection.
     fn frame_hair(&mut self) {
         let Some(doc) = &self.doc else { return };
-        let mesh = doc.asset().mesh();
-        let (lo, hi) = match self.selected_vertex.filter(|&v| (v as usize) < mesh.vertex_count()) {
-            Some(v) => {
-                let (lo, hi) = point_bounds(&mesh.column(v));
+        let (lo, hi) = match self.selection_bounds(doc) {
+            Some((lo, hi)) => {
                 // A column is thin: frame at least a tenth of the hair around it.
                 let (alo, ahi) = doc.asset().bounds();
                 let pad = DVec3::splat(0.05 * alo.distance(ahi));
@@ -862,6 +869,11 @@ impl EditorApp {
             }
             ui.with_layout(egui::Layout::left_to_right(egui::Align::Center), |ui| {
                 let text = |ui: &mut egui::Ui, text: String| ui.add(egui::Label::new(text).truncate());
+                // A running transform's numbers and keys come first: they are what one reads.
+                if let Some(m) = &self.modal {
+                    text(ui, m.status.clone());
+                    return;
+                }
                 text(ui, self.device.clone().unwrap_or_else(|| "starting the preview device…".into()));
                 ui.separator();
                 match &self.shown {
@@ -1305,8 +1317,16 @@ impl EditorApp {
             )
             .map(|i| i as u32)
         };
-        self.hovered_vertex =
-            if self.show_overlay && self.drag.is_none() { pointer.and_then(pick_at) } else { None };
+        self.hovered_vertex = if self.show_overlay && self.drag.is_none() && self.modal.is_none() {
+            pointer.and_then(pick_at)
+        } else {
+            None
+        };
+        let tips: Vec<Vec3> = mesh.layers[outer]
+            .iter()
+            .zip(&facing)
+            .map(|(p, &f)| if f { p.as_vec3() } else { Vec3::NAN })
+            .collect();
 
         // Input: drag a vertex, orbit, pan, zoom.
         // The vertex is the one under the pointer when the button went down (a drag starts
@@ -1314,19 +1334,34 @@ impl EditorApp {
         if response.hovered() && ui.input(|i| i.pointer.primary_pressed()) {
             self.press_vertex = self.hovered_vertex;
         }
+        let modelling = self.modelling_input(ui, &response, rect, &tips, &painter);
+        let Some(doc) = self.doc.as_ref() else { return };
+        let mesh = doc.asset().mesh();
         let primary = response.drag_started_by(egui::PointerButton::Primary);
         if primary
+            && !modelling
             && self.scalp_paint.is_none()
             && self.show_overlay
             && let Some(v) = self.press_vertex.take()
         {
-            let mirror = if self.mirror_x { mirror_vertex(mesh, v) } else { None };
-            let soft_radius = self.soft_radius * self.doc.as_ref().map_or(0.0, Document::hair_length);
-            let mut sculpt = crate::sculpt::TipDrag::new(mesh, v, mirror, soft_radius);
-            if let Some(head) = self.doc.as_ref().and_then(Document::head_surface) {
+            let mirror = if self.mirror_x { crate::sculpt::mirror_vertex(mesh, v) } else { None };
+            let soft_radius = self.soft_radius * doc.hair_length();
+            // A dragged tip of a selection carries the whole selection along.
+            let mut sculpt = if self.selection.len() > 1 && self.selection.contains(&v) {
+                let mirror_x = self.mirror_x;
+                crate::sculpt::TipDrag::selection(
+                    mesh,
+                    &self.selection,
+                    |w| if mirror_x { crate::sculpt::mirror_vertex(mesh, w) } else { None },
+                    soft_radius,
+                )
+            } else {
+                self.selection = vec![v];
+                crate::sculpt::TipDrag::new(mesh, v, mirror, soft_radius)
+            };
+            if let Some(head) = doc.head_surface() {
                 sculpt = sculpt.outside(head);
             }
-            self.selected_vertex = Some(v);
             self.drag = Some(VertexDrag {
                 vertex: v,
                 mirror,
@@ -1348,6 +1383,7 @@ impl EditorApp {
                 moves = drag.sculpt.moves(moved.as_dvec3() - tip);
             }
             self.interacting = true;
+        } else if modelling {
         } else if response.dragged_by(egui::PointerButton::Primary)
             && (self.scalp_paint.is_none() || ui.input(|i| i.modifiers.alt))
         {
@@ -1372,12 +1408,6 @@ impl EditorApp {
             }
         }
         let drag_ended = response.drag_stopped() && self.drag.is_some();
-        if response.clicked() {
-            self.selected_vertex = self.hovered_vertex;
-        }
-        if ui.input(|i| i.key_pressed(egui::Key::Escape)) {
-            self.selected_vertex = None;
-        }
 
         // Overlay: the outer layer's edges and vertices, the hovered or dragged column.
         if self.show_overlay && self.scalp_paint.is_none() {
@@ -1400,11 +1430,7 @@ impl EditorApp {
                     painter.circle_filled(s, 1.5, dot);
                 }
             }
-            let highlighted: Vec<u32> = match &self.drag {
-                Some(d) => std::iter::once(d.vertex).chain(d.mirror).chain(d.sculpt.columns()).collect(),
-                None => self.hovered_vertex.into_iter().chain(self.selected_vertex).collect(),
-            };
-            for v in highlighted {
+            for v in self.highlighted_columns() {
                 let column: Vec<Pos2> = mesh.column(v).into_iter().filter_map(to_screen).collect();
                 painter.add(egui::Shape::line(
                     column.clone(),
@@ -1654,22 +1680,6 @@ fn sanitized(mut s: Style) -> Style {
         s.twist = 0.0;
     }
     s
-}
-
-/// The outer-layer vertex whose root mirrors `v`'s across x = 0 (within 1 % of the scalp's
-/// size), if it is another vertex.
-fn mirror_vertex(mesh: &hairmesh::HairMesh, v: u32) -> Option<u32> {
-    let roots = &mesh.layers[0];
-    let p = roots.get(v as usize)?;
-    let target = DVec3::new(-p.x, p.y, p.z);
-    let (lo, hi) = point_bounds(roots);
-    let tolerance = 0.01 * lo.distance(hi);
-    let (best, d) = roots
-        .iter()
-        .enumerate()
-        .map(|(i, q)| (i as u32, q.distance(target)))
-        .min_by(|a, b| a.1.total_cmp(&b.1))?;
-    (d <= tolerance && best != v).then_some(best)
 }
 
 /// The axis-aligned bounds of `points` (inverted, infinite ones for none).

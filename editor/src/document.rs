@@ -74,6 +74,9 @@ pub enum Gesture {
     Style(String),
     /// A drag of hair-mesh vertices.
     Drag,
+    /// A grab, rotation or scale of the selected tips ([`crate::transform`]), which may be
+    /// cancelled.
+    Transform,
     Color,
 }
 
@@ -300,6 +303,19 @@ impl Document {
     /// Ends the current gesture: the next edit starts a new undo step.
     pub fn end_gesture(&mut self) {
         self.open_gesture = None;
+    }
+
+    /// Takes back everything the open `gesture` did, leaving no undo or redo step (a cancelled
+    /// transform). Nothing happens when another gesture, or none, is open.
+    pub fn cancel_gesture(&mut self, gesture: &Gesture) -> Result<(), EditorError> {
+        if self.open_gesture.as_ref() != Some(gesture) {
+            return Ok(());
+        }
+        self.open_gesture = None;
+        if let Some((_, edit)) = self.undo.pop() {
+            self.apply_edit(&edit, false)?;
+        }
+        Ok(())
     }
 
     pub fn undo(&mut self) -> Result<(), EditorError> {

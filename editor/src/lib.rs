@@ -15,6 +15,7 @@ pub mod presets;
 pub mod preview;
 pub mod scalp_paint;
 pub mod sculpt;
+pub mod transform;
 pub mod xwd;
 
 use std::path::PathBuf;

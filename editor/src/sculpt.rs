@@ -1,11 +1,12 @@
-//! Dragging hair-mesh tips: the dragged column, its mirror and a soft selection around it move
-//! their tips; every outer column bends evenly under its tip, and the inner vertices follow
-//! the surface ([`hairmesh::inner`]). With the head known, every moved vertex is kept a margin
+//! Moving hair-mesh tips: the selected columns, their mirrors and a soft selection around them
+//! move their tips by a transform (a drag's translation, or a grab, rotation or scale,
+//! [`crate::transform`]); every outer column bends evenly under its tip, and the inner vertices
+//! follow the surface ([`hairmesh::inner`]). With the head known, every moved vertex is kept a margin
 //! outside it ([`hairmesh::head`]). Kept apart from the UI so it is tested without one.
 
 use std::sync::Arc;
 
-use glam::DVec3;
+use glam::{DAffine3, DVec3};
 use hairmesh::HairMesh;
 use hairmesh::asset::VertexMove;
 use hairmesh::head::HeadSurface;
@@ -43,15 +44,62 @@ pub fn falloff(distance: f64, radius: f64) -> f64 {
     t * t * (3.0 - 2.0 * t)
 }
 
+/// The outer-layer vertex whose root mirrors `v`'s across x = 0 (within 1 % of the scalp's
+/// size), if it is another vertex.
+pub fn mirror_vertex(mesh: &HairMesh, v: u32) -> Option<u32> {
+    let roots = &mesh.layers[0];
+    let p = roots.get(v as usize)?;
+    let target = DVec3::new(-p.x, p.y, p.z);
+    let (lo, hi) =
+        roots.iter().fold((DVec3::INFINITY, DVec3::NEG_INFINITY), |(lo, hi), p| (lo.min(*p), hi.max(*p)));
+    let tolerance = 0.01 * lo.distance(hi);
+    let (best, d) = roots
+        .iter()
+        .enumerate()
+        .map(|(i, q)| (i as u32, q.distance(target)))
+        .min_by(|a, b| a.1.total_cmp(&b.1))?;
+    (d <= tolerance && best != v).then_some(best)
+}
+
+/// `a` seen in a mirror across x = 0 (what a mirrored column does when its twin does `a`).
+fn mirrored(a: &DAffine3) -> DAffine3 {
+    let m = DAffine3::from_scale(DVec3::new(-1.0, 1.0, 1.0));
+    m * *a * m
+}
+
 impl TipDrag {
     /// Starts dragging the tip of `vertex` (and of `mirror`, mirrored) of `mesh`; tips within
     /// `soft_radius` of a dragged tip follow with [`falloff`].
     pub fn new(mesh: &HairMesh, vertex: u32, mirror: Option<u32>, soft_radius: f64) -> Self {
+        let seeds: Vec<(u32, bool)> =
+            std::iter::once((vertex, false)).chain(mirror.map(|m| (m, true))).collect();
+        Self::with_seeds(mesh, &seeds, soft_radius)
+    }
+
+    /// Starts moving the tips of the `selected` columns of `mesh` (with `mirror_of`'s twins,
+    /// mirrored, where a twin is not selected itself); tips within `soft_radius` of a selected
+    /// tip follow with [`falloff`].
+    pub fn selection(
+        mesh: &HairMesh,
+        selected: &[u32],
+        mirror_of: impl Fn(u32) -> Option<u32>,
+        soft_radius: f64,
+    ) -> Self {
+        let mut seeds: Vec<(u32, bool)> = selected.iter().map(|&v| (v, false)).collect();
+        for &v in selected {
+            if let Some(m) = mirror_of(v).filter(|m| !selected.contains(m)) {
+                seeds.push((m, true));
+            }
+        }
+        Self::with_seeds(mesh, &seeds, soft_radius)
+    }
+
+    fn with_seeds(mesh: &HairMesh, seeds: &[(u32, bool)], soft_radius: f64) -> Self {
         let tip = mesh.layers.len() - 1;
         let tips = &mesh.layers[tip];
         let mut weights: Vec<(f64, bool)> = vec![(0.0, false); mesh.vertex_count()];
-        for (centre, mirrored) in std::iter::once((vertex, false)).chain(mirror.map(|m| (m, true))) {
-            let c = tips[centre as usize];
+        for &(centre, mirrored) in seeds {
+            let Some(&c) = tips.get(centre as usize) else { continue };
             for (v, p) in tips.iter().enumerate() {
                 let w = falloff(p.distance(c), soft_radius);
                 if w > weights[v].0 {
@@ -85,11 +133,22 @@ impl TipDrag {
     /// column's vertices above the root (outer ones by the column rule, inner ones placed by
     /// the surface).
     pub fn moves(&mut self, delta: DVec3) -> Vec<VertexMove> {
+        self.moves_with(&DAffine3::from_translation(delta))
+    }
+
+    /// The moves for the tips of the selection carried by `transform` from where they started
+    /// (a soft-selected tip by its weight's share of that displacement, a mirrored one by the
+    /// mirrored transform).
+    pub fn moves_with(&mut self, transform: &DAffine3) -> Vec<VertexMove> {
         let tip = self.rest.layers.len() - 1;
+        let mirror = mirrored(transform);
         let mut mesh = self.rest.clone();
         let mut moves = Vec::new();
         for c in &self.columns {
-            let d = if c.mirrored { DVec3::new(-delta.x, delta.y, delta.z) } else { delta } * c.weight;
+            let from = self.rest.layers[tip][c.vertex as usize];
+            let to =
+                if c.mirrored { mirror.transform_point3(from) } else { transform.transform_point3(from) };
+            let d = (to - from) * c.weight;
             for k in 1..=tip {
                 let position =
                     self.rest.layers[k][c.vertex as usize] + self.inner.along(k as u32, c.vertex) * d;
@@ -144,6 +203,36 @@ mod tests {
         let moves = kept.moves(grab);
         let worst = moves.iter().map(|m| head.signed_distance(m.position)).fold(f64::INFINITY, f64::min);
         assert!(worst >= margin - 1e-9, "a vertex {worst} from the head, margin {margin}");
+    }
+
+    #[test]
+    fn a_selection_scaled_about_its_centre_gathers_its_tips_and_mirrors_them() {
+        let mesh = cap();
+        let tip = mesh.layers.len() - 1;
+        let selected: Vec<u32> = (30..38).collect();
+        let tips: Vec<DVec3> = selected.iter().map(|&v| mesh.layers[tip][v as usize]).collect();
+        let centre = tips.iter().sum::<DVec3>() / tips.len() as f64;
+        let gather = DAffine3::from_translation(centre)
+            * DAffine3::from_scale(DVec3::splat(0.25))
+            * DAffine3::from_translation(-centre);
+        let mirror_of = |v: u32| mirror_vertex(&mesh, v);
+        let mut edit = TipDrag::selection(&mesh, &selected, mirror_of, 0.0);
+        let moves = edit.moves_with(&gather);
+        for (&v, p) in selected.iter().zip(&tips) {
+            let moved = moves.iter().find(|m| m.vertex == v && m.layer as usize == tip).expect("moved");
+            let expected = centre + (*p - centre) * 0.25;
+            assert!(moved.position.distance(expected) < 1e-12, "{v}: {} vs {expected}", moved.position);
+        }
+        // A twin outside the selection does the mirror image.
+        let (v, twin) = selected
+            .iter()
+            .find_map(|&v| mirror_of(v).filter(|m| !selected.contains(m)).map(|m| (v, m)))
+            .expect("a twin outside the selection");
+        let at = |vertex: u32| {
+            moves.iter().find(|m| m.vertex == vertex && m.layer as usize == tip).map(|m| m.position)
+        };
+        let (a, b) = (at(v).expect("moved"), at(twin).expect("twin moved"));
+        assert!(DVec3::new(-a.x, a.y, a.z).distance(b) < 1e-9, "{a} vs {b}");
     }
 
     #[test]

@@ -14,6 +14,7 @@
 //!    surface.
 //! 4. **Front**: of the two directions perpendicular to both, the one the lower half of the
 //!    profile reaches further along (face, nose and chin against the back of the head and neck).
+//!    A mesh that is only a scalp has no face: its front is the file's (+Z; −Y when Z is up).
 //!
 //! Scans are nearly always aligned with the file's axes, so an up or front within
 //! [`SNAP_DEGREES`] of an axis is snapped to it. The editor shows the frame and lets the artist
@@ -144,8 +145,15 @@ impl HeadFrame {
         let right = symmetry_normal(&faces, &surface, centre, radius, up);
         // The mirror plane holds up: a neck cut tilted sideways is levelled.
         let up = (up - right * up.dot(right)).normalize_or(up);
-        let front = snap(facing(&faces, centre, radius, up, right.cross(up).normalize()), Some(up));
-        Some(Self { centre, up, front, radius })
+        let frame = |front: DVec3| Self { centre, up, front: snap(front, Some(up)), radius };
+        let scalp_only = faces.iter().all(|(p, _)| (*p - centre).dot(up) > -SCALP_ONLY_DEPTH * radius);
+        Some(if scalp_only {
+            // No face to find: the file's front (+Z, or −Y for a Z-up file, Blender's).
+            let file_front = if up.z.abs() > 0.9 { DVec3::NEG_Y } else { DVec3::Z };
+            frame(file_front)
+        } else {
+            frame(facing(&faces, centre, radius, up, right.cross(up).normalize()))
+        })
     }
 }
 
@@ -422,6 +430,7 @@ mod tests {
         let cap = crate::procedural::head_cap(8, 32);
         let frame = HeadFrame::estimate(&cap).expect("a frame");
         assert_eq!(frame.up, DVec3::Y, "{frame:?}");
+        assert_eq!(frame.front, DVec3::Z, "{frame:?}");
         assert_eq!(frame.hairline_faces(&cap, HAIRLINE_OFFSET).len(), cap.faces.len());
     }
 

@@ -1,0 +1,249 @@
+//! Selecting the hair mesh's tips and transforming them in the viewport, with a polygon
+//! modeller's habits: click selects a column (Shift-click adds or removes it), Shift-drag boxes
+//! tips in (Ctrl-drag boxes them out), A selects every tip facing the camera, Alt+A none, Escape
+//! none; G, R and S grab, rotate and scale the selection ([`crate::transform`]) with mirror and
+//! soft selection; every column bends under its tip, the inner vertices follow and everything
+//! stays out of the head ([`crate::sculpt`]).
+
+use egui::{Color32, Key, Pos2, Rect, Stroke};
+use glam::{DVec3, Vec2, Vec3};
+use hairmesh::asset::VertexMove;
+
+use super::EditorApp;
+use crate::document::{Document, Gesture};
+use crate::sculpt::TipDrag;
+use crate::transform::{Axis, ModalTransform, TransformKind, median_point};
+
+/// A grab, rotation or scale in progress.
+#[derive(Debug)]
+pub(super) struct Modal {
+    pub(super) op: ModalTransform,
+    pub(super) sculpt: TipDrag,
+    /// The pointer, last seen (viewport pixels).
+    pointer: Vec2,
+    /// What it does, for the status bar.
+    pub(super) status: String,
+}
+
+/// A box being dragged out: where it started, and whether it adds or removes tips.
+#[derive(Clone, Copy, Debug)]
+pub(super) struct BoxSelect {
+    from: Pos2,
+    add: bool,
+}
+
+impl EditorApp {
+    /// Selection and transform input for this frame. `tips` are the outer layer's tips that
+    /// can be picked (NaN for those facing away or hidden). Returns whether it took the
+    /// pointer (no orbit, no vertex drag) this frame.
+    pub(super) fn modelling_input(
+        &mut self,
+        ui: &egui::Ui,
+        response: &egui::Response,
+        rect: Rect,
+        tips: &[Vec3],
+        painter: &egui::Painter,
+    ) -> bool {
+        if self.scalp_paint.is_some() || !self.show_overlay {
+            self.modal = None;
+            self.box_select = None;
+            return false;
+        }
+        if self.modal.is_some() {
+            self.modal_step(ui, response, rect);
+            return true;
+        }
+        let keyboard = response.hovered() && !ui.ctx().egui_wants_keyboard_input();
+        let (shift, ctrl, alt) = ui.input(|i| (i.modifiers.shift, i.modifiers.command, i.modifiers.alt));
+        if keyboard && self.drag.is_none() {
+            if ui.input(|i| i.key_pressed(Key::A)) {
+                self.selection = if alt {
+                    Vec::new()
+                } else {
+                    (0..tips.len() as u32).filter(|&v| tips[v as usize].is_finite()).collect()
+                };
+            }
+            let kind = ui.input(|i| {
+                [
+                    (Key::G, TransformKind::Grab),
+                    (Key::R, TransformKind::Rotate),
+                    (Key::S, TransformKind::Scale),
+                ]
+                .into_iter()
+                .find(|(k, _)| i.key_pressed(*k) && i.modifiers.is_none())
+                .map(|(_, kind)| kind)
+            });
+            if let Some(kind) = kind {
+                let at = response.hover_pos().unwrap_or(rect.center()) - rect.min;
+                self.start_transform(kind, Vec2::new(at.x, at.y));
+                return true;
+            }
+        }
+        // A box from empty space with Shift (add) or Ctrl (remove).
+        if response.drag_started_by(egui::PointerButton::Primary)
+            && self.press_vertex.is_none()
+            && (shift || ctrl)
+            && let Some(from) = ui.input(|i| i.pointer.press_origin())
+        {
+            self.box_select = Some(BoxSelect { from, add: !ctrl });
+        }
+        if let Some(b) = self.box_select {
+            let to = response.interact_pointer_pos().unwrap_or(b.from);
+            let area = Rect::from_two_pos(b.from, to);
+            painter.rect_stroke(
+                area,
+                0.0,
+                Stroke::new(1.0, Color32::from_rgb(255, 200, 80)),
+                egui::StrokeKind::Inside,
+            );
+            if response.drag_stopped() || !ui.input(|i| i.pointer.primary_down()) {
+                self.box_select = None;
+                let projection =
+                    crate::camera::Projection::new(&self.camera, Vec2::new(rect.width(), rect.height()));
+                for (v, p) in tips.iter().enumerate() {
+                    let inside = projection
+                        .project(*p)
+                        .is_some_and(|(px, _)| area.contains(rect.min + egui::vec2(px.x, px.y)));
+                    if inside {
+                        self.set_selected(v as u32, b.add);
+                    }
+                }
+            }
+            return true;
+        }
+        if response.clicked() {
+            match (self.hovered_vertex, shift) {
+                (Some(v), true) => {
+                    let selected = self.selection.contains(&v);
+                    self.set_selected(v, !selected);
+                }
+                (Some(v), false) => self.selection = vec![v],
+                (None, true) => {}
+                (None, false) => self.selection.clear(),
+            }
+        }
+        if keyboard && ui.input(|i| i.key_pressed(Key::Escape)) {
+            self.selection.clear();
+        }
+        false
+    }
+
+    /// Adds `v` to the selection or removes it (kept sorted, without repeats).
+    fn set_selected(&mut self, v: u32, selected: bool) {
+        match (self.selection.binary_search(&v), selected) {
+            (Err(at), true) => self.selection.insert(at, v),
+            (Ok(at), false) => {
+                self.selection.remove(at);
+            }
+            _ => {}
+        }
+    }
+
+    /// Starts grabbing, rotating or scaling the selection with the pointer at `pointer`
+    /// (viewport pixels).
+    pub fn start_transform(&mut self, kind: TransformKind, pointer: Vec2) {
+        let Some(doc) = &self.doc else { return };
+        let mesh = doc.asset().mesh();
+        let tip = mesh.layers.len() - 1;
+        self.selection.retain(|&v| (v as usize) < mesh.vertex_count());
+        let Some(pivot) = median_point(self.selection.iter().map(|&v| mesh.layers[tip][v as usize])) else {
+            self.note = Some("select tips first (click, Shift-click, Shift-drag a box, A for all)".into());
+            return;
+        };
+        let mirror = self.mirror_x;
+        let soft_radius = self.soft_radius * doc.hair_length();
+        let mut sculpt = TipDrag::selection(
+            mesh,
+            &self.selection,
+            |v| if mirror { crate::sculpt::mirror_vertex(mesh, v) } else { None },
+            soft_radius,
+        );
+        if let Some(head) = doc.head_surface() {
+            sculpt = sculpt.outside(head);
+        }
+        let status = format!("{kind:?}: move the pointer");
+        self.modal = Some(Modal { op: ModalTransform::new(kind, pivot, pointer), sculpt, pointer, status });
+    }
+
+    /// One frame of a running transform: keys, pointer, confirm or cancel, and the moves.
+    fn modal_step(&mut self, ui: &egui::Ui, response: &egui::Response, rect: Rect) {
+        let Some(modal) = &mut self.modal else { return };
+        let mut confirm = false;
+        let mut cancel = false;
+        ui.input(|i| {
+            for event in &i.events {
+                match event {
+                    egui::Event::Text(t) => t.chars().for_each(|c| {
+                        modal.op.type_char(c);
+                    }),
+                    egui::Event::Key { key, pressed: true, .. } => match key {
+                        Key::X => modal.op.toggle_axis(Axis::X),
+                        Key::Y => modal.op.toggle_axis(Axis::Y),
+                        Key::Z => modal.op.toggle_axis(Axis::Z),
+                        Key::Backspace => modal.op.backspace(),
+                        Key::Enter => confirm = true,
+                        Key::Escape => cancel = true,
+                        _ => {}
+                    },
+                    _ => {}
+                }
+            }
+            if i.pointer.button_pressed(egui::PointerButton::Primary) {
+                confirm = true;
+            }
+            if i.pointer.button_pressed(egui::PointerButton::Secondary) {
+                cancel = true;
+            }
+        });
+        if let Some(p) = response.hover_pos() {
+            modal.pointer = Vec2::new(p.x - rect.min.x, p.y - rect.min.y);
+        }
+        self.interacting = true;
+        if cancel {
+            self.modal = None;
+            if let Some(doc) = self.doc.as_mut()
+                && let Err(e) = doc.cancel_gesture(&Gesture::Transform)
+            {
+                self.error = Some(e.to_string());
+            }
+            self.note = Some("transform cancelled".into());
+            return;
+        }
+        let size = Vec2::new(rect.width(), rect.height());
+        let transform = modal.op.transform(&self.camera, size, modal.pointer);
+        let moves: Vec<VertexMove> = modal.sculpt.moves_with(&transform);
+        modal.status = modal.op.describe(&transform);
+        if let Some(doc) = self.doc.as_mut()
+            && let Err(e) = doc.move_vertices(&moves, Some(Gesture::Transform))
+        {
+            self.error = Some(e.to_string());
+        }
+        if confirm {
+            self.modal = None;
+            if let Some(doc) = self.doc.as_mut() {
+                doc.end_gesture();
+            }
+        }
+    }
+
+    /// The columns to highlight: those a transform moves, else the hovered and selected ones.
+    pub(super) fn highlighted_columns(&self) -> Vec<u32> {
+        match (&self.modal, &self.drag) {
+            (Some(m), _) => m.sculpt.columns().collect(),
+            (None, Some(d)) => std::iter::once(d.vertex).chain(d.mirror).chain(d.sculpt.columns()).collect(),
+            (None, None) => self.hovered_vertex.into_iter().chain(self.selection.iter().copied()).collect(),
+        }
+    }
+
+    /// The bounds of the selected columns, if any is selected.
+    pub(super) fn selection_bounds(&self, doc: &Document) -> Option<(DVec3, DVec3)> {
+        let mesh = doc.asset().mesh();
+        let points: Vec<DVec3> = self
+            .selection
+            .iter()
+            .filter(|&&v| (v as usize) < mesh.vertex_count())
+            .flat_map(|&v| mesh.column(v))
+            .collect();
+        (!points.is_empty()).then(|| super::point_bounds(&points))
+    }
+}
