@@ -46,6 +46,7 @@ enum DialogPurpose {
     SaveAs,
     ExportPng,
     ExportScene,
+    SaveSession,
 }
 
 /// What waits for the unsaved-changes prompt.
@@ -166,6 +167,8 @@ pub struct EditorApp {
     modal: Option<modelling::Modal>,
     /// A selection box being dragged out.
     box_select: Option<modelling::BoxSelect>,
+    /// The view a session being replayed was saved with.
+    session_camera: Option<OrbitCamera>,
     drag: Option<VertexDrag>,
     /// The vertex under the pointer when the primary button went down.
     press_vertex: Option<u32>,
@@ -250,6 +253,7 @@ impl EditorApp {
             selection: Vec::new(),
             modal: None,
             box_select: None,
+            session_camera: None,
             drag: None,
             press_vertex: None,
             interacting: false,
@@ -272,10 +276,14 @@ impl EditorApp {
     }
 
     fn open_now(&mut self, path: &Path) {
+        // One spelling per file, so the asset names its head as a replayed session does.
+        let path = &crate::session::spelled_from_here(path);
         let ext = path.extension().and_then(|e| e.to_str()).unwrap_or_default().to_ascii_lowercase();
         if matches!(ext.as_str(), "glb" | "gltf" | "obj") {
             self.settings_for_head(path);
             self.start_conversion(path.to_owned());
+        } else if ext == "json" && crate::session::Session::is_session(path) {
+            self.open_session(path);
         } else if path.is_dir() || path.file_name().is_some_and(|n| n == "hair.json") {
             match Document::open_asset(path) {
                 Ok(doc) => {
@@ -399,6 +407,9 @@ impl EditorApp {
                     self.convert.up = f.up;
                 }
                 self.set_document(doc);
+                if let Some(camera) = self.session_camera.take() {
+                    self.camera = camera;
+                }
                 self.remember(&job.file);
             }
             Err(e) => self.error = Some(e.to_string()),
@@ -491,6 +502,67 @@ impl EditorApp {
         match result {
             Ok(()) => self.note = Some(format!("exported {}", path.display())),
             Err(e) => self.error = Some(e),
+        }
+    }
+
+    /// Writes the session that made the document (its start and every edit,
+    /// [`crate::session`]) to `path`, atomically.
+    pub fn save_session(&mut self, path: &Path) {
+        let Some(doc) = &self.doc else { return };
+        if let Err(e) = self.check_export(path, crate::session::SESSION_FILE) {
+            self.error = Some(e);
+            return;
+        }
+        let session = crate::session::Session::record(doc, self.head_frame, self.camera, path);
+        match session.write(path) {
+            Ok(()) => {
+                self.note = Some(format!(
+                    "saved the session ({} commands) to {}",
+                    session.commands.len(),
+                    path.display()
+                ));
+            }
+            Err(e) => self.error = Some(e.to_string()),
+        }
+    }
+
+    /// Replays a session file in the background (like a conversion); the document it makes
+    /// opens with the session's view and head frame.
+    pub fn open_session(&mut self, path: &Path) {
+        let session = match crate::session::Session::read(path) {
+            Ok(s) => s,
+            Err(e) => {
+                self.error = Some(e.to_string());
+                return;
+            }
+        };
+        if let crate::session::Start::Convert { settings, frame, .. } = &session.start {
+            self.convert = settings.clone();
+            self.head_frame = *frame;
+        }
+        let camera = session.camera;
+        self.head_file = None;
+        let (progress_send, progress) = channel();
+        let (result_send, result) = channel();
+        let file = path.to_owned();
+        let spawned = std::thread::Builder::new().name("session replay".into()).spawn(move || {
+            let doc = session.replay(&file, &mut |step| {
+                let _ = progress_send.send(step.to_owned());
+            });
+            let _ = result_send.send(doc);
+        });
+        match spawned {
+            Ok(_) => {
+                self.conversion = Some(ConversionJob {
+                    file: path.to_owned(),
+                    step: "replaying".into(),
+                    started: Instant::now(),
+                    progress,
+                    result,
+                });
+                self.session_camera = Some(camera);
+            }
+            Err(e) => self.error = Some(format!("cannot start the replay: {e}")),
         }
     }
 
@@ -607,11 +679,10 @@ impl EditorApp {
             .unwrap_or_else(|| PathBuf::from("."));
         let mut dialog = match purpose {
             DialogPurpose::Open => egui_file::FileDialog::open_file()
-                .title("Open a scalp mesh or a hair asset (its hair.json)")
+                .title("Open a head or scalp mesh, a hair asset (its hair.json) or a session")
                 .show_files_filter(Box::new(|p: &Path| {
                     let ext = p.extension().and_then(|e| e.to_str()).unwrap_or_default().to_ascii_lowercase();
-                    matches!(ext.as_str(), "glb" | "gltf" | "obj")
-                        || p.file_name().is_some_and(|n| n == "hair.json")
+                    matches!(ext.as_str(), "glb" | "gltf" | "obj" | "json")
                 })),
             DialogPurpose::SaveAs => {
                 egui_file::FileDialog::select_folder().title("Save the asset as a folder")
@@ -620,6 +691,9 @@ impl EditorApp {
                 egui_file::FileDialog::save_file().title("Export the viewport as PNG")
             }
             DialogPurpose::ExportScene => egui_file::FileDialog::save_file().title("Export a scene file"),
+            DialogPurpose::SaveSession => {
+                egui_file::FileDialog::save_file().title("Save the session (the commands that made the hair)")
+            }
         }
         .initial_path(start);
         dialog.open();
@@ -820,6 +894,13 @@ impl EditorApp {
                     .clicked()
                 {
                     self.open_dialog(DialogPurpose::ExportScene);
+                }
+                if ui
+                    .add_enabled(has_doc, egui::Button::new("Save session…"))
+                    .on_hover_text("The commands that made this hairstyle (replay: hair-editor --replay SESSION.json -o ASSET)")
+                    .clicked()
+                {
+                    self.open_dialog(DialogPurpose::SaveSession);
                 }
                 ui.separator();
                 if ui.button("Quit").clicked() {
@@ -1279,8 +1360,9 @@ impl EditorApp {
         let mesh = doc.asset().mesh();
         let outer = mesh.layers.len() - 1;
         let pointer = response.hover_pos().map(|p| p - rect.min);
-        // Drawn faint and not pickable: a column whose root-to-tip direction points away from
-        // the camera (the far side of the hair), and an outer vertex the head hides (tested
+        // Drawn faint and not pickable: a tip on the far side of the hair (seen from its
+        // middle, it lies away from the camera: long hair hangs away from the view as much as
+        // toward it, so the column's own direction says little), and an outer vertex the head hides (tested
         // against a coarse depth image of the occluder, made again when the view changes).
         let depth = doc.occluder.as_ref().map(|o| {
             let view =
@@ -1297,15 +1379,16 @@ impl EditorApp {
             }
         });
         let eye = self.camera.eye().as_dvec3();
+        let middle = crate::transform::median_point(mesh.layers[outer].iter().copied()).unwrap_or_default();
         let facing: Vec<bool> = (0..mesh.vertex_count())
             .map(|v| {
-                let (root, tip) = (mesh.layers[0][v], mesh.layers[outer][v]);
+                let tip = mesh.layers[outer][v];
                 let hidden = depth.as_ref().is_some_and(|grid| {
                     projection
                         .project(tip.as_vec3())
                         .is_some_and(|(pixel, w)| grid.hides(pixel, w, OVERLAY_DEPTH_TOLERANCE))
                 });
-                (tip - root).dot(eye - tip) >= 0.0 && !hidden
+                (tip - middle).dot(eye - tip) >= 0.0 && !hidden
             })
             .collect();
         let pick_at = |pointer: Vec2| -> Option<u32> {
@@ -1374,13 +1457,16 @@ impl EditorApp {
             });
         }
         let mut moves = Vec::new();
+        let mut recipe = None;
         if let Some(drag) = &mut self.drag {
             if let Some(pos) = response.interact_pointer_pos() {
                 let delta = pos - drag.pointer_start;
                 let tip = drag.tip_start;
                 let moved =
                     self.camera.drag_point(tip.as_vec3(), glam::Vec2::new(delta.x, delta.y), rect.height());
-                moves = drag.sculpt.moves(moved.as_dvec3() - tip);
+                let translation = glam::DAffine3::from_translation(moved.as_dvec3() - tip);
+                moves = drag.sculpt.moves_with(&translation);
+                recipe = Some(drag.sculpt.recipe(translation));
             }
             self.interacting = true;
         } else if modelling {
@@ -1399,7 +1485,7 @@ impl EditorApp {
         }
         // F frames the selection (unless a text field has the keyboard).
         let frame_requested =
-            ui.ctx().input(|i| i.key_pressed(egui::Key::F)) && !ui.ctx().egui_wants_keyboard_input();
+            ui.ctx().input(|i| i.key_pressed(egui::Key::F)) && !ui.ctx().text_edit_focused();
         if response.hovered() {
             let scroll = ui.ctx().input(|i| i.smooth_scroll_delta.y);
             if scroll != 0.0 {
@@ -1446,7 +1532,7 @@ impl EditorApp {
         }
         if !moves.is_empty()
             && let Some(doc) = self.doc.as_mut()
-            && let Err(e) = doc.move_vertices(&moves, Some(Gesture::Drag))
+            && let Err(e) = doc.sculpt(&moves, recipe, Some(Gesture::Drag))
         {
             self.error = Some(e.to_string());
         }
@@ -1554,6 +1640,7 @@ impl EditorApp {
                         DialogPurpose::SaveAs => self.save_as(&path),
                         DialogPurpose::ExportPng => self.export_png(&with_extension(&path, "png")),
                         DialogPurpose::ExportScene => self.export_scene(&with_extension(&path, "json")),
+                        DialogPurpose::SaveSession => self.save_session(&with_extension(&path, "json")),
                     }
                 }
             } else if !dialog.visible() {

@@ -5,7 +5,7 @@
 use glam::{Mat4, Vec2, Vec3, Vec4Swizzles};
 
 /// An orbit camera around `target`.
-#[derive(Clone, Copy, Debug, PartialEq)]
+#[derive(Clone, Copy, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
 pub struct OrbitCamera {
     pub target: Vec3,
     /// Radians about +Y; 0 looks along −Z (from +Z toward the target).

@@ -36,17 +36,17 @@ pub enum Source {
 
 /// One undoable edit, as the values before and after it.
 #[derive(Clone, Debug, PartialEq)]
-#[expect(clippy::large_enum_variant, reason = "a few hundred bytes per undo step; boxing buys nothing")]
 pub enum Edit {
     Style {
         before: Style,
         after: Style,
     },
     /// Hair-mesh vertices: their positions before the edit and after it (same vertices, same
-    /// order).
+    /// order), and how the edit was made when a sculpting tool made it.
     Vertices {
         before: Vec<VertexMove>,
         after: Vec<VertexMove>,
+        made_by: Option<crate::sculpt::Sculpt>,
     },
     Color {
         before: HairColor,
@@ -55,7 +55,7 @@ pub enum Edit {
 }
 
 /// The hair's linear RGB base colour and per-strand variation.
-#[derive(Clone, Copy, Debug, PartialEq)]
+#[derive(Clone, Copy, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
 pub struct HairColor {
     pub rgb: [f32; 3],
     pub variation: f32,
@@ -232,6 +232,12 @@ impl Document {
         &self.changes
     }
 
+    /// The edits that made the document what it is, oldest first (the undo history; undone
+    /// edits are not in it).
+    pub fn history(&self) -> impl Iterator<Item = &Edit> {
+        self.undo.iter().map(|(_, e)| e)
+    }
+
     /// Whether there are edits since the last save (or since opening).
     pub fn is_dirty(&self) -> bool {
         self.undo.last().map_or(0, |(id, _)| *id) != self.saved_edit
@@ -282,6 +288,17 @@ impl Document {
         moves: &[VertexMove],
         gesture: Option<Gesture>,
     ) -> Result<(), EditorError> {
+        self.sculpt(moves, None, gesture)
+    }
+
+    /// [`Document::move_vertices`] for moves a sculpting tool made as `made_by` says (a session
+    /// records it instead of the positions).
+    pub fn sculpt(
+        &mut self,
+        moves: &[VertexMove],
+        made_by: Option<crate::sculpt::Sculpt>,
+        gesture: Option<Gesture>,
+    ) -> Result<(), EditorError> {
         let mesh = self.asset.mesh();
         let before: Vec<VertexMove> = moves
             .iter()
@@ -296,7 +313,7 @@ impl Document {
             })
             .collect();
         self.apply_moves(moves)?;
-        self.record(Edit::Vertices { before, after: moves.to_vec() }, gesture);
+        self.record(Edit::Vertices { before, after: moves.to_vec(), made_by }, gesture);
         Ok(())
     }
 
@@ -384,7 +401,7 @@ impl Document {
         match edit {
             Edit::Style { before, after } => self.apply_style(if forward { *after } else { *before }),
             Edit::Color { before, after } => self.color = if forward { *after } else { *before },
-            Edit::Vertices { before, after } => self.apply_moves(if forward { after } else { before })?,
+            Edit::Vertices { before, after, .. } => self.apply_moves(if forward { after } else { before })?,
         }
         Ok(())
     }
@@ -418,7 +435,12 @@ fn merge_into(last: &mut Edit, edit: Edit) -> Option<Edit> {
     match (last, edit) {
         (Edit::Style { after, .. }, Edit::Style { after: new, .. }) => *after = new,
         (Edit::Color { after, .. }, Edit::Color { after: new, .. }) => *after = new,
-        (Edit::Vertices { before, after }, Edit::Vertices { before: new_before, after: new_after }) => {
+        (
+            Edit::Vertices { before, after, made_by },
+            Edit::Vertices { before: new_before, after: new_after, made_by: new_made_by },
+        ) => {
+            // The latest frame's recipe makes the whole gesture (it starts from the same rest).
+            *made_by = new_made_by;
             // Each vertex keeps its first "before"; vertices the drag reached later are added.
             for (b, a) in new_before.into_iter().zip(new_after) {
                 match after.iter().position(|m| m.layer == a.layer && m.vertex == a.vertex) {

@@ -15,6 +15,7 @@ pub mod presets;
 pub mod preview;
 pub mod scalp_paint;
 pub mod sculpt;
+pub mod session;
 pub mod transform;
 pub mod xwd;
 
@@ -37,4 +38,6 @@ pub enum EditorError {
     NoSavePath,
     #[error("nothing to export yet: the preview has not rendered a frame")]
     NoFrame,
+    #[error("preview: {message}")]
+    Preview { message: String },
 }

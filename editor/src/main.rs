@@ -1,7 +1,9 @@
 //! `hair-editor [PATH] [--screenshot OUT.png]`: the editor in a window (eframe on wgpu).
+//! `hair-editor --replay SESSION.json -o ASSET [--screenshot OUT.png]`: a session replayed
+//! without a window, its asset saved (and its view rendered).
 //!
-//! PATH is a scalp mesh (.glb, .gltf, .obj: converted with the default settings) or a hair
-//! asset folder. With `--screenshot`, the editor opens PATH, waits for the first full-quality
+//! PATH is a head or scalp mesh (.glb, .gltf, .obj: converted with the default settings), a
+//! hair asset folder or a session file. With `--screenshot`, the editor opens PATH, waits for the first full-quality
 //! preview, saves a screenshot of the whole window and exits (for docs and headless checks,
 //! e.g. under `xvfb-run`); the screenshot is taken with `xwd` (X11).
 
@@ -15,13 +17,24 @@ use editor::app::{EditorApp, ScreenshotRequest};
 #[derive(Parser, Debug)]
 #[command(name = "hair-editor", version, about = "Shape hair meshes and style hair with a live preview")]
 struct Cli {
-    /// A scalp mesh (.glb, .gltf, .obj) or a hair asset folder to open.
+    /// A head or scalp mesh (.glb, .gltf, .obj), a hair asset folder or a session to open.
     path: Option<PathBuf>,
     /// Open PATH, wait for the first full-quality preview, save a screenshot of the window to
-    /// this PNG and exit.
-    #[arg(long, value_name = "OUT.png", requires = "path")]
+    /// this PNG and exit. With --replay: render the replayed hair in the session's view to
+    /// this PNG (no window).
+    #[arg(long, value_name = "OUT.png")]
     screenshot: Option<PathBuf>,
-    /// Window size in points, WIDTHxHEIGHT.
+    /// Replay this session without a window and save its asset to --out.
+    #[arg(long, value_name = "SESSION.json", conflicts_with = "path", requires = "out")]
+    replay: Option<PathBuf>,
+    /// With --replay: the asset folder to write (replaced only if it is a hair asset).
+    #[arg(short, long, value_name = "ASSET_DIR", requires = "replay")]
+    out: Option<PathBuf>,
+    /// With --replay: replace --out even if it is not a hair asset (never a folder holding an
+    /// input).
+    #[arg(long, requires = "replay")]
+    force: bool,
+    /// Window size in points, WIDTHxHEIGHT (with --replay: the picture's size in pixels).
     #[arg(long, default_value = "1280x760", value_parser = parse_size)]
     size: (f32, f32),
     /// `--screenshot`: give up after this many seconds.
@@ -121,7 +134,42 @@ fn main() -> std::process::ExitCode {
     }
 }
 
+/// `--replay`: the session's asset (and picture) without a window.
+fn replay(session_path: &std::path::Path, out: &std::path::Path, cli: &Cli) -> Result<()> {
+    use hairmesh::output::{FileKind, Replace};
+    let session = editor::session::Session::read(session_path)?;
+    // Before any work: the outputs must be safe to write.
+    let replace = Replace::from_force(cli.force);
+    hairmesh::output::check_asset_folder(out, &[session_path], replace)?;
+    if let Some(shot) = &cli.screenshot {
+        hairmesh::output::check_file(shot, FileKind::Png, &[session_path], Replace::OwnOutput)?;
+    }
+    let started = Instant::now();
+    let mut doc = session.replay(session_path, &mut |step| eprintln!("{step}…"))?;
+    doc.save_as(out)?;
+    println!(
+        "replayed {} ({} commands) in {:.1} s: wrote {}",
+        session_path.display(),
+        session.commands.len(),
+        started.elapsed().as_secs_f64(),
+        out.display()
+    );
+    if let Some(shot) = &cli.screenshot {
+        let size = [cli.size.0.round() as u32, cli.size.1.round() as u32];
+        let image = editor::session::snapshot(&doc, session.camera, size, Duration::from_secs(cli.timeout))?;
+        render::output::write_png(shot, &image).with_context(|| format!("writing {}", shot.display()))?;
+        println!("wrote {}", shot.display());
+    }
+    Ok(())
+}
+
 fn run(cli: Cli) -> Result<()> {
+    if let (Some(session), Some(out)) = (&cli.replay, &cli.out) {
+        return replay(session, out, &cli);
+    }
+    if cli.screenshot.is_some() && cli.path.is_none() {
+        bail!("--screenshot needs a PATH to open (or --replay SESSION -o ASSET)");
+    }
     if let Some(p) = &cli.path
         && !p.exists()
     {

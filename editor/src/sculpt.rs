@@ -11,6 +11,7 @@ use hairmesh::HairMesh;
 use hairmesh::asset::VertexMove;
 use hairmesh::head::HeadSurface;
 use hairmesh::inner::InnerVertices;
+use serde::{Deserialize, Serialize};
 
 /// How far outside the head moved vertices are kept, as a fraction of the head's size.
 pub const HEAD_MARGIN: f64 = 0.005;
@@ -25,9 +26,38 @@ struct Column {
     mirrored: bool,
 }
 
+/// How an edit of the tips was made, enough to make it again on the same mesh
+/// ([`Sculpt::moves`]): what a session records for a drag or a G/R/S.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct Sculpt {
+    /// The columns moved by `transform` (their tips), each `true` when it does the mirror
+    /// image (a twin across x = 0).
+    pub seeds: Vec<(u32, bool)>,
+    /// Tips this close to a seed follow by [`falloff`] (file units).
+    pub soft_radius: f64,
+    /// What the seeds' tips undergo.
+    pub transform: DAffine3,
+    /// Kept out of the head (when the document has one).
+    pub outside_head: bool,
+}
+
+impl Sculpt {
+    /// The edit made again on `mesh` (the mesh it was made on), kept out of `head` when it
+    /// was.
+    pub fn moves(&self, mesh: &HairMesh, head: Option<Arc<HeadSurface>>) -> Vec<VertexMove> {
+        let mut drag = TipDrag::with_seeds(mesh, &self.seeds, self.soft_radius);
+        if let (true, Some(head)) = (self.outside_head, head) {
+            drag = drag.outside(head);
+        }
+        drag.moves_with(&self.transform)
+    }
+}
+
 /// A drag of one tip (with its mirror and soft selection), from the mesh at its start.
 #[derive(Clone, Debug)]
 pub struct TipDrag {
+    seeds: Vec<(u32, bool)>,
+    soft_radius: f64,
     rest: HairMesh,
     columns: Vec<Column>,
     inner: InnerVertices,
@@ -113,7 +143,14 @@ impl TipDrag {
             .filter(|(_, (w, _))| *w > 0.0)
             .map(|(v, &(weight, mirrored))| Column { vertex: v as u32, weight, mirrored })
             .collect();
-        Self { rest: mesh.clone(), columns, inner: InnerVertices::new(mesh), head: None }
+        Self {
+            seeds: seeds.to_vec(),
+            soft_radius,
+            rest: mesh.clone(),
+            columns,
+            inner: InnerVertices::new(mesh),
+            head: None,
+        }
     }
 
     /// Keeps every moved vertex [`HEAD_MARGIN`] × the head's size outside `head`.
@@ -122,6 +159,16 @@ impl TipDrag {
         let margin = HEAD_MARGIN * head.size();
         self.head = Some((head, margin));
         self
+    }
+
+    /// How `transform` applied by this drag was made ([`Sculpt::moves`] makes it again).
+    pub fn recipe(&self, transform: DAffine3) -> Sculpt {
+        Sculpt {
+            seeds: self.seeds.clone(),
+            soft_radius: self.soft_radius,
+            transform,
+            outside_head: self.head.is_some(),
+        }
     }
 
     /// Vertices the drag moves (for highlighting).

@@ -154,7 +154,7 @@ impl ScalpProvenance {
 }
 
 /// One hair-mesh vertex moved to a new position (object space).
-#[derive(Clone, Copy, Debug, PartialEq)]
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
 pub struct VertexMove {
     /// 0 = the root layer (the scalp), up to `L`.
     pub layer: u32,

@@ -53,7 +53,7 @@ impl EditorApp {
             self.modal_step(ui, response, rect);
             return true;
         }
-        let keyboard = response.hovered() && !ui.ctx().egui_wants_keyboard_input();
+        let keyboard = response.hovered() && !ui.ctx().text_edit_focused();
         let (shift, ctrl, alt) = ui.input(|i| (i.modifiers.shift, i.modifiers.command, i.modifiers.alt));
         if keyboard && self.drag.is_none() {
             if ui.input(|i| i.key_pressed(Key::A)) {
@@ -213,8 +213,9 @@ impl EditorApp {
         let transform = modal.op.transform(&self.camera, size, modal.pointer);
         let moves: Vec<VertexMove> = modal.sculpt.moves_with(&transform);
         modal.status = modal.op.describe(&transform);
+        let recipe = modal.sculpt.recipe(transform);
         if let Some(doc) = self.doc.as_mut()
-            && let Err(e) = doc.move_vertices(&moves, Some(Gesture::Transform))
+            && let Err(e) = doc.sculpt(&moves, Some(recipe), Some(Gesture::Transform))
         {
             self.error = Some(e.to_string());
         }
