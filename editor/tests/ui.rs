@@ -585,6 +585,218 @@ fn a_saved_session_replays_to_the_saved_asset(_: &gen_gpu::Context) -> Result<()
     Ok(())
 }
 
+/// The hairstyles the repository ships, each a session in `assets/sessions/` whose replay is
+/// the asset of the same name in `assets/hair/`.
+const SHIPPED: [&str; 3] = ["ponytail", "side_parted_bob", "over_one_shoulder"];
+
+/// Applies G, R or S (`key`) to the selection, constrained to `axis` when given, by the typed
+/// `value`, as an artist types it.
+fn typed_transform(
+    h: &mut Harness<'_, EditorApp>,
+    key: egui::Key,
+    axis: Option<egui::Key>,
+    value: &str,
+) -> Result<()> {
+    let rect = h.state().viewport_rect;
+    h.hover_at(rect.center());
+    h.step();
+    h.key_press(key);
+    h.step();
+    if let Some(axis) = axis {
+        h.key_press(axis);
+    }
+    h.event(egui::Event::Text(value.into()));
+    h.step();
+    h.key_press(egui::Key::Enter);
+    h.step();
+    settle(h)
+}
+
+/// Selects the tips whose place in the head's frame (right, up, front, in skull radii)
+/// satisfies `keep`: what a box drawn around them selects.
+fn select_tips(h: &mut Harness<'_, EditorApp>, keep: impl Fn(glam::DVec3) -> bool) -> Result<usize> {
+    let frame = h.state().head_frame.context("no head frame")?;
+    let mesh = h.state().doc.as_ref().context("doc")?.asset().mesh().clone();
+    let tip = mesh.layers.len() - 1;
+    h.state_mut().selection = (0..mesh.vertex_count() as u32)
+        .filter(|&v| keep(frame.to_local(mesh.layers[tip][v as usize])))
+        .collect();
+    Ok(h.state().selection.len())
+}
+
+/// Makes the shipped hairstyles in the editor (scripted: the presets, selections and typed
+/// G/R/S an artist would use), saves their sessions into `dir` and renders their pictures.
+fn author_shipped_sessions(dir: &Path) -> Result<()> {
+    use editor::presets::PRESETS;
+    let preset = |name: &str| PRESETS.iter().find(|p| p.name == name).context("preset");
+    let lee = hairmesh::convert::sample_head::locate()?;
+    let sintel = data_set::require("heads/sintel/sintel_bust.obj");
+    for name in SHIPPED {
+        let mut h = editor();
+        h.state_mut().convert.strands = 20_000;
+        let head = if name == "ponytail" { &lee } else { &sintel };
+        h.state_mut().open(head);
+        settle(&mut h)?;
+        let frame = h.state().head_frame.context("no head frame")?;
+        let r = frame.radius;
+        match name {
+            "ponytail" => {
+                // Long hair combed back, gathered behind the nape and pulled down into a tail.
+                h.state_mut().apply_preset(preset("Long wavy")?);
+                settle(&mut h)?;
+                select_tips(&mut h, |p| p.z < 0.3)?;
+                typed_transform(&mut h, egui::Key::S, None, "0.12")?;
+                typed_transform(&mut h, egui::Key::G, Some(egui::Key::Y), &format!("{:.4}", -1.2 * r))?;
+                typed_transform(
+                    &mut h,
+                    egui::Key::G,
+                    Some(egui::Key::Z),
+                    &format!("{:.4}", frame.front.z * -0.5 * r),
+                )?;
+                h.state_mut().camera.yaw = 2.0;
+            }
+            "side_parted_bob" => {
+                // A bob combed from a parting on the left over to the right, off the face, cut
+                // level.
+                h.state_mut().apply_preset(preset("Straight bob")?);
+                settle(&mut h)?;
+                if let hairmesh::convert::LayerShape::Drape { comb, .. } = &mut h.state_mut().convert.shape {
+                    *comb = frame.right() * 0.8 - frame.front * 1.5;
+                }
+                h.state_mut().start_conversion(head.clone());
+                settle(&mut h)?;
+                select_tips(&mut h, |p| p.z > 0.2)?;
+                typed_transform(
+                    &mut h,
+                    egui::Key::G,
+                    Some(egui::Key::Z),
+                    &format!("{:.4}", frame.front.z * -0.35 * r),
+                )?;
+                select_tips(&mut h, |_| true)?;
+                typed_transform(&mut h, egui::Key::S, Some(egui::Key::Y), "0.35")?;
+                h.state_mut().camera.yaw = 0.7;
+            }
+            _ => {
+                // Long hair brought forward over the right shoulder.
+                h.state_mut().apply_preset(preset("Long wavy")?);
+                settle(&mut h)?;
+                select_tips(&mut h, |p| p.x > -0.4)?;
+                typed_transform(
+                    &mut h,
+                    egui::Key::G,
+                    Some(egui::Key::X),
+                    &format!("{:.4}", frame.right().x * 0.7 * r),
+                )?;
+                typed_transform(
+                    &mut h,
+                    egui::Key::G,
+                    Some(egui::Key::Z),
+                    &format!("{:.4}", frame.front.z * 1.1 * r),
+                )?;
+                h.state_mut().camera.yaw = -0.5;
+            }
+        }
+        h.state_mut().camera.pitch = 0.15;
+        h.state_mut().camera.distance *= 0.6;
+        let session_file = dir.join(format!("{name}.session.json"));
+        h.state_mut().save_session(&session_file);
+        ensure!(h.state().error.is_none(), "{name}: {:?}", h.state().error);
+        eprintln!("wrote {}", session_file.display());
+    }
+    Ok(())
+}
+
+/// Every shipped session replays to its shipped asset: every texture byte for byte, the
+/// manifest equal but for the head's path (spelled from where it is run). With
+/// `HAIRKIT_AUTHOR_SESSIONS=1` the sessions are made again first, and with
+/// `HAIRKIT_UPDATE_SHIPPED=1` the assets and pictures are written from them.
+fn shipped_sessions_replay_to_their_assets(_: &gen_gpu::Context) -> Result<()> {
+    let repo = Path::new(env!("CARGO_MANIFEST_DIR")).join("..");
+    let sessions = repo.join("assets/sessions");
+    if std::env::var("HAIRKIT_AUTHOR_SESSIONS").is_ok_and(|v| v == "1") {
+        author_shipped_sessions(&sessions)?;
+    }
+    let update = std::env::var("HAIRKIT_UPDATE_SHIPPED").is_ok_and(|v| v == "1");
+    let dir = tempfile::tempdir()?;
+    for name in SHIPPED {
+        let session_file = sessions.join(format!("{name}.session.json"));
+        let session = editor::session::Session::read(&session_file)?;
+        let mut doc = session.replay(&session_file, &mut |_| {})?;
+        let shipped = repo.join("assets/hair").join(name);
+        if update {
+            doc.save_as(&shipped)?;
+            let image =
+                editor::session::snapshot(&doc, session.camera, [640, 480], Duration::from_secs(300))?;
+            render::output::write_png(&repo.join(format!("docs/hairstyle-{name}.png")), &image)?;
+            continue;
+        }
+        let replayed = dir.path().join(name);
+        doc.save_as(&replayed)?;
+        for entry in std::fs::read_dir(&shipped)? {
+            let file = entry?.file_name();
+            let (a, b) = (std::fs::read(shipped.join(&file))?, std::fs::read(replayed.join(&file))?);
+            if file == "hair.json" {
+                let manifest = |bytes: &[u8]| -> Result<serde_json::Value> {
+                    let mut v: serde_json::Value = serde_json::from_slice(bytes)?;
+                    v["source"] = serde_json::Value::Null;
+                    v["scalp"]["file"] = serde_json::Value::Null;
+                    Ok(v)
+                };
+                ensure!(manifest(&a)? == manifest(&b)?, "{name}: hair.json differs from the replay's");
+            } else {
+                ensure!(a == b, "{name}: {} differs from the replay's", file.to_string_lossy());
+            }
+        }
+    }
+    Ok(())
+}
+
+/// The README's replay command: `hair-editor --replay SESSION -o ASSET --screenshot PNG`
+/// writes the asset and a picture with hair in it; an output that is the folder holding the
+/// session is refused, naming it, with nothing written or deleted.
+fn replay_command_writes_the_asset_and_a_picture(_: &gen_gpu::Context) -> Result<()> {
+    let repo = Path::new(env!("CARGO_MANIFEST_DIR")).join("..");
+    let session = repo.join("assets/sessions/side_parted_bob.session.json");
+    let dir = tempfile::tempdir()?;
+    let (out, picture) = (dir.path().join("bob"), dir.path().join("bob.png"));
+    let run = |args: &[&std::ffi::OsStr]| {
+        std::process::Command::new(env!("CARGO_BIN_EXE_hair-editor")).args(args).output()
+    };
+    let done = run(&[
+        "--replay".as_ref(),
+        session.as_os_str(),
+        "-o".as_ref(),
+        out.as_os_str(),
+        "--screenshot".as_ref(),
+        picture.as_os_str(),
+        "--size".as_ref(),
+        "320x240".as_ref(),
+    ])?;
+    let stderr = String::from_utf8_lossy(&done.stderr);
+    ensure!(done.status.success(), "{stderr}");
+    ensure!(out.join("hair.json").is_file(), "no asset written");
+    let mut reader =
+        png::Decoder::new(std::io::BufReader::new(std::fs::File::open(&picture)?)).read_info()?;
+    let mut pixels = vec![0; reader.output_buffer_size()];
+    let info = reader.next_frame(&mut pixels)?;
+    ensure!(info.color_type == png::ColorType::Rgba, "{:?}", info.color_type);
+    let pixels = &pixels[..info.buffer_size()];
+    let background = pixels[..4].to_vec();
+    let hair =
+        pixels.chunks(4).filter(|p| p.iter().zip(&background).any(|(a, b)| a.abs_diff(*b) > 24)).count();
+    ensure!(hair > 2000, "the picture shows {hair} pixels of hair and head");
+    // The folder holding the session is not an asset: refused, untouched.
+    let sessions = dir.path().join("sessions");
+    std::fs::create_dir(&sessions)?;
+    let copy = sessions.join("bob.session.json");
+    std::fs::copy(&session, &copy)?;
+    let refused = run(&["--replay".as_ref(), copy.as_os_str(), "-o".as_ref(), sessions.as_os_str()])?;
+    let stderr = String::from_utf8_lossy(&refused.stderr);
+    ensure!(!refused.status.success() && stderr.contains("sessions"), "{stderr}");
+    ensure!(copy.is_file(), "the session was deleted");
+    Ok(())
+}
+
 /// Presets follow the open head's frame, estimated when the head is first converted: draped
 /// hair flows around its skull's centre and is combed away from its face; another head opened
 /// in the same editor gets its own frame and the suggested hairline (`auto`), not the previous
@@ -746,6 +958,8 @@ fn main() -> std::process::ExitCode {
         t("scalp_painting_adds_the_faces_under_the_brush", scalp_painting_adds_the_faces_under_the_brush),
         t("presets_follow_the_head_frame", presets_follow_the_head_frame),
         t("a_saved_session_replays_to_the_saved_asset", a_saved_session_replays_to_the_saved_asset),
+        t("shipped_sessions_replay_to_their_assets", shipped_sessions_replay_to_their_assets),
+        t("replay_command_writes_the_asset_and_a_picture", replay_command_writes_the_asset_and_a_picture),
         t("grab_rotate_scale_the_selection_like_a_modeller", grab_rotate_scale_the_selection_like_a_modeller),
         t("presets_on_both_heads_stay_off_the_face", presets_on_both_heads_stay_off_the_face),
         t("real_window_under_xvfb_shows_hair", real_window_under_xvfb_shows_hair),
