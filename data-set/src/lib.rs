@@ -146,6 +146,17 @@ impl DataSet {
         })
     }
 
+    /// The name of `path` inside the data set (`/`-separated, relative to the first folder of
+    /// the search list that holds it), if it is a file of the data set.
+    pub fn name_of(&self, path: &Path) -> Option<String> {
+        let file = path.canonicalize().ok()?;
+        self.roots.iter().find_map(|root| {
+            let rel = file.strip_prefix(root.path.canonicalize().ok()?).ok()?;
+            let parts: Vec<&str> = rel.components().map(|c| c.as_os_str().to_str()).collect::<Option<_>>()?;
+            Some(parts.join("/"))
+        })
+    }
+
     /// The first folder that holds every file of [`sources`] (with the listed size), if any:
     /// what `cargo xtask` checks before deciding to download.
     pub fn complete_root(&self) -> Option<&Root> {
@@ -166,6 +177,25 @@ pub fn hairkit_data() -> Option<PathBuf> {
 /// [`DataSet::from_env`]`.locate(relative)`.
 pub fn locate(relative: impl AsRef<Path>) -> Result<PathBuf, MissingData> {
     DataSet::from_env().locate(relative)
+}
+
+/// How a file of the data set is named where its place differs per machine (an asset's
+/// provenance, an editor session): this prefix and its name inside the data set.
+pub const NAME_PREFIX: &str = "data:";
+
+/// `path` as a portable name: `data:NAME` when it is a file of the data set
+/// ([`DataSet::name_of`]), else `None`.
+pub fn portable_name(path: &Path) -> Option<String> {
+    DataSet::from_env().name_of(path).map(|n| format!("{NAME_PREFIX}{n}"))
+}
+
+/// The file a name from [`portable_name`] stands for on this machine (other names are paths
+/// as they are).
+pub fn resolve_name(name: &str) -> Result<PathBuf, MissingData> {
+    match name.strip_prefix(NAME_PREFIX) {
+        Some(rel) => locate(rel),
+        None => Ok(PathBuf::from(name)),
+    }
 }
 
 /// [`locate`] for tests and benches: a missing file panics with the resolver's message, so a

@@ -28,6 +28,7 @@ use render::scene::Transparency;
 
 use crate::EditorError;
 
+mod brushing;
 mod modelling;
 use crate::camera::{DepthGrid, OrbitCamera, Projection, pick};
 use crate::document::{Document, Gesture, Source};
@@ -167,6 +168,13 @@ pub struct EditorApp {
     modal: Option<modelling::Modal>,
     /// A selection box being dragged out.
     box_select: Option<modelling::BoxSelect>,
+    /// The hair brush in use (`None`: select and transform).
+    pub hair_brush: Option<crate::brush::BrushKind>,
+    /// The hair brush's radius in viewport pixels, and its strength (0..=1).
+    pub hair_brush_radius: f32,
+    pub brush_strength: f64,
+    /// A brush stroke in progress.
+    stroke: Option<brushing::BrushStroke>,
     /// The view a session being replayed was saved with.
     session_camera: Option<OrbitCamera>,
     drag: Option<VertexDrag>,
@@ -254,6 +262,10 @@ impl EditorApp {
             modal: None,
             box_select: None,
             session_camera: None,
+            hair_brush: None,
+            hair_brush_radius: 60.0,
+            brush_strength: 0.5,
+            stroke: None,
             drag: None,
             press_vertex: None,
             interacting: false,
@@ -998,6 +1010,7 @@ impl EditorApp {
 
     fn side_panel(&mut self, ui: &mut egui::Ui) {
         egui::CollapsingHeader::new("Conversion").default_open(true).show(ui, |ui| self.conversion_panel(ui));
+        egui::CollapsingHeader::new("Sculpt").default_open(true).show(ui, |ui| self.sculpt_panel(ui));
         egui::CollapsingHeader::new("Style").default_open(true).show(ui, |ui| self.style_panel(ui));
         egui::CollapsingHeader::new("Scene").default_open(true).show(ui, |ui| self.scene_panel(ui));
     }
@@ -1417,12 +1430,14 @@ impl EditorApp {
         if response.hovered() && ui.input(|i| i.pointer.primary_pressed()) {
             self.press_vertex = self.hovered_vertex;
         }
-        let modelling = self.modelling_input(ui, &response, rect, &tips, &painter);
+        let modelling = self.brush_input(ui, &response, rect, &tips, &painter)
+            || self.hair_brush.is_none() && self.modelling_input(ui, &response, rect, &tips, &painter);
         let Some(doc) = self.doc.as_ref() else { return };
         let mesh = doc.asset().mesh();
         let primary = response.drag_started_by(egui::PointerButton::Primary);
         if primary
             && !modelling
+            && self.hair_brush.is_none()
             && self.scalp_paint.is_none()
             && self.show_overlay
             && let Some(v) = self.press_vertex.take()

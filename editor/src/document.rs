@@ -74,6 +74,8 @@ pub enum Gesture {
     Style(String),
     /// A drag of hair-mesh vertices.
     Drag,
+    /// A stroke of a hair brush ([`crate::brush`]).
+    Brush,
     /// A grab, rotation or scale of the selected tips ([`crate::transform`]), which may be
     /// cancelled.
     Transform,
@@ -209,7 +211,11 @@ impl Document {
     pub fn scalp_file(&self) -> Option<PathBuf> {
         match &self.source {
             Source::Scalp { file, .. } => Some(file.clone()),
-            Source::Asset { .. } => self.asset.provenance.as_ref().map(|p| PathBuf::from(&p.file)),
+            Source::Asset { path } => self
+                .asset
+                .provenance
+                .as_ref()
+                .map(|p| p.locate(path).unwrap_or_else(|| PathBuf::from(&p.file))),
         }
     }
 
@@ -353,15 +359,23 @@ impl Document {
 
     /// Writes the asset to `dir` atomically (the asset writer replaces the folder in one
     /// rename) and makes it the document's save path.
+    /// A head of the third-party data set is recorded as `data:NAME`, so the asset finds it on
+    /// any machine ([`data_set::portable_name`]).
     pub fn save_as(&mut self, dir: &Path) -> Result<(), EditorError> {
         let source = self.scalp_file();
         let units = source.as_deref().map_or("file units", hairmesh::convert::file_units);
+        let portable = source.as_deref().and_then(data_set::portable_name);
+        let mut asset = self.asset.clone();
+        if let (Some(name), Some(p)) = (&portable, Arc::make_mut(&mut asset).provenance.as_mut()) {
+            p.file = name.clone();
+        }
+        let recorded = portable.or_else(|| source.as_deref().and_then(Path::to_str).map(str::to_owned));
         hairmesh::asset_io::write_asset(
             dir,
-            &self.asset,
+            &asset,
             hairmesh::asset_io::Precision::F32,
             units,
-            source.as_deref().and_then(Path::to_str),
+            recorded.as_deref(),
         )
         .map_err(|source| EditorError::Asset { path: dir.to_owned(), source })?;
         self.save_path = Some(dir.to_owned());

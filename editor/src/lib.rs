@@ -9,6 +9,7 @@
 //! in the tests and `eframe` drives in a window (`src/main.rs`).
 
 pub mod app;
+pub mod brush;
 pub mod camera;
 pub mod document;
 pub mod presets;

@@ -187,15 +187,48 @@ impl TipDrag {
     /// (a soft-selected tip by its weight's share of that displacement, a mirrored one by the
     /// mirrored transform).
     pub fn moves_with(&mut self, transform: &DAffine3) -> Vec<VertexMove> {
-        let tip = self.rest.layers.len() - 1;
         let mirror = mirrored(transform);
+        self.moves_for(|c, from| {
+            let to =
+                if c.mirrored { mirror.transform_point3(from) } else { transform.transform_point3(from) };
+            (to - from) * c.weight
+        })
+    }
+
+    /// The moves for each column's tip displaced by its own amount (a brush dab; columns not
+    /// listed stay).
+    pub fn moves_by(&mut self, displacements: &[(u32, DVec3)]) -> Vec<VertexMove> {
+        let by: std::collections::HashMap<u32, DVec3> = displacements.iter().copied().collect();
+        self.moves_for(|c, _| by.get(&c.vertex).copied().unwrap_or(DVec3::ZERO))
+    }
+
+    /// Starts moving the tips of `weighted` columns of `mesh`, each by its weight's share of a
+    /// transform (a grab brush's hold) or by its own displacement ([`TipDrag::moves_by`]).
+    pub fn weighted(mesh: &HairMesh, weighted: &[(u32, f64)]) -> Self {
+        let columns = weighted
+            .iter()
+            .filter(|(v, w)| (*v as usize) < mesh.vertex_count() && *w > 0.0)
+            .map(|&(vertex, weight)| Column { vertex, weight, mirrored: false })
+            .collect();
+        Self {
+            seeds: Vec::new(),
+            soft_radius: 0.0,
+            rest: mesh.clone(),
+            columns,
+            inner: InnerVertices::new(mesh),
+            head: None,
+        }
+    }
+
+    /// Every column's vertices above the root for the tip displacement `tip_move` gives it
+    /// (outer ones by the column rule, inner ones placed by the surface), pushed out of the
+    /// head.
+    fn moves_for(&mut self, tip_move: impl Fn(&Column, DVec3) -> DVec3) -> Vec<VertexMove> {
+        let tip = self.rest.layers.len() - 1;
         let mut mesh = self.rest.clone();
         let mut moves = Vec::new();
         for c in &self.columns {
-            let from = self.rest.layers[tip][c.vertex as usize];
-            let to =
-                if c.mirrored { mirror.transform_point3(from) } else { transform.transform_point3(from) };
-            let d = (to - from) * c.weight;
+            let d = tip_move(c, self.rest.layers[tip][c.vertex as usize]);
             for k in 1..=tip {
                 let position =
                     self.rest.layers[k][c.vertex as usize] + self.inner.along(k as u32, c.vertex) * d;

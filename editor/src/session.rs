@@ -177,13 +177,11 @@ pub fn snapshot(
 /// `file` as a session names it: `data:PATH` inside the data set, else relative to `base` when
 /// it is inside it, else as it is.
 fn portable_path(file: &Path, base: &Path) -> String {
+    if let Some(name) = data_set::portable_name(file) {
+        return name;
+    }
     let canonical = |p: &Path| p.canonicalize().unwrap_or_else(|_| p.to_owned());
     let file = canonical(file);
-    for root in data_set::DataSet::from_env().roots() {
-        if let Ok(rel) = file.strip_prefix(canonical(&root.path)) {
-            return format!("data:{}", rel.display());
-        }
-    }
     match file.strip_prefix(canonical(base)) {
         Ok(rel) => rel.display().to_string(),
         Err(_) => file.display().to_string(),
@@ -193,10 +191,11 @@ fn portable_path(file: &Path, base: &Path) -> String {
 /// A head or asset path of the session at `session` (relative paths against its folder
 /// `base`), spelled as [`spelled_from_here`] spells it.
 fn resolve(name: &str, base: &Path, session: &Path) -> Result<PathBuf, EditorError> {
-    let path = match name.strip_prefix("data:") {
-        Some(rel) => data_set::locate(rel)
-            .map_err(|e| EditorError::Io { path: session.to_owned(), message: e.to_string() })?,
-        None => base.join(name),
+    let path = if name.starts_with(data_set::NAME_PREFIX) {
+        data_set::resolve_name(name)
+            .map_err(|e| EditorError::Io { path: session.to_owned(), message: e.to_string() })?
+    } else {
+        base.join(name)
     };
     Ok(spelled_from_here(&path))
 }

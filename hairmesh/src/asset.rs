@@ -145,9 +145,13 @@ pub struct ScalpProvenance {
 }
 
 impl ScalpProvenance {
-    /// The scalp file on this machine: as recorded, or relative to the asset folder `asset_dir`
-    /// (an asset moved with its head keeps finding it).
+    /// The scalp file on this machine: a file of the data set wherever it is (recorded as
+    /// `data:NAME`, [`data_set::portable_name`]), else as recorded or relative to the asset
+    /// folder `asset_dir` (an asset moved with its head keeps finding it).
     pub fn locate(&self, asset_dir: &std::path::Path) -> Option<std::path::PathBuf> {
+        if self.file.starts_with(data_set::NAME_PREFIX) {
+            return data_set::resolve_name(&self.file).ok().filter(|f| f.is_file());
+        }
         let file = std::path::PathBuf::from(&self.file);
         [file.clone(), asset_dir.join(&file)].into_iter().find(|f| f.is_file())
     }
