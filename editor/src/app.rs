@@ -11,7 +11,8 @@
 //! column follow by their share of the column's length (layer `k` of `L` of a straight column
 //! by `k / L`), so the root stays on the scalp and the column keeps its shape, and the inner
 //! vertices of the hair mesh follow its surface ([`crate::sculpt`], [`hairmesh::inner`]). With
-//! *Mirror X* the vertex whose root mirrors this one's across x = 0 moves with it, mirrored;
+//! *Mirror* the vertex whose root mirrors this one's across the head's plane of symmetry (x = 0
+//! without a head) moves with it, mirrored;
 //! with *Soft selection* the tips around it follow, less the further they are.
 
 use std::path::{Path, PathBuf};
@@ -93,7 +94,7 @@ pub struct ShownFrame {
 /// A vertex drag in progress: the vertices it moves and where they were when it began.
 #[derive(Clone, Debug)]
 struct VertexDrag {
-    /// Outer-layer vertex under the pointer, and its mirror (with Mirror X).
+    /// Outer-layer vertex under the pointer, and its mirror (with *Mirror*).
     vertex: u32,
     mirror: Option<u32>,
     /// Its tip where the drag started.
@@ -1168,6 +1169,11 @@ impl EditorApp {
         });
     }
 
+    /// What *Mirror* mirrors across: the head's plane of symmetry, or x = 0 without a head.
+    fn mirror_plane(&self) -> crate::sculpt::MirrorPlane {
+        self.head_frame.as_ref().map(crate::sculpt::MirrorPlane::of_head).unwrap_or_default()
+    }
+
     /// The head's frame in words, and the corrections an artist may need: a scan whose back
     /// was taken for its face, or one turned on its side.
     fn head_frame_row(&mut self, ui: &mut egui::Ui) {
@@ -1314,7 +1320,9 @@ impl EditorApp {
         ui.checkbox(&mut e.shadows, "Self-shadowing (deep opacity maps)");
         ui.checkbox(&mut e.ao, "Ambient occlusion");
         ui.checkbox(&mut self.show_overlay, "Hair-mesh overlay");
-        ui.checkbox(&mut self.mirror_x, "Mirror X (symmetric edits)");
+        ui.checkbox(&mut self.mirror_x, "Mirror (symmetric edits)").on_hover_text(
+            "Edits move the columns mirrored across the head's plane of symmetry too (x = 0 without a head)",
+        );
         ui.horizontal(|ui| {
             let label = ui.label("Soft selection");
             ui.add(egui::Slider::new(&mut self.soft_radius, 0.0..=1.0))
@@ -1442,7 +1450,8 @@ impl EditorApp {
             && self.show_overlay
             && let Some(v) = self.press_vertex.take()
         {
-            let mirror = if self.mirror_x { crate::sculpt::mirror_vertex(mesh, v) } else { None };
+            let plane = self.mirror_plane();
+            let mirror = if self.mirror_x { crate::sculpt::mirror_vertex(mesh, v, &plane) } else { None };
             let soft_radius = self.soft_radius * doc.hair_length();
             // A dragged tip of a selection carries the whole selection along.
             let mut sculpt = if self.selection.len() > 1 && self.selection.contains(&v) {
@@ -1450,12 +1459,13 @@ impl EditorApp {
                 crate::sculpt::TipDrag::selection(
                     mesh,
                     &self.selection,
-                    |w| if mirror_x { crate::sculpt::mirror_vertex(mesh, w) } else { None },
+                    |w| if mirror_x { crate::sculpt::mirror_vertex(mesh, w, &plane) } else { None },
                     soft_radius,
                 )
+                .across(plane)
             } else {
                 self.selection = vec![v];
-                crate::sculpt::TipDrag::new(mesh, v, mirror, soft_radius)
+                crate::sculpt::TipDrag::new(mesh, v, mirror, soft_radius).across(plane)
             };
             if let Some(head) = doc.head_surface() {
                 sculpt = sculpt.outside(head);

@@ -39,13 +39,16 @@ pub struct Sculpt {
     pub transform: DAffine3,
     /// Kept out of the head (when the document has one).
     pub outside_head: bool,
+    /// What mirrored seeds are mirrored across.
+    #[serde(default)]
+    pub mirror: MirrorPlane,
 }
 
 impl Sculpt {
     /// The edit made again on `mesh` (the mesh it was made on), kept out of `head` when it
     /// was.
     pub fn moves(&self, mesh: &HairMesh, head: Option<Arc<HeadSurface>>) -> Vec<VertexMove> {
-        let mut drag = TipDrag::with_seeds(mesh, &self.seeds, self.soft_radius);
+        let mut drag = TipDrag::with_seeds(mesh, &self.seeds, self.soft_radius).across(self.mirror);
         if let (true, Some(head)) = (self.outside_head, head) {
             drag = drag.outside(head);
         }
@@ -58,6 +61,7 @@ impl Sculpt {
 pub struct TipDrag {
     seeds: Vec<(u32, bool)>,
     soft_radius: f64,
+    mirror: MirrorPlane,
     rest: HairMesh,
     columns: Vec<Column>,
     inner: InnerVertices,
@@ -74,12 +78,47 @@ pub fn falloff(distance: f64, radius: f64) -> f64 {
     t * t * (3.0 - 2.0 * t)
 }
 
-/// The outer-layer vertex whose root mirrors `v`'s across x = 0 (within 1 % of the scalp's
+/// A mirror: the plane through `point` with unit `normal` — the head's plane of symmetry
+/// ([`MirrorPlane::of_head`]), or x = 0 without a head.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+pub struct MirrorPlane {
+    pub point: DVec3,
+    pub normal: DVec3,
+}
+
+impl Default for MirrorPlane {
+    fn default() -> Self {
+        Self { point: DVec3::ZERO, normal: DVec3::X }
+    }
+}
+
+impl MirrorPlane {
+    /// The plane a head is symmetric across: through its centre, normal to its right.
+    pub fn of_head(frame: &hairmesh::head_frame::HeadFrame) -> Self {
+        Self { point: frame.centre, normal: frame.right() }
+    }
+
+    /// `p` seen in the mirror.
+    pub fn reflect(&self, p: DVec3) -> DVec3 {
+        p - self.normal * (2.0 * (p - self.point).dot(self.normal))
+    }
+
+    /// The reflection as an affine map.
+    pub fn affine(&self) -> DAffine3 {
+        let n = self.normal;
+        let householder = glam::DMat3::IDENTITY - 2.0 * glam::DMat3::from_cols(n * n.x, n * n.y, n * n.z);
+        DAffine3::from_translation(self.point)
+            * DAffine3::from_mat3(householder)
+            * DAffine3::from_translation(-self.point)
+    }
+}
+
+/// The outer-layer vertex whose root mirrors `v`'s across `plane` (within 1 % of the scalp's
 /// size), if it is another vertex.
-pub fn mirror_vertex(mesh: &HairMesh, v: u32) -> Option<u32> {
+pub fn mirror_vertex(mesh: &HairMesh, v: u32, plane: &MirrorPlane) -> Option<u32> {
     let roots = &mesh.layers[0];
     let p = roots.get(v as usize)?;
-    let target = DVec3::new(-p.x, p.y, p.z);
+    let target = plane.reflect(*p);
     let (lo, hi) =
         roots.iter().fold((DVec3::INFINITY, DVec3::NEG_INFINITY), |(lo, hi), p| (lo.min(*p), hi.max(*p)));
     let tolerance = 0.01 * lo.distance(hi);
@@ -91,9 +130,9 @@ pub fn mirror_vertex(mesh: &HairMesh, v: u32) -> Option<u32> {
     (d <= tolerance && best != v).then_some(best)
 }
 
-/// `a` seen in a mirror across x = 0 (what a mirrored column does when its twin does `a`).
-fn mirrored(a: &DAffine3) -> DAffine3 {
-    let m = DAffine3::from_scale(DVec3::new(-1.0, 1.0, 1.0));
+/// `a` seen in the mirror `plane` (what a mirrored column does when its twin does `a`).
+fn mirrored(a: &DAffine3, plane: &MirrorPlane) -> DAffine3 {
+    let m = plane.affine();
     m * *a * m
 }
 
@@ -146,11 +185,19 @@ impl TipDrag {
         Self {
             seeds: seeds.to_vec(),
             soft_radius,
+            mirror: MirrorPlane::default(),
             rest: mesh.clone(),
             columns,
             inner: InnerVertices::new(mesh),
             head: None,
         }
+    }
+
+    /// Mirrored seeds do the mirror image across `plane` (x = 0 unless set).
+    #[must_use]
+    pub fn across(mut self, plane: MirrorPlane) -> Self {
+        self.mirror = plane;
+        self
     }
 
     /// Keeps every moved vertex [`HEAD_MARGIN`] × the head's size outside `head`.
@@ -168,6 +215,7 @@ impl TipDrag {
             soft_radius: self.soft_radius,
             transform,
             outside_head: self.head.is_some(),
+            mirror: self.mirror,
         }
     }
 
@@ -187,7 +235,7 @@ impl TipDrag {
     /// (a soft-selected tip by its weight's share of that displacement, a mirrored one by the
     /// mirrored transform).
     pub fn moves_with(&mut self, transform: &DAffine3) -> Vec<VertexMove> {
-        let mirror = mirrored(transform);
+        let mirror = mirrored(transform, &self.mirror);
         self.moves_for(|c, from| {
             let to =
                 if c.mirrored { mirror.transform_point3(from) } else { transform.transform_point3(from) };
@@ -213,6 +261,7 @@ impl TipDrag {
         Self {
             seeds: Vec::new(),
             soft_radius: 0.0,
+            mirror: MirrorPlane::default(),
             rest: mesh.clone(),
             columns,
             inner: InnerVertices::new(mesh),
@@ -295,7 +344,7 @@ mod tests {
         let gather = DAffine3::from_translation(centre)
             * DAffine3::from_scale(DVec3::splat(0.25))
             * DAffine3::from_translation(-centre);
-        let mirror_of = |v: u32| mirror_vertex(&mesh, v);
+        let mirror_of = |v: u32| mirror_vertex(&mesh, v, &MirrorPlane::default());
         let mut edit = TipDrag::selection(&mesh, &selected, mirror_of, 0.0);
         let moves = edit.moves_with(&gather);
         for (&v, p) in selected.iter().zip(&tips) {
@@ -313,6 +362,19 @@ mod tests {
         };
         let (a, b) = (at(v).expect("moved"), at(twin).expect("twin moved"));
         assert!(DVec3::new(-a.x, a.y, a.z).distance(b) < 1e-9, "{a} vs {b}");
+    }
+
+    #[test]
+    fn a_mirror_plane_reflects_points_and_transforms() {
+        let plane =
+            MirrorPlane { point: DVec3::new(1.0, 0.0, 0.0), normal: DVec3::new(1.0, 1.0, 0.0).normalize() };
+        let p = DVec3::new(2.0, 3.0, -1.0);
+        assert!(plane.reflect(plane.reflect(p)).distance(p) < 1e-12);
+        assert!(plane.affine().transform_point3(p).distance(plane.reflect(p)) < 1e-12);
+        // A translation's mirror image moves the reflected point by the reflected offset.
+        let shift = DAffine3::from_translation(DVec3::new(0.1, 0.0, 0.0));
+        let q = mirrored(&shift, &plane).transform_point3(plane.reflect(p));
+        assert!(q.distance(plane.reflect(p + DVec3::new(0.1, 0.0, 0.0))) < 1e-12);
     }
 
     #[test]

@@ -151,13 +151,15 @@ impl EditorApp {
             return;
         };
         let mirror = self.mirror_x;
+        let plane = self.mirror_plane();
         let soft_radius = self.soft_radius * doc.hair_length();
         let mut sculpt = TipDrag::selection(
             mesh,
             &self.selection,
-            |v| if mirror { crate::sculpt::mirror_vertex(mesh, v) } else { None },
+            |v| if mirror { crate::sculpt::mirror_vertex(mesh, v, &plane) } else { None },
             soft_radius,
-        );
+        )
+        .across(plane);
         if let Some(head) = doc.head_surface() {
             sculpt = sculpt.outside(head);
         }
