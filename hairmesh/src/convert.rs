@@ -311,17 +311,177 @@ pub fn layer_margins(head: &crate::head::HeadSurface, style: &Style, layers: usi
 }
 
 /// Moves every hair-mesh vertex above the roots that lies inside `head`, or closer than its
-/// layer's margin ([`layer_margins`] for `style`), out to that margin; returns how many moved.
+/// layer's margin ([`layer_margins`] for `style`), out to that margin, then keeps the hair's
+/// curves out too ([`CURVE_PASSES`]): returns how many vertices moved.
 pub fn keep_outside(hm: &mut HairMesh, head: &crate::head::HeadSurface, style: &Style) -> usize {
     let margins = layer_margins(head, style, hm.layers.len());
-    let mut moved = 0;
-    for (layer, margin) in hm.layers.iter_mut().zip(margins).skip(1) {
-        for p in layer.iter_mut() {
-            if let Some(q) = head.push_out(*p, margin) {
+    let mut moved = vec![false; hm.layers.len() * hm.vertex_count()];
+    keep_vertices_outside(hm, head, &margins, &mut moved);
+    for _ in 0..CURVE_PASSES {
+        if !keep_curves_outside(hm, head, &margins, &mut moved) {
+            break;
+        }
+        // A push out at a curve's nearest point may take a vertex in elsewhere (near an ear,
+        // under the jaw): the vertices' own margins have the last word.
+        keep_vertices_outside(hm, head, &margins, &mut moved);
+    }
+    moved.iter().filter(|m| **m).count()
+}
+
+/// Every vertex above the roots out to its layer's margin.
+fn keep_vertices_outside(
+    hm: &mut HairMesh,
+    head: &crate::head::HeadSurface,
+    margins: &[f64],
+    moved: &mut [bool],
+) {
+    let per_layer = hm.vertex_count();
+    for (k, (layer, margin)) in hm.layers.iter_mut().zip(margins).enumerate().skip(1) {
+        for (v, p) in layer.iter_mut().enumerate() {
+            if let Some(q) = head.push_out(*p, *margin) {
                 *p = q;
-                moved += 1;
+                moved[k * per_layer + v] = true;
             }
         }
     }
-    moved
+}
+
+/// Passes of [`keep_curves_outside`] at most (each pushes what the last one left inside).
+pub const CURVE_PASSES: usize = 8;
+
+/// The deepest a bundle's middle may dip into the head, per unit of its half-width, for
+/// [`keep_curves_outside`] to push its columns out.
+const MAX_DIP_PER_WIDTH: f64 = 0.25;
+
+/// Where along each curve segment the curves are checked.
+const CURVE_SAMPLES: [f64; 3] = [0.25, 0.5, 0.75];
+
+/// The strands follow each column's curve between layers (a Catmull-Rom spline,
+/// [`crate::curve::column_segments`]) and fill each bundle face between its columns: over a
+/// convex head a curve or a face can dip in between vertices that are all outside. This
+/// checks each column's curve and each face's middle curve (the mean of its columns) at
+/// [`CURVE_SAMPLES`] of every segment and pushes the segment's ends out (never a root) by what
+/// it lacks of its margin, shared by their nearness; `true` when anything moved.
+fn keep_curves_outside(
+    hm: &mut HairMesh,
+    head: &crate::head::HeadSurface,
+    margins: &[f64],
+    moved: &mut [bool],
+) -> bool {
+    let layers = hm.layers.len();
+    let per_layer = hm.vertex_count();
+    // Each check: the columns whose mean curve it is.
+    let mut groups: Vec<Vec<u32>> = (0..per_layer as u32).map(|v| vec![v]).collect();
+    groups.extend(hm.faces.iter().map(|f| f.vertices().to_vec()));
+    let hm_ref: &HairMesh = hm;
+    let check = |group: &Vec<u32>| -> Vec<(usize, DVec3)> {
+        let mut out = Vec::new();
+        let column: Vec<DVec3> = (0..layers)
+            .map(|k| group.iter().map(|&v| hm_ref.layers[k][v as usize]).sum::<DVec3>() / group.len() as f64)
+            .collect();
+        // How far the group's columns are from their mean, per layer.
+        let spread: Vec<f64> = (0..layers)
+            .map(|k| {
+                group.iter().map(|&v| hm_ref.layers[k][v as usize].distance(column[k])).fold(0.0, f64::max)
+            })
+            .collect();
+        for (k, segment) in crate::curve::column_segments(&column).iter().enumerate() {
+            for t in CURVE_SAMPLES {
+                let p = segment.eval(t);
+                let margin = margins[k] + (margins[k + 1] - margins[k]) * t;
+                let Some(n) = head.nearest(p) else { continue };
+                let lack = margin - n.signed_distance;
+                // A bundle dips into a convex head by about its width² / (8 × the head's
+                // radius), a small part of its width; one whose middle is much deeper has
+                // columns going apart (a parting) and pushing them out would fling them off.
+                let width = spread[k] + (spread[k + 1] - spread[k]) * t;
+                if lack <= 0.0 || group.len() > 1 && lack > MAX_DIP_PER_WIDTH * width {
+                    continue;
+                }
+                // The ends share the push by their nearness; a root end does not move, so the
+                // other end takes it all.
+                let (w0, w1) = if k == 0 { (0.0, 1.0) } else { (1.0 - t, t) };
+                let scale = lack / (w0 * w0 + w1 * w1);
+                for (layer, w) in [(k, w0), (k + 1, w1)] {
+                    if w > 0.0 {
+                        out.extend(
+                            group.iter().map(|&v| (layer * per_layer + v as usize, n.normal * (w * scale))),
+                        );
+                    }
+                }
+            }
+        }
+        out
+    };
+    use rayon::prelude::*;
+    let asked: Vec<Vec<(usize, DVec3)>> = groups.par_iter().map(check).collect();
+    let mut push: Vec<DVec3> = vec![DVec3::ZERO; layers * per_layer];
+    for (i, d) in asked.into_iter().flatten() {
+        // Keep the largest push asked for each vertex.
+        if d.length_squared() > push[i].length_squared() {
+            push[i] = d;
+        }
+    }
+    let mut any = false;
+    for (i, d) in push.iter().enumerate() {
+        if *d != DVec3::ZERO {
+            let (k, v) = (i / per_layer, i % per_layer);
+            hm.layers[k][v] += *d;
+            moved[i] = true;
+            any = true;
+        }
+    }
+    any
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::head::HeadSurface;
+
+    /// How many column-curve samples of `hm` lie closer to `head` than `margin` (by more than a
+    /// hair's breadth).
+    fn curve_points_too_close(hm: &HairMesh, head: &HeadSurface, margin: f64) -> usize {
+        (0..hm.vertex_count() as u32)
+            .flat_map(|v| crate::curve::column_segments(&hm.column(v)))
+            .flat_map(|s| CURVE_SAMPLES.map(|t| s.eval(t)))
+            .filter(|p| head.signed_distance(*p) < margin * 0.999)
+            .count()
+    }
+
+    /// Hair combed flat over the head cap in a few long layers: its curves cut across the cap
+    /// between vertices that are outside it; after keep_outside they are out by the margin too.
+    #[test]
+    fn curves_between_layers_are_kept_out_of_the_head() {
+        let cap = crate::procedural::head_cap(8, 32);
+        let head = HeadSurface::from_mesh(&cap);
+        let params = DrapeParams {
+            layers: 3,
+            length: 0.25,
+            centre: DVec3::new(0.0, 1.57, 0.0),
+            lift: 0.0,
+            gravity: DVec3::NEG_Y,
+            comb: DVec3::new(0.0, 0.0, -2.0),
+        };
+        let style = Style::default();
+        let margin = clearance(&head);
+        let mut vertices_only = HairMesh::drape(&cap, &params).expect("drapes");
+        let margins = layer_margins(&head, &style, vertices_only.layers.len());
+        for (layer, m) in vertices_only.layers.iter_mut().zip(&margins).skip(1) {
+            for p in layer.iter_mut() {
+                if let Some(q) = head.push_out(*p, *m) {
+                    *p = q;
+                }
+            }
+        }
+        let before = curve_points_too_close(&vertices_only, &head, margin);
+        assert!(before > 10, "the drape should cut into the cap between layers ({before} points)");
+        let mut kept = HairMesh::drape(&cap, &params).expect("drapes");
+        keep_outside(&mut kept, &head, &style);
+        let after = curve_points_too_close(&kept, &head, margin);
+        assert!(after * 10 < before, "{after} curve points still near the head (vertices only: {before})");
+        assert_eq!(curve_points_too_close(&kept, &head, 0.0), 0, "curve points inside the head");
+        assert!(kept.layers[0] == vertices_only.layers[0], "a root moved");
+        assert!(kept.layers.iter().flatten().all(|p| p.is_finite()));
+    }
 }

@@ -268,3 +268,23 @@ fn check_finds_strands_inside_the_head() {
     assert!(entering > 1000, "{stdout}");
     assert!(stdout.contains("hair-mesh vertices inside:"), "{stdout}");
 }
+
+/// Vector options take negative components as written (`--drape -0.1,…`, not `--drape=-0.1,…`).
+#[test]
+fn vector_options_take_negative_components() {
+    let dir = tempfile::tempdir().expect("temp dir");
+    let out = dir.path().join("draped");
+    let cap = repo("assets/head_cap.gltf");
+    let args = ["convert", &cap, "-o", out.to_str().expect("utf-8"), "--strands", "500"];
+    let vectors = ["--drape", "-0.001,1.57,-0.01", "--comb", "-0.5,0,-2", "--up", "-0.0,1,0"];
+    let all: Vec<&str> = args.iter().chain(&vectors).copied().collect();
+    let (ok, _, stderr) = hairmesh(&all);
+    assert!(ok, "{stderr}");
+    let (asset, _) = hairmesh::asset_io::read_asset(&out).expect("asset");
+    let Some(hairmesh::asset::ScalpProvenance { layers: hairmesh::asset::LayerSource::Draped(d), .. }) =
+        asset.provenance
+    else {
+        panic!("a draped asset")
+    };
+    assert_eq!(d.comb, glam::DVec3::new(-0.5, 0.0, -2.0));
+}

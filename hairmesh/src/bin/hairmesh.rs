@@ -80,17 +80,17 @@ struct ConvertArgs {
     morph_layers: bool,
     /// Lay the hair over the head around this centre (CX,CY,CZ, the skull's centre) instead of
     /// extruding along the normals: it flows towards gravity + `--comb`, then hangs.
-    #[arg(long, value_name = "CX,CY,CZ", value_parser = parse_vec3)]
+    #[arg(long, value_name = "CX,CY,CZ", value_parser = parse_vec3, allow_hyphen_values = true)]
     drape: Option<glam::DVec3>,
     /// With `--drape`: the direction the hair is combed, added to gravity (e.g. 0,0,-2 combs it
     /// back when the face looks along +Z); each component -100..=100.
-    #[arg(long, value_name = "X,Y,Z", value_parser = parse_vec3, default_value = "0,0,0")]
+    #[arg(long, value_name = "X,Y,Z", value_parser = parse_vec3, default_value = "0,0,0", allow_hyphen_values = true)]
     comb: glam::DVec3,
     /// With `--drape`: how far the hair moves off the head per unit of length (0..=10).
     #[arg(long, default_value_t = 0.05)]
     lift: f64,
     /// The head's up (gravity pulls the other way), e.g. 0,0,1 for a Z-up file.
-    #[arg(long, value_name = "X,Y,Z", value_parser = parse_vec3, default_value = "0,1,0")]
+    #[arg(long, value_name = "X,Y,Z", value_parser = parse_vec3, default_value = "0,1,0", allow_hyphen_values = true)]
     up: glam::DVec3,
     /// Style as JSON (fields of hairmesh::style::Style; unknown fields and values outside
     /// their ranges, `Style::fields`, are errors).
