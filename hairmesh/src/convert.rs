@@ -346,8 +346,9 @@ fn keep_vertices_outside(
     }
 }
 
-/// Passes of [`keep_curves_outside`] at most (each pushes what the last one left inside).
-pub const CURVE_PASSES: usize = 8;
+/// Passes of [`keep_curves_outside`] at most (each pushes what the last one left inside; hair
+/// extruded through the body keeps asking for more, at a conversion's cost per pass).
+pub const CURVE_PASSES: usize = 3;
 
 /// The deepest a bundle's middle may dip into the head, per unit of its half-width, for
 /// [`keep_curves_outside`] to push its columns out.
@@ -479,8 +480,15 @@ mod tests {
         let mut kept = HairMesh::drape(&cap, &params).expect("drapes");
         keep_outside(&mut kept, &head, &style);
         let after = curve_points_too_close(&kept, &head, margin);
-        assert!(after * 10 < before, "{after} curve points still near the head (vertices only: {before})");
-        assert_eq!(curve_points_too_close(&kept, &head, 0.0), 0, "curve points inside the head");
+        let (inside_before, inside_after) =
+            (curve_points_too_close(&vertices_only, &head, 0.0), curve_points_too_close(&kept, &head, 0.0));
+        // Three passes on this extreme case (three long layers lying on the cap) take it more
+        // than halfway; the presets on the real heads are measured in the editor's tests.
+        assert!(after * 2 < before, "{after} curve points still near the head (vertices only: {before})");
+        assert!(
+            inside_after * 2 < inside_before,
+            "{inside_after} curve points inside (vertices only: {inside_before})"
+        );
         assert!(kept.layers[0] == vertices_only.layers[0], "a root moved");
         assert!(kept.layers.iter().flatten().all(|p| p.is_finite()));
     }
