@@ -286,7 +286,7 @@ impl EditorApp {
         // The head's frame (estimated, perhaps corrected); a scalp without a head is guessed
         // to be a cap facing +Z.
         let frame = self.head_frame.unwrap_or_else(|| {
-            let (lo, hi) = point_bounds(&doc.asset().mesh().layers[0]);
+            let (lo, hi) = crate::sculpt::point_bounds(&doc.asset().mesh().layers[0]);
             crate::presets::scalp_frame(lo, hi)
         });
         let (length, shape) = preset.layers_on(&frame);
@@ -795,11 +795,6 @@ fn sanitized(mut s: Style) -> Style {
         s.twist = 0.0;
     }
     s
-}
-
-/// The axis-aligned bounds of `points` (inverted, infinite ones for none).
-fn point_bounds(points: &[DVec3]) -> (DVec3, DVec3) {
-    points.iter().fold((DVec3::INFINITY, DVec3::NEG_INFINITY), |(lo, hi), p| (lo.min(*p), hi.max(*p)))
 }
 
 fn with_extension(path: &Path, ext: &str) -> PathBuf {

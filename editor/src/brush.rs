@@ -137,12 +137,7 @@ pub fn dab(
 #[cfg(test)]
 mod tests {
     use super::*;
-
-    fn cap() -> HairMesh {
-        let scalp = hairmesh::procedural::head_cap(6, 24);
-        HairMesh::extrude(&scalp, &hairmesh::ExtrudeParams { layers: 4, length: 0.2, ..Default::default() })
-            .expect("extrudes")
-    }
+    use crate::sculpt::tests::cap;
 
     #[test]
     fn comb_moves_along_the_stroke_by_the_falloff() {
@@ -184,9 +179,7 @@ mod tests {
         let mesh = cap();
         let tip = mesh.layers.len() - 1;
         let mut camera = crate::camera::OrbitCamera::default();
-        let (lo, hi) = hairmesh::ScalpMesh { positions: mesh.layers[tip].clone(), ..Default::default() }
-            .bounds()
-            .expect("bounds");
+        let (lo, hi) = crate::sculpt::point_bounds(&mesh.layers[tip]);
         camera.frame(lo.as_vec3(), hi.as_vec3());
         let size = Vec2::new(400.0, 300.0);
         let projection = Projection::new(&camera, size);

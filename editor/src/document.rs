@@ -194,11 +194,8 @@ impl Document {
     pub fn head_surface(&self) -> Option<Arc<hairmesh::head::HeadSurface>> {
         self.head
             .get_or_init(|| {
-                let o = self.occluder.as_ref()?;
-                let positions =
-                    o.positions.iter().map(|p| glam::Vec3::new(p[0], p[1], p[2]).as_dvec3()).collect();
-                let triangles = o.indices.chunks_exact(3).map(|t| [t[0], t[1], t[2]]).collect();
-                Some(Arc::new(hairmesh::head::HeadSurface::new(positions, triangles)))
+                let mesh = occluder_mesh(self.occluder.as_deref()?);
+                Some(Arc::new(hairmesh::head::HeadSurface::from_mesh(&mesh)))
             })
             .clone()
     }
@@ -473,7 +470,13 @@ fn merge_into(last: &mut Edit, edit: Edit) -> Option<Edit> {
 
 /// The frame of the head an occluder shows.
 fn estimate_frame(o: &OccluderGeometry) -> Option<HeadFrame> {
-    let mesh = hairmesh::ScalpMesh {
+    HeadFrame::estimate(&occluder_mesh(o))
+}
+
+/// An occluder's triangles as a mesh in the file's (f64) coordinates, for the head's surface and
+/// frame.
+fn occluder_mesh(o: &OccluderGeometry) -> hairmesh::ScalpMesh {
+    hairmesh::ScalpMesh {
         positions: o
             .positions
             .iter()
@@ -481,8 +484,7 @@ fn estimate_frame(o: &OccluderGeometry) -> Option<HeadFrame> {
             .collect(),
         faces: o.indices.chunks_exact(3).map(<[u32]>::to_vec).collect(),
         ..hairmesh::ScalpMesh::default()
-    };
-    HeadFrame::estimate(&mesh)
+    }
 }
 
 /// Reads a mesh to draw with the hair, refusing what the renderer cannot use.

@@ -78,6 +78,11 @@ pub fn falloff(distance: f64, radius: f64) -> f64 {
     t * t * (3.0 - 2.0 * t)
 }
 
+/// The axis-aligned bounds of `points` (inverted, infinite ones for none).
+pub fn point_bounds(points: &[DVec3]) -> (DVec3, DVec3) {
+    points.iter().fold((DVec3::INFINITY, DVec3::NEG_INFINITY), |(lo, hi), p| (lo.min(*p), hi.max(*p)))
+}
+
 /// A mirror: the plane through `point` with unit `normal` — the head's plane of symmetry
 /// ([`MirrorPlane::of_head`]), or x = 0 without a head.
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
@@ -119,8 +124,7 @@ pub fn mirror_vertex(mesh: &HairMesh, v: u32, plane: &MirrorPlane) -> Option<u32
     let roots = &mesh.layers[0];
     let p = roots.get(v as usize)?;
     let target = plane.reflect(*p);
-    let (lo, hi) =
-        roots.iter().fold((DVec3::INFINITY, DVec3::NEG_INFINITY), |(lo, hi), p| (lo.min(*p), hi.max(*p)));
+    let (lo, hi) = point_bounds(roots);
     let tolerance = 0.01 * lo.distance(hi);
     let (best, d) = roots
         .iter()
@@ -300,10 +304,11 @@ impl TipDrag {
 }
 
 #[cfg(test)]
-mod tests {
+pub(crate) mod tests {
     use super::*;
 
-    fn cap() -> HairMesh {
+    /// Short hair extruded from the project's head cap, for the sculpting tests.
+    pub(crate) fn cap() -> HairMesh {
         let scalp = hairmesh::procedural::head_cap(6, 24);
         HairMesh::extrude(&scalp, &hairmesh::ExtrudeParams { layers: 4, length: 0.2, ..Default::default() })
             .expect("extrudes")

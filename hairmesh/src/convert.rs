@@ -317,8 +317,11 @@ pub fn keep_outside(hm: &mut HairMesh, head: &crate::head::HeadSurface, style: &
     let margins = layer_margins(head, style, hm.layers.len());
     let mut moved = vec![false; hm.layers.len() * hm.vertex_count()];
     keep_vertices_outside(hm, head, &margins, &mut moved);
+    // What the curve passes check: each column alone, and each bundle face's columns together.
+    let mut groups: Vec<Vec<u32>> = (0..hm.vertex_count() as u32).map(|v| vec![v]).collect();
+    groups.extend(hm.faces.iter().map(|f| f.vertices().to_vec()));
     for _ in 0..CURVE_PASSES {
-        if !keep_curves_outside(hm, head, &margins, &mut moved) {
+        if !keep_curves_outside(hm, head, &margins, &groups, &mut moved) {
             break;
         }
         // A push out at a curve's nearest point may take a vertex in elsewhere (near an ear,
@@ -360,20 +363,19 @@ const CURVE_SAMPLES: [f64; 3] = [0.25, 0.5, 0.75];
 /// The strands follow each column's curve between layers (a Catmull-Rom spline,
 /// [`crate::curve::column_segments`]) and fill each bundle face between its columns: over a
 /// convex head a curve or a face can dip in between vertices that are all outside. This
-/// checks each column's curve and each face's middle curve (the mean of its columns) at
-/// [`CURVE_SAMPLES`] of every segment and pushes the segment's ends out (never a root) by what
-/// it lacks of its margin, shared by their nearness; `true` when anything moved.
+/// checks the middle curve (the mean of the columns) of each of `groups` (a column, or a
+/// face's columns) at [`CURVE_SAMPLES`] of every segment and pushes the segment's ends out
+/// (never a root) by what it lacks of its margin, shared by their nearness; `true` when
+/// anything moved.
 fn keep_curves_outside(
     hm: &mut HairMesh,
     head: &crate::head::HeadSurface,
     margins: &[f64],
+    groups: &[Vec<u32>],
     moved: &mut [bool],
 ) -> bool {
     let layers = hm.layers.len();
     let per_layer = hm.vertex_count();
-    // Each check: the columns whose mean curve it is.
-    let mut groups: Vec<Vec<u32>> = (0..per_layer as u32).map(|v| vec![v]).collect();
-    groups.extend(hm.faces.iter().map(|f| f.vertices().to_vec()));
     let hm_ref: &HairMesh = hm;
     let check = |group: &Vec<u32>| -> Vec<(usize, DVec3)> {
         let mut out = Vec::new();
@@ -468,13 +470,8 @@ mod tests {
         let margin = clearance(&head);
         let mut vertices_only = HairMesh::drape(&cap, &params).expect("drapes");
         let margins = layer_margins(&head, &style, vertices_only.layers.len());
-        for (layer, m) in vertices_only.layers.iter_mut().zip(&margins).skip(1) {
-            for p in layer.iter_mut() {
-                if let Some(q) = head.push_out(*p, *m) {
-                    *p = q;
-                }
-            }
-        }
+        let mut moved = vec![false; vertices_only.layers.len() * vertices_only.vertex_count()];
+        keep_vertices_outside(&mut vertices_only, &head, &margins, &mut moved);
         let before = curve_points_too_close(&vertices_only, &head, margin);
         assert!(before > 10, "the drape should cut into the cap between layers ({before} points)");
         let mut kept = HairMesh::drape(&cap, &params).expect("drapes");

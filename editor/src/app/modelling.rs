@@ -247,6 +247,6 @@ impl EditorApp {
             .filter(|&&v| (v as usize) < mesh.vertex_count())
             .flat_map(|&v| mesh.column(v))
             .collect();
-        (!points.is_empty()).then(|| super::point_bounds(&points))
+        (!points.is_empty()).then(|| crate::sculpt::point_bounds(&points))
     }
 }
