@@ -298,6 +298,16 @@ fn main() -> ExitCode {
                     ensure!(ok && stdout.contains("48 frames"), "--simulate: {stdout} {stderr}");
                     let (_, stderr) = run("0..5", &split, &cache)?;
                     ensure!(!stderr.contains("simulating"), "the first half reads the cache: {stderr}");
+                    // Without --sim-cache the cache goes beside the output, never beside the
+                    // scene; with neither, --simulate asks where.
+                    let beside = dir.path().join("beside");
+                    let out = beside.join("frame.png");
+                    let (ok, stdout, stderr) =
+                        hair_render_output(&[scene, "--simulate", "-o", out.to_str().context("utf-8")?]);
+                    ensure!(ok && beside.join("frame.sim").is_file(), "--simulate -o: {stdout} {stderr}");
+                    ensure!(!path.with_extension("sim").exists(), "a cache was written beside the scene");
+                    let (ok, _, stderr) = hair_render_output(&[scene, "--simulate"]);
+                    ensure!(!ok && stderr.contains("--sim-cache FILE"), "{stderr}");
                 } else {
                     run("0..5", &split, &none)?;
                 }

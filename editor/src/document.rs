@@ -360,7 +360,8 @@ impl Document {
     /// any machine ([`data_set::portable_name`]).
     pub fn save_as(&mut self, dir: &Path) -> Result<(), EditorError> {
         let source = self.scalp_file();
-        let units = source.as_deref().map_or("file units", hairmesh::convert::file_units);
+        let scalp = self.asset.mesh().layers.first().map_or(&[][..], Vec::as_slice);
+        let units = source.as_deref().map_or("file units", |path| hairmesh::convert::file_units(path, scalp));
         let portable = source.as_deref().and_then(data_set::portable_name);
         let mut asset = self.asset.clone();
         if let (Some(name), Some(p)) = (&portable, Arc::make_mut(&mut asset).provenance.as_mut()) {

@@ -248,7 +248,7 @@ pub fn read_asset(path: &Path) -> Result<(HairAsset, Manifest)> {
     refuse_old_versions(&manifest_path, &bytes)?;
     let manifest: Manifest = serde_json::from_slice(&bytes).map_err(|e| HairMeshError::Format {
         path: manifest_path.clone(),
-        message: format!("line {}, column {}: {e}", e.line(), e.column()),
+        message: crate::input::json_error(&e),
     })?;
     validate_manifest(&manifest_path, &manifest)?;
     let m = &manifest;

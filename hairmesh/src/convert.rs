@@ -201,14 +201,28 @@ impl ConvertSettings {
     }
 }
 
-/// The units a scalp file's coordinates are in, for an asset's manifest: glTF is in metres by
-/// its specification; OBJ says nothing.
-pub fn file_units(path: &Path) -> &'static str {
-    match path.extension().and_then(|e| e.to_str()) {
-        Some("gltf" | "glb") => "metres",
-        _ => "file units",
+/// The units a scalp file's coordinates are in, for an asset's manifest and reports: glTF is in
+/// metres by its specification, but scans exported in centimetres or arbitrary units still claim
+/// it, so a glTF scalp is taken to be in metres only when it is head-sized in metres; anything
+/// else (and every OBJ, which says nothing) is in "file units".
+pub fn file_units(path: &Path, scalp: &[DVec3]) -> &'static str {
+    let is_gltf = path
+        .extension()
+        .and_then(|e| e.to_str())
+        .is_some_and(|e| e.eq_ignore_ascii_case("gltf") || e.eq_ignore_ascii_case("glb"));
+    let (lo, hi) =
+        scalp.iter().fold((DVec3::INFINITY, DVec3::NEG_INFINITY), |(lo, hi), p| (lo.min(*p), hi.max(*p)));
+    let extent = (hi - lo).length();
+    if is_gltf && (HEAD_SIZED_IN_METRES.0..=HEAD_SIZED_IN_METRES.1).contains(&extent) {
+        "metres"
+    } else {
+        "file units"
     }
 }
+
+/// The bounding-box diagonals (in metres) a scalp, head or bust can have: from a small patch of
+/// scalp to a whole figure.
+const HEAD_SIZED_IN_METRES: (f64, f64) = (0.02, 3.0);
 
 /// A converted scalp: the asset, the imported scalp (for reports and previews) and the length
 /// used.
@@ -441,6 +455,19 @@ fn keep_curves_outside(
 mod tests {
     use super::*;
     use crate::head::HeadSurface;
+
+    /// A glTF head is in metres when it is head-sized in metres; a scan in centimetres or in
+    /// arbitrary units, and every OBJ, is in file units.
+    #[test]
+    fn units_are_metres_only_where_the_file_and_the_size_agree() {
+        let cube = |size: f64| vec![DVec3::ZERO, DVec3::splat(size)];
+        assert_eq!(file_units(Path::new("head.glb"), &cube(0.2)), "metres");
+        assert_eq!(file_units(Path::new("head.GLTF"), &cube(0.2)), "metres");
+        assert_eq!(file_units(Path::new("head.glb"), &cube(25.0)), "file units");
+        assert_eq!(file_units(Path::new("head.glb"), &cube(0.001)), "file units");
+        assert_eq!(file_units(Path::new("head.obj"), &cube(0.2)), "file units");
+        assert_eq!(file_units(Path::new("head.glb"), &[]), "file units");
+    }
 
     /// How many column-curve samples of `hm` lie closer to `head` than `margin` (by more than a
     /// hair's breadth).

@@ -225,3 +225,23 @@ mod tests {
         assert!(err.to_string().contains("a device"), "{err}");
     }
 }
+
+/// A JSON error as `line L, column C: what` — the position once: serde_json's own text ends
+/// with it again (" at line L column C"), which callers that name the position would repeat.
+pub fn json_error(e: &serde_json::Error) -> String {
+    let text = e.to_string();
+    let position = format!(" at line {} column {}", e.line(), e.column());
+    let what = text.strip_suffix(&position).unwrap_or(&text);
+    format!("line {}, column {}: {what}", e.line(), e.column())
+}
+
+#[cfg(test)]
+mod json_error_tests {
+    #[test]
+    fn a_json_error_names_its_position_once() {
+        let e = serde_json::from_str::<serde_json::Value>("{\n  \"a\": tru }").expect_err("broken JSON");
+        let text = super::json_error(&e);
+        assert_eq!(text.matches("line 2").count(), 1, "{text}");
+        assert!(text.starts_with("line 2, column "), "{text}");
+    }
+}

@@ -125,14 +125,16 @@ fn bad_input_is_refused_and_writes_nothing() {
     assert!(!out.exists());
 }
 
-/// The README's "example assets were made with" commands write exactly the committed assets, so
-/// the assets follow every change to conversion (root sets included) and the README stays true.
+/// The README's commands for the example assets (`-o target/hair/NAME`) write exactly the
+/// committed `assets/hair/NAME`, so the assets follow every change to conversion (root sets
+/// included) and the README stays true.
 #[test]
 fn the_committed_example_assets_are_what_the_readme_commands_write() {
     let readme = std::fs::read_to_string(repo("README.md")).expect("README.md");
     let commands: Vec<&str> = readme
         .lines()
-        .filter(|l| l.starts_with("hairmesh convert assets/head_cap.gltf -o assets/hair/"))
+        .filter_map(|l| l.strip_prefix("$ "))
+        .filter(|l| l.starts_with("hairmesh convert assets/head_cap.gltf -o target/hair/"))
         .collect();
     assert_eq!(commands.len(), 2, "the README lists the two example assets' commands");
     let dir = tempfile::tempdir().expect("temp dir");
@@ -142,8 +144,9 @@ fn the_committed_example_assets_are_what_the_readme_commands_write() {
     for command in commands {
         let mut args: Vec<String> = command.split_whitespace().skip(1).map(str::to_owned).collect();
         let out_at = args.iter().position(|a| a == "-o").expect("-o") + 1;
-        let committed = root.join(&args[out_at]);
-        let written = dir.path().join(committed.file_name().expect("folder name"));
+        let name = Path::new(&args[out_at]).file_name().expect("folder name").to_owned();
+        let committed = root.join("assets/hair").join(&name);
+        let written = dir.path().join(&name);
         args[out_at] = written.display().to_string();
         let out = Command::new(env!("CARGO_BIN_EXE_hairmesh"))
             .args(&args)
@@ -156,7 +159,7 @@ fn the_committed_example_assets_are_what_the_readme_commands_write() {
             let kept = std::fs::read(committed.join(file)).unwrap_or_default();
             assert!(
                 fresh == kept,
-                "{} differs from what `{command}` writes: run that command to regenerate it",
+                "{} differs from what `{command}` writes: run that command and copy its output there",
                 committed.join(file).display()
             );
         }

@@ -56,7 +56,8 @@ pub const MAX_LIGHTS: usize = crate::contract::MAX_LIGHTS as usize;
 pub enum SceneError {
     #[error("{path}: {message}")]
     Io { path: PathBuf, message: String },
-    #[error("{path}: line {line}, column {column}: {message}")]
+    /// `message` starts with the line and column ([`hairmesh::input::json_error`]).
+    #[error("{path}: {message}")]
     Syntax { path: PathBuf, line: usize, column: usize, message: String },
     #[error("{path}: {field}: {message}")]
     Invalid { path: PathBuf, field: String, message: String },
@@ -810,7 +811,7 @@ pub fn load_scene(path: &Path) -> Result<LoadedScene, SceneError> {
         path: path.to_owned(),
         line: e.line(),
         column: e.column(),
-        message: e.to_string(),
+        message: hairmesh::input::json_error(&e),
     })?;
     let loaded = LoadedScene { path: path.to_owned(), scene };
     validate(&loaded)?;

@@ -291,4 +291,31 @@ mod tests {
         assert_eq!(debian_mirror(one_line).as_deref(), Some("http://ftp.de.debian.org/debian"));
         assert_eq!(debian_mirror("deb https://packages.cloud.google.com/apt x main"), None);
     }
+
+    /// docs/testing.md lists exactly what the set-up installs.
+    #[test]
+    fn the_docs_list_every_package_the_set_up_installs() {
+        let page = Path::new(env!("CARGO_MANIFEST_DIR")).join("../docs/testing.md");
+        let text = std::fs::read_to_string(&page).expect("docs/testing.md");
+        let table: String = text
+            .split("## What the set-up installs")
+            .nth(1)
+            .and_then(|rest| rest.split("\n## ").next())
+            .expect("docs/testing.md has a section on what the set-up installs")
+            .to_owned();
+        let listed: Vec<&str> = table
+            .lines()
+            .filter(|l| l.starts_with("| `"))
+            .flat_map(|l| l.split('|').nth(1).unwrap_or_default().split(','))
+            .map(|p| p.trim().trim_matches('`').split('`').next().unwrap_or_default())
+            .collect();
+        let mut installed: Vec<&str> = BASE_PACKAGES.iter().copied().chain([DRIVER_PACKAGE]).collect();
+        let mut documented = listed.clone();
+        installed.sort_unstable();
+        documented.sort_unstable();
+        assert_eq!(
+            documented, installed,
+            "docs/testing.md's package table against BASE_PACKAGES + DRIVER_PACKAGE"
+        );
+    }
 }

@@ -13,9 +13,10 @@
 //!
 //! Animations (`render::animation`): `--frames START..END` renders frames START to END − 1 of
 //! the scene's animation, numbered by their absolute index, exactly as one full run would; with
-//! dynamics, `--simulate` writes the simulation cache (`SCENE.sim` unless `--sim-cache`) that
-//! every process rendering a range then reads (without it, a process simulates from frame 0 in
-//! memory, with the same result).
+//! dynamics, `--simulate` writes the simulation cache (`--sim-cache FILE`, else beside the
+//! output: `-o out/frame.png` → `out/frame.sim`) that every process rendering a range then reads
+//! (without it, a process simulates from frame 0 in memory, with the same result). The default
+//! keeps the cache with the frames, never beside the scene, which may sit in a checkout.
 //!
 //! Timing: `--stats` prints the last frame's per-pass GPU times; `--repeat N` renders that frame
 //! N more times (the first frame pays shader compilation and cache fills; on a CPU device frames
@@ -80,7 +81,7 @@ struct Cli {
     /// render what -o asks for (nothing without -o).
     #[arg(long)]
     simulate: bool,
-    /// The simulation cache [default: the scene file with the extension `.sim`].
+    /// The simulation cache [default: beside the output, OUT with the extension `.sim`].
     #[arg(long)]
     sim_cache: Option<PathBuf>,
     /// Replace output files even when they are not images / statistics / caches written by
@@ -174,18 +175,23 @@ fn run(cli: &Cli) -> Result<()> {
         ),
         None => cli.frames.end,
     };
-    let cache_path = cli.sim_cache.clone().unwrap_or_else(|| cli.scene.with_extension("sim"));
-    let image_kind = check_outputs(cli, &scene, length, &cache_path)?;
+    let cache_path = cli.sim_cache.clone().or_else(|| cli.out.as_ref().map(|out| out.with_extension("sim")));
+    if cli.simulate && cache_path.is_none() {
+        anyhow::bail!(
+            "--simulate: where should the simulation cache go? Give --sim-cache FILE, or -o OUT (the cache then goes beside it, as OUT.sim)"
+        );
+    }
+    let image_kind = check_outputs(cli, &scene, length, cache_path.as_deref())?;
     let mut instance = render::instance::SceneInstance::load(&scene)?;
     let animation = render::animation::Animation::new(&mut instance)?;
-    if cli.simulate {
+    if let (true, Some(cache_path)) = (cli.simulate, &cache_path) {
         if animation.dynamic_characters() == 0 {
             anyhow::bail!("--simulate: {} has no character with dynamics", cli.scene.display());
         }
         let started = std::time::Instant::now();
         let frames = animation.frames();
         let bytes = render::sim_cache::cache_bytes(&animation, frames);
-        hairmesh::output::check_space(&cache_path, bytes)?;
+        hairmesh::output::check_space(cache_path, bytes)?;
         eprintln!(
             "simulating {frames} frames into {} ({})",
             cache_path.display(),
@@ -197,7 +203,7 @@ fn run(cli: &Cli) -> Result<()> {
             )
             .unwrap_or_else(|_| indicatif::ProgressStyle::default_bar()),
         );
-        render::sim_cache::write_sim_cache(&animation, frames, &cache_path, &|f| {
+        render::sim_cache::write_sim_cache(&animation, frames, cache_path, &|f| {
             bar.set_position(u64::from(f));
         })?;
         bar.finish_and_clear();
@@ -231,29 +237,31 @@ fn run(cli: &Cli) -> Result<()> {
     let Some(out) = &cli.out else { return Ok(()) };
     let exr = image_kind == Some(FileKind::Exr);
     // Hair-mesh positions per frame: from the cache when it holds the range, else simulated here.
-    let cache = if animation.dynamic_characters() == 0 {
-        None
-    } else {
-        match render::sim_cache::SimCache::open(&cache_path, &animation) {
-            Ok(c) if c.frames() >= cli.frames.end => Some(c),
-            Ok(c) => {
-                eprintln!(
-                    "hair-render: {} holds frames 0..{}, not ..{}: simulating in memory",
-                    cache_path.display(),
-                    c.frames(),
-                    cli.frames.end
-                );
-                None
-            }
-            Err(e) => {
-                eprintln!(
-                    "hair-render: no usable simulation cache ({e}): simulating frames 0..{} in memory (hair-render {} --simulate writes one for every process to share)",
-                    cli.frames.end,
-                    cli.scene.display()
-                );
-                None
+    let cache = match &cache_path {
+        Some(cache_path) if animation.dynamic_characters() > 0 => {
+            match render::sim_cache::SimCache::open(cache_path, &animation) {
+                Ok(c) if c.frames() >= cli.frames.end => Some(c),
+                Ok(c) => {
+                    eprintln!(
+                        "hair-render: {} holds frames 0..{}, not ..{}: simulating in memory",
+                        cache_path.display(),
+                        c.frames(),
+                        cli.frames.end
+                    );
+                    None
+                }
+                Err(e) => {
+                    eprintln!(
+                        "hair-render: no usable simulation cache ({e}): simulating frames 0..{} in memory (hair-render {} --simulate --sim-cache {} writes one for every process to share)",
+                        cli.frames.end,
+                        cli.scene.display(),
+                        cache_path.display()
+                    );
+                    None
+                }
             }
         }
+        _ => None,
     };
     let mut live = animation.start();
     let mut player = render::animation::Player::new(&animation);
@@ -267,8 +275,10 @@ fn run(cli: &Cli) -> Result<()> {
             let positions = match &cache {
                 // The cache was checked to hold every frame of the range.
                 Some(c) => {
-                    cached =
-                        c.positions(i)?.with_context(|| format!("{}: frame {i}", cache_path.display()))?;
+                    cached = c.positions(i)?.with_context(|| {
+                        let file = cache_path.as_deref().unwrap_or(std::path::Path::new("the cache"));
+                        format!("{}: frame {i}", file.display())
+                    })?;
                     &cached
                 }
                 None => {
@@ -419,12 +429,12 @@ fn check_outputs(
     cli: &Cli,
     scene: &render::scene::LoadedScene,
     length: u32,
-    cache: &std::path::Path,
+    cache: Option<&std::path::Path>,
 ) -> Result<Option<FileKind>> {
     let inputs = scene.input_files();
     let inputs: Vec<&std::path::Path> = inputs.iter().map(PathBuf::as_path).collect();
     let replace = Replace::from_force(cli.force);
-    if cli.simulate {
+    if let (true, Some(cache)) = (cli.simulate, cache) {
         hairmesh::output::check_file(cache, FileKind::SimCache, &inputs, replace)?;
     }
     if let Some(path) = &cli.stats_json {

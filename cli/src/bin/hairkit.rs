@@ -193,8 +193,9 @@ fn crowd(args: &CrowdArgs) -> Result<()> {
         println!("{}", animated.display());
     }
     println!(
-        "render one: hair-render {} -o crowd.png --stats   (add --frames N to follow the camera path)",
-        scenes.heads.display()
+        "render one: hair-render {} -o {} --stats   (add --frames N to follow the camera path)",
+        scenes.heads.display(),
+        scenes.heads.with_extension("png").display()
     );
     Ok(())
 }

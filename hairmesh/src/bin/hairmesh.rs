@@ -131,7 +131,7 @@ impl ConvertArgs {
         let bytes = hairmesh::input::read_regular(path, 1 << 20)
             .with_context(|| format!("reading {}", path.display()))?;
         serde_json::from_slice::<Style>(&bytes)
-            .map_err(|e| anyhow::anyhow!("{}: line {}, column {}: {e}", path.display(), e.line(), e.column()))
+            .map_err(|e| anyhow::anyhow!("{}: {}", path.display(), hairmesh::input::json_error(&e)))
     }
 }
 
@@ -240,7 +240,7 @@ fn convert(o: &ConvertArgs) -> Result<()> {
         eprintln!("warning: {w}");
     }
     let hm = asset.mesh();
-    let units = file_units(input);
+    let units = file_units(input, &scalp.positions);
     let precision = if o.f16 { Precision::F16 } else { Precision::F32 };
     step(&format!("writing {}", out.display()), || {
         Ok(write_asset_replacing(out, &asset, precision, units, input.to_str(), replace)?)

@@ -1,5 +1,6 @@
 //! `hair-bench`: GPU benchmarks of on-the-fly strand generation, written into
-//! `docs/benchmarks.md` (between markers, so other sections stay) and CSV files.
+//! `target/bench/benchmarks.md` (between markers, so other sections stay) and CSV files;
+//! `--out docs` updates the project's report, which is the only way it is rewritten.
 //!
 //! ```text
 //! hair-bench [--quick] [--only SECTION[,SECTION]] [--out DIR] [--device SEL]
@@ -43,8 +44,8 @@ struct Cli {
     /// Small sizes (CI smoke test, well under 2 minutes).
     #[arg(long)]
     quick: bool,
-    /// Where the report and CSV files go.
-    #[arg(long, default_value = "docs")]
+    /// Where the report, CSV files and plots go (`--out docs` updates the project's report).
+    #[arg(long, default_value = "target/bench")]
     out: PathBuf,
     /// Device index or name part.
     #[arg(long)]
@@ -246,6 +247,7 @@ fn run(cli: &Cli) -> Result<()> {
     if cli.raster != render::scene::Raster::Auto {
         command.push_str(&format!(" --raster {:?}", cli.raster).to_lowercase());
     }
+    command.push_str(&format!(" --out {}", cli.out.display()));
     let (width, height) = if cli.quick { (640, 360) } else { (1280, 720) };
     let mut paths = vec![GenerationPath::Compute];
     if caps.mesh_shader.is_some() {
@@ -268,8 +270,12 @@ fn run(cli: &Cli) -> Result<()> {
         out: &cli.out,
         raster: cli.raster,
         provenance: format!(
-            "`cargo run --release -p hairkit-cli --bin {command}` on **{}** ({}, Vulkan {}.{})",
-            caps.device_name, caps.driver_info, caps.api_version.0, caps.api_version.1
+            "`{command}` on **{}** ({}, Vulkan {}.{}), {}",
+            caps.device_name,
+            caps.driver_info,
+            caps.api_version.0,
+            caps.api_version.1,
+            hairkit_cli::today()
         ),
     };
     std::fs::create_dir_all(&cli.out).with_context(|| format!("creating {}", cli.out.display()))?;
