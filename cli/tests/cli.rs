@@ -221,6 +221,22 @@ fn main() -> ExitCode {
             for section in ["On-the-fly vs stored", "Accuracy vs time", "GPU memory"] {
                 ensure!(report.contains(section), "`{section}` missing");
             }
+            // Bytes do not depend on the machine: the project's report (docs/benchmarks.md) shows
+            // the rows this run shares with a full one (10k strands; the head caps at 100k) as
+            // they are.
+            let docs =
+                std::fs::read_to_string(concat!(env!("CARGO_MANIFEST_DIR"), "/../docs/benchmarks.md"))?;
+            let (ours, theirs) = (section(&report, "memory"), section(&docs, "memory"));
+            let (ours, theirs) = (ours.context("memory section")?, theirs.context("docs: memory section")?);
+            let shared: Vec<&str> =
+                ours.lines().filter(|l| l.starts_with("| head cap") || l.starts_with("| 9992 |")).collect();
+            ensure!(shared.len() >= 7, "the memory section's machine-independent rows: {ours}");
+            for row in shared {
+                ensure!(
+                    theirs.contains(row),
+                    "docs/benchmarks.md's memory section lacks `{row}`: run `hair-bench --only memory --out docs`"
+                );
+            }
             check_plots(dir.path(), &report, &["plot-generation.png", "plot-accuracy.png"])?;
             // A second run replaces its own section and keeps the rest of the file, and `--only`
             // replaces only the sections it names.
