@@ -244,7 +244,7 @@ pub const RASTER_TILE_WORDS: u32 = 3;
 
 /// The compute rasterizer's coverage limit, in fixed-point units of optical depth (256 per unit,
 /// `raster::COVERAGE_SCALE`): no coverage is added to a pixel past it, and a pixel at it reads
-/// as opaque (`coverage_alpha` in `raster_common.glsl`, `raster::cpu::RasterBuffers::alpha`).
+/// as opaque (`coverage_alpha` in `raster_common.glsl`, `cpu::raster::RasterBuffers::alpha`).
 /// Optical depth 4.5: alpha 1 − 1.1 %. A pixel that reaches it holds at least that much hair,
 /// so reading it as opaque moves its alpha by at most 1.1 % (measured against the limit of 12
 /// used before: at most one level of 8 bits on the 100k-strand close-up, opaque and OIT, and

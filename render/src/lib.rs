@@ -9,6 +9,7 @@
 pub mod animation;
 pub mod camera;
 pub mod contract;
+pub mod cpu;
 pub mod error;
 pub mod frame;
 pub mod graph;

@@ -13,7 +13,7 @@
 //! segments as the hair's raster kernel does: the depth pass keeps each texel's nearest depth with
 //! an atomic minimum, the opacity pass adds coverage × [`STRAND_OPACITY`] to each layer in fixed
 //! point ([`SHADOW_OPACITY_SCALE`]), and `shadow_resolve.comp` writes the float layers. Their CPU
-//! port is [`crate::raster::cpu::shadow_strand`].
+//! port is [`crate::cpu::raster::shadow_strand`].
 
 use gen_gpu::{Blend, Buffer, Context, FragmentStage, FrameInputs, Generator, GeneratorOptions, vk};
 use glam::{Mat4, Vec3};
@@ -241,7 +241,7 @@ impl ComputeShadow {
     /// light, first texel 0) in `mode` and reads them back: the nearest depth bits per texel,
     /// then (with [`ShadowMode::Opacity`], over the depth map from `depth_bits`) the fixed-point
     /// opacity sums, before the float resolve. What the tests compare with the CPU port
-    /// ([`crate::raster::cpu::shadow_strand`]).
+    /// ([`crate::cpu::raster::shadow_strand`]).
     pub fn rasterize_stored(
         &self,
         ctx: &Context,

@@ -12,8 +12,8 @@ use glam::{Mat4, Vec3};
 use hairkit_tests::harness::{GpuTest, Requirements, run_gpu_tests};
 use hairkit_tests::image_compare::{Tolerance, compare, output_dir};
 use hairkit_tests::scenes::{scene_with, scene_with_edit, sintel_scene};
+use render::cpu::raster::{self as cpu, RasterView, StrandPoint};
 use render::frame::{RenderedFrame, SceneRenderer};
-use render::raster::cpu::{self, RasterView, StrandPoint};
 use render::raster::{
     ComputeRaster, DepthClipping, FusedStrands, LoadPath, RasterPath, claimed_slots, coverage_sum,
 };

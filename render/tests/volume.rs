@@ -16,10 +16,10 @@ use hairkit_tests::image_compare::{Tolerance, compare, output_dir};
 use hairkit_tests::scenes::scene_with;
 use hairmesh::asset::HairAsset;
 use hairmesh::reference::LodParams;
+use render::cpu::volume as cpu;
 use render::frame::{RenderedFrame, SceneRenderer};
 use render::instance::{CharacterHair, SceneInstance};
 use render::scene::{AUTO_LOD_FLIP, LoadedScene, LodDesc, load_scene};
-use render::volume::cpu;
 
 /// `one_character` at `size` with `effects` (the compute rasterizer unless they say otherwise)
 /// and the camera `distance` times as far from its target as the scene's.
