@@ -80,7 +80,7 @@ impl SceneRenderer {
                     Light::Directional { cast_shadows: true, .. } | Light::Point { cast_shadows: true, .. }
                 );
                 // w: the hair's volume shadows it from this light (`light_volume_shadows`).
-                let volume_shadows = self.scene.scene.effects.volume_shadows && casts;
+                let volume_shadows = self.effects.volume_shadows && casts;
                 let depth = [depth[0], depth[1], depth[2], if volume_shadows { 1.0 } else { 0.0 }];
                 GpuLight {
                     vector: vector.to_array(),

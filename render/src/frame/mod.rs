@@ -132,11 +132,16 @@ pub struct SceneRenderer {
     /// Explicit strands uploaded once, and the characters drawing them.
     pub(crate) stored: Vec<gen_gpu::StoredStrands>,
     pub(crate) stored_characters: Vec<SceneCharacter>,
+    /// The scene as loaded; never changed after set-up (what the renderer chose is in
+    /// [`Self::effects`] and [`Self::raster`]).
     pub(crate) scene: LoadedScene,
+    /// The effects this renderer draws: the scene's, with what set-up decided for this device
+    /// (`"lod": "auto"` on the compute rasterizer turns the volume LOD path on). Passes read
+    /// these, never the scene's.
+    pub(crate) effects: crate::scene::Effects,
     pub(crate) path: GenerationPath,
-    /// The rasterizer the scene's `effects.raster` resolved to on this device.
-    pub(crate) raster: RasterPath,
-    /// The compute rasterizer's pipelines (when `raster` is compute).
+    /// The compute rasterizer's pipelines when the scene's `effects.raster` resolved to it on
+    /// this device (the one record of that choice: [`Self::raster`]); `None`: triangles.
     pub(crate) compute_raster: Option<ComputeRaster>,
     /// Compute rasterizer: the distinct hair materials, and each character's index into them
     /// (generated characters, then stored ones).

@@ -27,7 +27,7 @@ impl SceneRenderer {
 
     /// The rasterizer this renderer draws hair with.
     pub fn raster(&self) -> RasterPath {
-        self.raster
+        if self.compute_raster.is_some() { RasterPath::Compute } else { RasterPath::Triangles }
     }
 
     /// Whether the compute rasterizer's front phase draws each character's strand segments

@@ -47,7 +47,7 @@ impl SceneRenderer {
     /// with what each reads and writes.
     pub fn plan(&self, view: FrameView) -> FramePlan {
         let mut g: FrameGraph<ScenePass> = FrameGraph::default();
-        let effects = self.scene.scene.effects;
+        let effects = self.effects;
         let msaa = self.oit.is_none() && effects.msaa > 1;
         let (color, depth) = if msaa {
             (g.image(format!("colour ×{}", effects.msaa)), g.image(format!("depth ×{}", effects.msaa)))

@@ -54,7 +54,7 @@ impl SceneRenderer {
     /// Compute rasterizer: visibility slots per pixel the scene asks for (the K nearest
     /// fragments: `oit_k` with OIT, else 1).
     pub(super) fn raster_slots(&self) -> u32 {
-        let effects = self.scene.scene.effects;
+        let effects = self.effects;
         if effects.transparency == Transparency::Oit { effects.oit_k } else { 1 }
     }
 
@@ -122,7 +122,7 @@ impl SceneRenderer {
     /// (grid and placement).
     pub(super) fn frame_materials(&self, plan: &FramePlan) -> Vec<RasterMaterial> {
         let mut materials = self.raster_materials.clone();
-        let flags = self.scene.scene.effects.volume_flags();
+        let flags = self.effects.volume_flags();
         let (Some(volumes), Some(ids), true) = (&self.volumes, &plan.ids.volumes, flags != 0) else {
             return materials;
         };

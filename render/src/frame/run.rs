@@ -105,11 +105,7 @@ impl SceneRenderer {
                 self.stored[c.hair].frame_params(ctx, &inputs)
             })
             .collect::<gen_gpu::Result<Vec<_>>>()?;
-        let samples = if self.oit.is_some() || self.compute_raster.is_some() {
-            1
-        } else {
-            self.scene.scene.effects.msaa
-        };
+        let samples = if self.oit.is_some() || self.compute_raster.is_some() { 1 } else { self.effects.msaa };
         let scene_target = SceneTarget::new(ctx, &mut pool, view.width, view.height, samples)?;
         // The OIT node pool is bounded by the output size (`oit_nodes_per_pixel`) and by the
         // storage-buffer range, or where the device has buffer device addresses (the kernels

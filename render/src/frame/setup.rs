@@ -207,8 +207,8 @@ impl SceneRenderer {
             stored,
             stored_characters,
             scene: scene.clone(),
+            effects,
             path,
-            raster: RasterPath::Triangles,
             compute_raster: None,
             raster_materials: Vec::new(),
             character_materials: Vec::new(),
@@ -232,7 +232,7 @@ impl SceneRenderer {
     /// pipelines and the material table (`auto` keeps triangles when the scene has more
     /// distinct hair materials than the visibility word can name).
     pub(super) fn set_up_raster(&mut self, ctx: &Context) -> Result<(), RenderError> {
-        let effects = self.scene.scene.effects;
+        let effects = self.effects;
         let mut raster = resolve_raster(effects.raster, &effects, ctx.capabilities())?;
         let eye = Vec3::from_array(self.scene.scene.camera.eye);
         let mut table: Vec<RasterMaterial> = Vec::new();
@@ -307,7 +307,7 @@ impl SceneRenderer {
         if raster == RasterPath::Compute && self.scene.scene.lod.auto && !effects.volume_lod {
             effects.volume_lod = true;
             effects.volume_lod_pixels = crate::scene::AUTO_VOLUME_PIXELS;
-            self.scene.scene.effects = effects;
+            self.effects = effects;
         }
         // AO and volume shadows work on either rasterizer; the volume LOD path needs the
         // compute rasterizer (the scene is refused otherwise).
@@ -321,7 +321,6 @@ impl SceneRenderer {
                 opacity: if self.oit.is_some() { 0.7 } else { 1.0 },
             });
         }
-        self.raster = raster;
         Ok(())
     }
 }

@@ -133,7 +133,7 @@ impl SceneRenderer {
         view: &FrameView,
     ) -> (Option<VolumeIds>, Vec<usize>) {
         let Some(volumes) = &self.volumes else { return (None, Vec::new()) };
-        let effects = self.scene.scene.effects;
+        let effects = self.effects;
         let max = volumes.store.max_resolution;
         let placed: Vec<(Mat4, usize)> = self.volume_characters().map(|(c, v)| (c.transform, v)).collect();
         let pixels: Vec<f32> = placed.iter().map(|&(t, v)| self.projected_pixels(t, v, view)).collect();
@@ -209,7 +209,7 @@ impl SceneRenderer {
     /// The triangle raster's part of AO and volume shadows: volume source `v`'s volume this
     /// frame into a character's shading constants.
     pub(crate) fn volume_shading(&self, plan: &FramePlan, v: usize, s: &mut Shading) {
-        let flags = self.scene.scene.effects.volume_flags();
+        let flags = self.effects.volume_flags();
         let (Some(volumes), Some(ids)) = (&self.volumes, &plan.ids.volumes) else { return };
         if let (Some(Some(p)), true) = (ids.hairs.get(v), flags != 0) {
             let address = volumes.store.address(v, &p.grid);

@@ -39,7 +39,7 @@ pub(crate) fn record(
     for o in &r.occluders {
         let mut push = occluder_push(o.transform, view_proj, view.camera.eye, light_count, o.color);
         if let (true, Some(volumes), Some(Some(p))) = (
-            r.scene.scene.effects.ao,
+            r.effects.ao,
             r.volumes.as_ref(),
             state.plan.ids.volumes.as_ref().and_then(|v| v.hairs.get(o.hair_volume)),
         ) {

@@ -328,7 +328,7 @@ pub(crate) fn prepare(
             why: "planned without shadow pipelines",
         }));
     };
-    let effects = r.scene.scene.effects;
+    let effects = r.effects;
     let (size, layer_fractions, lod) = (effects.shadow_map_size, effects.shadow_layers, plan.view.lod);
     let mut lo = Vec3::splat(f32::INFINITY);
     let mut hi = Vec3::splat(f32::NEG_INFINITY);

@@ -80,7 +80,7 @@ pub(crate) fn plan_hair(
         .cached(plan.cached)
         .submission(submission)
         .add(ScenePass::Volume(h, VolumeStep::Bricks));
-    if r.scene.scene.effects.ao {
+    if r.effects.ao {
         g.pass(format!("volume AO hair {h}"))
             .read(v.volume, Access::ComputeRead)
             .write(v.ao, Access::ComputeWrite)
@@ -199,7 +199,7 @@ pub(crate) fn record_hair(
                 &p.ao,
                 &[(binding::VOLUME, &volumes.store.volume), (binding::VOLUME_AO, &volumes.store.ao)],
             );
-            let radius = crate::volume::ao_radius_voxels(&grid, r.scene.scene.effects.ao_radius);
+            let radius = crate::volume::ao_radius_voxels(&grid, r.effects.ao_radius);
             let push =
                 VolumePassPush { dims: region, ao: [radius as f32, volumes.opacity, 0.0, 0.0], bricks };
             rec.push_constants(&p.ao, &push);
