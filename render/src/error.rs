@@ -15,6 +15,9 @@ pub enum RenderError {
     },
     #[error(transparent)]
     Gpu(#[from] gen_gpu::GpuError),
+    /// The planned frame graph cannot run (a renderer bug, not the scene's).
+    #[error("the frame graph cannot run: {error}")]
+    Graph { error: crate::graph::GraphError },
     #[error("no character with generated hair has the key `{key}`")]
     UnknownHair { key: String },
     #[error(
@@ -27,6 +30,12 @@ pub enum RenderError {
     Animation { path: std::path::PathBuf, message: String },
     #[error("{path}: lights[{light}]: {message}")]
     Light { path: std::path::PathBuf, light: usize, message: String },
+}
+
+impl From<crate::graph::GraphError> for RenderError {
+    fn from(error: crate::graph::GraphError) -> Self {
+        Self::Graph { error }
+    }
 }
 
 /// An asset error names its file once: hairmesh's errors mostly start with the path already.

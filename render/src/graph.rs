@@ -126,10 +126,32 @@ impl Access {
     }
 }
 
+/// Whether a resource's content outlives the frame.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Lifetime {
+    /// Made by this frame's passes and dropped after them: a pass may only read it after an
+    /// earlier pass of the frame wrote it, and a pass whose transient outputs nobody reads is
+    /// culled.
+    Transient,
+    /// Exists before the frame or is read after it (uploads, caches, the previous frame's
+    /// depth, the readback the host reads): reads need no writer in the frame, and writes to it
+    /// are the frame's outputs.
+    External,
+}
+
 #[derive(Clone, Debug)]
 struct ResourceDecl {
     name: String,
     kind: ResKind,
+    lifetime: Lifetime,
+}
+
+/// A graph that cannot run as declared.
+#[derive(Clone, Debug, PartialEq, Eq, thiserror::Error)]
+pub enum GraphError {
+    /// A pass reads a transient resource no earlier pass of the frame writes.
+    #[error("pass `{pass}` reads `{resource}`, which no earlier pass of the frame writes")]
+    ReadBeforeWrite { pass: String, resource: String },
 }
 
 /// One pass of a graph: its name, what it touches, and the renderer's payload saying what to
@@ -141,9 +163,18 @@ pub struct PassNode<P> {
     pub writes: Vec<(Res, Access)>,
     /// Its result is reused from an earlier frame: shown, not run.
     pub cached: bool,
+    /// Nothing reads what it writes ([`FrameGraph::cull`]): shown, not run.
+    pub culled: bool,
     /// Which submission of the frame records it.
     pub submission: usize,
     pub payload: P,
+}
+
+impl<P> PassNode<P> {
+    /// Whether the pass is recorded (neither cached nor culled).
+    pub fn runs(&self) -> bool {
+        !self.cached && !self.culled
+    }
 }
 
 /// A frame's passes in order and the resources they use.
@@ -207,6 +238,7 @@ impl<P> PassBuilder<'_, P> {
             reads: n.reads,
             writes: n.writes,
             cached: n.cached,
+            culled: false,
             submission: n.submission,
             payload,
         });
@@ -214,16 +246,94 @@ impl<P> PassBuilder<'_, P> {
 }
 
 impl<P> FrameGraph<P> {
-    /// Declares a buffer (or a set of buffers used together, such as one character's strands).
-    pub fn buffer(&mut self, name: impl Into<String>) -> Res {
-        self.resources.push(ResourceDecl { name: name.into(), kind: ResKind::Buffer });
+    fn declare(&mut self, name: impl Into<String>, kind: ResKind, lifetime: Lifetime) -> Res {
+        self.resources.push(ResourceDecl { name: name.into(), kind, lifetime });
         Res(self.resources.len() - 1)
     }
 
-    /// Declares an image (it gets layout transitions).
+    /// Declares a transient buffer (or a set of buffers used together, such as one character's
+    /// strands): made by the frame's passes.
+    pub fn buffer(&mut self, name: impl Into<String>) -> Res {
+        self.declare(name, ResKind::Buffer, Lifetime::Transient)
+    }
+
+    /// Declares a transient image (it gets layout transitions).
     pub fn image(&mut self, name: impl Into<String>) -> Res {
-        self.resources.push(ResourceDecl { name: name.into(), kind: ResKind::Image });
-        Res(self.resources.len() - 1)
+        self.declare(name, ResKind::Image, Lifetime::Transient)
+    }
+
+    /// Declares a buffer whose content outlives the frame ([`Lifetime::External`]).
+    pub fn external_buffer(&mut self, name: impl Into<String>) -> Res {
+        self.declare(name, ResKind::Buffer, Lifetime::External)
+    }
+
+    /// Declares an image whose content outlives the frame ([`Lifetime::External`]).
+    pub fn external_image(&mut self, name: impl Into<String>) -> Res {
+        self.declare(name, ResKind::Image, Lifetime::External)
+    }
+
+    pub fn lifetime(&self, res: Res) -> Lifetime {
+        self.resources[res.0].lifetime
+    }
+
+    /// Whether every pass that runs reads only what exists when it runs: an external resource,
+    /// or a transient one an earlier running pass wrote. The first offence is named.
+    pub fn check(&self) -> Result<(), GraphError> {
+        let mut written = vec![false; self.resources.len()];
+        for pass in self.passes.iter().filter(|p| p.runs()) {
+            for &(res, _) in &pass.reads {
+                if self.lifetime(res) == Lifetime::Transient && !written[res.0] {
+                    return Err(GraphError::ReadBeforeWrite {
+                        pass: pass.name.clone(),
+                        resource: self.resource_name(res).to_owned(),
+                    });
+                }
+            }
+            for &(res, _) in &pass.writes {
+                written[res.0] = true;
+            }
+        }
+        Ok(())
+    }
+
+    /// Marks the passes nothing needs as culled: a pass is needed when it writes an external
+    /// resource or a transient one a later needed pass reads. Returns the culled passes' names.
+    pub fn cull(&mut self) -> Vec<String> {
+        let mut needed_resources = vec![false; self.resources.len()];
+        let mut culled = Vec::new();
+        for pass in self.passes.iter_mut().rev() {
+            if !pass.runs() {
+                continue;
+            }
+            let needed = pass.writes.iter().any(|&(res, _)| {
+                self.resources[res.0].lifetime == Lifetime::External || needed_resources[res.0]
+            });
+            if !needed {
+                pass.culled = true;
+                culled.push(pass.name.clone());
+                continue;
+            }
+            for &(res, _) in &pass.reads {
+                needed_resources[res.0] = true;
+            }
+        }
+        culled.reverse();
+        culled
+    }
+
+    /// Per transient resource, the first and last running pass (indices into [`Self::passes`])
+    /// that use it: its lifetime within the frame (`None`: unused).
+    pub fn transient_spans(&self) -> Vec<Option<(usize, usize)>> {
+        let mut spans: Vec<Option<(usize, usize)>> = vec![None; self.resources.len()];
+        for (i, pass) in self.passes.iter().enumerate().filter(|(_, p)| p.runs()) {
+            for &(res, _) in pass.reads.iter().chain(&pass.writes) {
+                if self.lifetime(res) == Lifetime::Transient {
+                    let span = spans[res.0].get_or_insert((i, i));
+                    span.1 = i;
+                }
+            }
+        }
+        spans
     }
 
     /// Starts a pass named `name` in submission 0.
@@ -235,6 +345,7 @@ impl<P> FrameGraph<P> {
                 reads: Vec::new(),
                 writes: Vec::new(),
                 cached: false,
+                culled: false,
                 submission: 0,
                 payload: (),
             },
@@ -249,9 +360,9 @@ impl<P> FrameGraph<P> {
         self.resources[res.0].kind
     }
 
-    /// Names of the passes that run (not cached), in order.
+    /// Names of the passes that run (neither cached nor culled), in order.
     pub fn runnable(&self) -> Vec<String> {
-        self.passes.iter().filter(|p| !p.cached).map(|p| p.name.clone()).collect()
+        self.passes.iter().filter(|p| p.runs()).map(|p| p.name.clone()).collect()
     }
 
     /// Number of submissions the frame uses.
@@ -271,6 +382,7 @@ impl<P> FrameGraph<P> {
                     reads: p.reads.clone(),
                     writes: p.writes.clone(),
                     cached: p.cached,
+                    culled: p.culled,
                     submission: p.submission,
                     payload: (),
                 })
@@ -294,8 +406,12 @@ impl<P> fmt::Display for FrameGraph<P> {
                 current = p.submission;
                 writeln!(f, "  -- submission {} of {submissions}", current + 1)?;
             }
-            let cached = if p.cached { "  [cached: not run]" } else { "" };
-            writeln!(f, "{i:>2}. {}{cached}", p.name)?;
+            let note = match (p.cached, p.culled) {
+                (true, _) => "  [cached: not run]",
+                (false, true) => "  [culled: nothing reads what it writes]",
+                (false, false) => "",
+            };
+            writeln!(f, "{i:>2}. {}{note}", p.name)?;
             writeln!(f, "      reads  [{}]", list(&p.reads))?;
             writeln!(f, "      writes [{}]", list(&p.writes))?;
         }
@@ -357,7 +473,7 @@ impl<'g, P> GraphRun<'g, P> {
         mut record: impl FnMut(&mut Recorder<'_>, &PassNode<P>, &Self) -> gen_gpu::Result<()>,
     ) -> gen_gpu::Result<()> {
         let graph = self.graph;
-        for pass in graph.passes.iter().filter(|p| p.submission == submission && !p.cached) {
+        for pass in graph.passes.iter().filter(|p| p.submission == submission && p.runs()) {
             self.barriers_for(rec, pass, image);
             let result = rec.pass(&pass.name, |rec| record(rec, pass, self));
             for (res, _) in pass.reads.iter().chain(&pass.writes) {
@@ -498,5 +614,96 @@ impl TransientPool {
 
     pub fn give_back_image(&mut self, image: Image) {
         self.images.entry((image.name().to_owned(), image.desc)).or_default().push(image);
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Upload → generate → raster → copy out, with a debug pass nobody reads and a pass reading
+    /// the previous frame's depth.
+    fn frame() -> (FrameGraph<&'static str>, [Res; 6]) {
+        let mut g = FrameGraph::default();
+        let hair = g.external_buffer("hair");
+        let strands = g.buffer("strands");
+        let debug = g.buffer("debug counters");
+        let colour = g.image("colour");
+        let image = g.external_buffer("image");
+        let last_depth = g.external_buffer("depth (last frame)");
+        g.pass("generate")
+            .read(hair, Access::ComputeRead)
+            .write(strands, Access::ComputeWrite)
+            .add("generate");
+        g.pass("count").read(strands, Access::ComputeRead).write(debug, Access::ComputeWrite).add("count");
+        g.pass("raster")
+            .read(strands, Access::PreRasterRead)
+            .read(last_depth, Access::FragmentRead)
+            .write(colour, Access::ColorAttachment)
+            .add("raster");
+        g.pass("copy out").read(colour, Access::TransferRead).write(image, Access::TransferWrite).add("copy");
+        (g, [hair, strands, debug, colour, image, last_depth])
+    }
+
+    #[test]
+    fn a_graph_in_dependency_order_passes_the_check() {
+        let (g, _) = frame();
+        assert_eq!(g.check(), Ok(()));
+    }
+
+    #[test]
+    fn a_pass_reading_what_no_earlier_pass_wrote_is_refused_by_name() {
+        let (mut g, [_, strands, ..]) = frame();
+        // The raster moved before generation: its strands do not exist yet.
+        let raster = g.passes.remove(2);
+        g.passes.insert(0, raster);
+        assert_eq!(
+            g.check(),
+            Err(GraphError::ReadBeforeWrite { pass: "raster".into(), resource: "strands".into() })
+        );
+        // A writer that is cached (its result reused) does not count either.
+        let (mut g, _) = frame();
+        g.passes[0].cached = true;
+        let e = g.check().expect_err("generation is not run");
+        assert!(e.to_string().contains("`count` reads `strands`"), "{e}");
+        // External resources need no writer.
+        let mut g: FrameGraph<()> = FrameGraph::default();
+        let cache = g.external_buffer("volume cache");
+        let out = g.external_buffer("image");
+        g.pass("march").read(cache, Access::ComputeRead).write(out, Access::ComputeWrite).add(());
+        assert_eq!(g.check(), Ok(()));
+        let _ = strands;
+    }
+
+    #[test]
+    fn passes_whose_outputs_nobody_reads_are_culled() {
+        let (mut g, _) = frame();
+        assert_eq!(g.cull(), vec!["count".to_owned()]);
+        assert_eq!(g.runnable(), ["generate", "raster", "copy out"]);
+        assert!(g.to_string().contains("1. count  [culled: nothing reads what it writes]"), "{g}");
+        // Culling follows chains back: without the copy out nothing needs the raster, and then
+        // nothing needs generation.
+        let (mut g, _) = frame();
+        g.passes.pop();
+        assert_eq!(g.cull(), ["generate", "count", "raster"]);
+        assert!(g.runnable().is_empty());
+        // Writing an external resource (a cache later frames read) keeps a pass.
+        let mut g: FrameGraph<()> = FrameGraph::default();
+        let sums = g.buffer("voxel sums");
+        let cache = g.external_buffer("volume cache");
+        g.pass("voxelize").write(sums, Access::ComputeWrite).add(());
+        g.pass("resolve").read(sums, Access::ComputeRead).write(cache, Access::ComputeWrite).add(());
+        assert!(g.cull().is_empty());
+    }
+
+    #[test]
+    fn transient_spans_run_from_first_to_last_use() {
+        let (mut g, [hair, strands, debug, colour, image, _]) = frame();
+        g.cull();
+        let spans = g.transient_spans();
+        assert_eq!(spans[strands.0], Some((0, 2)), "generate to raster (count is culled)");
+        assert_eq!(spans[colour.0], Some((2, 3)));
+        assert_eq!(spans[debug.0], None, "only the culled pass used it");
+        assert_eq!((spans[hair.0], spans[image.0]), (None, None), "external resources have no span");
     }
 }

@@ -629,6 +629,9 @@ fn main() -> ExitCode {
                         let case = format!("{mode} ×{msaa}, shadows {shadows}, batch bytes {batch_bytes}");
                         for frame_index in 0..2 {
                             let planned = renderer.graph();
+                            // Every read has its writer before it, and every pass is needed.
+                            ensure!(planned.check().is_ok(), "{case}: {:?}", planned.check());
+                            ensure!(planned.passes.iter().all(|p| !p.culled), "{case}: culled in {planned}");
                             let frame = renderer.render(ctx)?;
                             let runnable = planned.runnable();
                             ensure!(

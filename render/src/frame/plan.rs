@@ -55,24 +55,27 @@ impl SceneRenderer {
             (g.image("colour"), g.image("depth"))
         };
         let resolve = msaa.then(|| (g.image("colour (resolved)"), g.image("depth (resolved)")));
-        let readback = g.buffer("image");
-        let lights = g.buffer("lights");
+        // What outlives the frame: the image the host reads, what the host writes before it, uploads
+        // and the caches later frames read.
+        let readback = g.external_buffer("image");
+        let lights = g.external_buffer("lights");
         let oit_lists = g.buffer("OIT lists");
-        let occluder_meshes = g.buffer("occluder meshes");
+        let occluder_meshes = g.external_buffer("occluder meshes");
         let visibility = g.buffer("visibility + coverage");
         let scene_depth = g.buffer("occluder depth (copy)");
-        let raster_frame = g.buffer("raster camera + materials");
+        let raster_frame = g.external_buffer("raster camera + materials");
         let shaded = g.buffer("shaded hair");
         let raster_tiles = g.buffer("occlusion tiles");
         let slot_orders = g.buffer("strand slot orders");
-        let strand_marks = g.buffer("strand marks");
-        let final_depth = g.buffer("hair depth (last frame)");
-        let hair: Vec<Res> = (0..self.hairs.len()).map(|h| g.buffer(format!("hair {h}"))).collect();
+        let strand_marks = g.external_buffer("strand marks");
+        let final_depth = g.external_buffer("hair depth (last frame)");
+        let hair: Vec<Res> = (0..self.hairs.len()).map(|h| g.external_buffer(format!("hair {h}"))).collect();
         let character_hair: Vec<Res> = self.characters.iter().map(|c| hair[c.hair]).collect();
         let lod = (0..self.characters.len()).map(|i| g.buffer(format!("lod {i}"))).collect();
         let strands = (0..self.characters.len()).map(|i| g.buffer(format!("strands {i}"))).collect();
-        let stored: Vec<Res> =
-            (0..self.stored_characters.len()).map(|i| g.buffer(format!("stored strands {i}"))).collect();
+        let stored: Vec<Res> = (0..self.stored_characters.len())
+            .map(|i| g.external_buffer(format!("stored strands {i}")))
+            .collect();
         let shadow_cached = self.shadows_cached(&view.lod);
         let shadow = self
             .shadow
@@ -137,6 +140,8 @@ impl SceneRenderer {
             let submission = first_batch_submission + k;
             crate::passes::frame_batch(self, &mut g, &ids, batch, submission, k == 0, k + 1 == batches.len());
         }
+        // A pass nothing reads from is shown in the graph and not run.
+        g.cull();
         FramePlan {
             graph: g,
             ids,

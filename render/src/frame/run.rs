@@ -40,6 +40,7 @@ impl SceneRenderer {
             });
         }
         let plan = self.plan(view);
+        plan.graph.check()?;
         let mut pool = self.pool.lock().unwrap_or_else(|e| e.into_inner());
         let mut run = GraphRun::new(&plan.graph);
         let mut timings = FrameTimings::default();

@@ -196,9 +196,9 @@ impl SceneRenderer {
         let ids = VolumeIds {
             marched: marched.clone(),
             fractions,
-            volume: g.buffer("hair volumes"),
-            ao: g.buffer("hair volumes: AO"),
-            bricks: g.buffer("hair volumes: bricks"),
+            volume: g.external_buffer("hair volumes"),
+            ao: g.external_buffer("hair volumes: AO"),
+            bricks: g.external_buffer("hair volumes: bricks"),
             lod: (0..self.hairs.len()).map(|h| g.buffer(format!("voxelize lod {h}"))).collect(),
             sums: (0..self.volume_sources()).map(|v| g.buffer(format!("voxel sums {v}"))).collect(),
             hairs,

@@ -89,7 +89,7 @@ pub(crate) fn declare(
 ) -> ShadowIds {
     let lights = r.scene.shadow_lights().len();
     ShadowIds {
-        maps: g.buffer("shadow maps"),
+        maps: g.external_buffer("shadow maps"),
         depth_image: g.image("shadow depth"),
         color_image: g.image("shadow depth pass colour"),
         opacity_image: g.image("shadow opacity"),
