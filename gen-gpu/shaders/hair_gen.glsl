@@ -986,8 +986,8 @@ bool strand_stream_walking(StrandStream s) {
 // whose points lie in it (strand_stream_within), reading the control data without writing it.
 // On CPU devices (llvmpipe) every value a loop carries is written back under the SIMD lanes'
 // mask at each turn: carried by the one loop over all steps, the segment's 38 control values
-// were written back at every vertex; carried by the outer loop, once per segment (the
-// 10k-strand generate pass about 6 % faster in paired runs; render's fused raster kernel
+// were written back at every vertex; carried by the outer loop, once per segment (render's
+// fused raster kernel
 // walks its strands of 16 segments or more this way too, and enters segments step by step
 // inside one loop where strands are short or walked in part: hair_raster.comp). Returns the
 // segment entered (-1: the steps past the last point).
@@ -1060,8 +1060,7 @@ vec3 window_tangent(uint k, uint n, vec3 first_seg, vec3 prev2, vec3 prev, vec3 
 // the same strand.
 // A walk's steps are one loop within each segment (strand_stream_enter): a loop per vertex with
 // a loop of pushes inside it costs more on CPU devices, where every loop writes back the state
-// it carries under the SIMD lanes' mask at each turn (the 100k-strand generate pass about 5 %
-// faster).
+// it carries under the SIMD lanes' mask at each turn (docs/compute-raster-notes.md).
 // The point it pushes is evaluated only if `evaluate` (else a stand-in:
 // strand_stream_push_needed), for consumers that need only some of the vertices: a vertex's
 // tangent and morphing read the points two on either side of it and the first three points

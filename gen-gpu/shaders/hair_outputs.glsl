@@ -136,8 +136,8 @@ uint64_t float_pair_bits(float first, float second) {
 // `slot` is relative to the bound chunk window. With HK_VERTEX_STORES_INT64 the vertex's eight
 // floats go out as one store of four 64-bit words: on CPU devices (llvmpipe) a store at a
 // per-invocation address is a loop over the SIMD lanes with a bounds check per component, and
-// one loop of four components instead of two loops of four made the strand-coherent generate
-// pass about 5 % faster (10k strands; the same bytes).
+// one loop of four components instead of two loops of four is cheaper for the same bytes
+// (docs/compute-raster-notes.md).
 void store_vertex(uint slot, uint k, StrandVertex v) {
 #ifdef HK_VERTEX_STORES_INT64
     strand_vertex_words[slot * MAX_VERTICES + k] =

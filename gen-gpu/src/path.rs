@@ -23,8 +23,8 @@ pub enum PathChoice {
 
 impl GenerationPath {
     /// The default for a device: mesh shaders on real GPUs; the compute fallback on CPU
-    /// devices, where lavapipe serializes mesh output and was measured 1.5–2.5× slower than
-    /// vertex pulling, and on devices without the extension.
+    /// devices, where lavapipe serializes mesh output and is slower than vertex pulling
+    /// (`docs/benchmarks.md`), and on devices without the extension.
     pub fn default_for(caps: &Capabilities) -> Self {
         if caps.mesh_shader.is_some() && !caps.is_cpu() {
             GenerationPath::Mesh

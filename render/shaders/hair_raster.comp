@@ -125,7 +125,7 @@ void main() {
     }
     // Every strand from its control data, short ones too: the generator samples strands of
     // fewer than 17 vertices per vertex (so its compute and mesh paths agree), which equals this
-    // to f32 rounding and costs more (measured: the LOD'd crowd 15 % faster this way).
+    // to f32 rounding and costs more (a crowd under LOD is faster this way).
     StrandStream s = strand_stream(bundle, strand, l, PER_VERTEX_FETCH == 0u);
     float random = seeded_random(s.seed, 7u);
     if (SLOT_ORDER != 0u && walk != 0xffffffffu) {
@@ -160,10 +160,9 @@ void main() {
         // takes its steps. On CPU devices (llvmpipe) every value a loop carries is written back
         // under the SIMD lanes' mask at each turn; the inner loop only reads the segment's 38
         // control values, so they are written back once per curve segment instead of at every
-        // vertex (paired runs, the same images: the far character's frame 4-5 % faster; the
-        // 100k-strand close-up's within 1 %). Strands of a few segments, as in a crowd under
-        // LOD, enter a curve segment every step or two: that way the crowd measured 2 % slower,
-        // so they and the slot order's walks keep the one loop below.
+        // vertex (docs/compute-raster-notes.md). Strands of a few segments, as in a crowd under
+        // LOD, enter a curve segment every step or two, which is slower that way, so they and
+        // the slot order's walks keep the one loop below.
         while (strand_stream_walking(s)) {
             int segment = strand_stream_enter(s);
             do {

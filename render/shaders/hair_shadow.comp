@@ -21,8 +21,8 @@ void main() {
     RasterVertex previous;
     // One loop with one call site of strand_stream_step (each is a whole inlined copy of
     // generation), entering each segment at the step that reaches it: here a loop per segment
-    // (strand_stream_enter) measured 1-2 % slower on the close-ups, where the column walk's
-    // state outweighs the control data it keeps out of the inner loop.
+    // (strand_stream_enter) is slower on the close-ups, where the column walk's state
+    // outweighs the control data it keeps out of the inner loop.
     for (uint step = 0u; step < strand_stream_steps(s); ++step) {
         strand_stream_enter(s);
         StrandVertex v;

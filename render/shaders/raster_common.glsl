@@ -51,8 +51,7 @@ layout(constant_id = HK_LOAD_BY_ADDRESS_CONSTANT_ID) const uint LOAD_BY_ADDRESS 
 // The visibility slots per pixel (K) of the frames the kernel runs in (render/src/raster.rs
 // `ComputeRaster::new`), or 0 where the kernel takes K from its push constants (any K: the
 // tests' stored-strand kernels). A constant K gives the loops over a pixel's slots a known trip
-// count and leaves out the code of the other case (the 100k-strand OIT close-up's front phase
-// about 20 % faster with K = 8; with K = 1 a few %).
+// count and leaves out the code of the other case (docs/compute-raster-notes.md).
 layout(constant_id = HK_VISIBILITY_SLOTS_CONSTANT_ID) const uint VISIBILITY_SLOTS = 0u;
 
 // K: the specialized one, else `pushed` (the push constants').

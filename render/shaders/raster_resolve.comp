@@ -7,8 +7,8 @@
 // there (the occluders, or the background), with the hair's depth where it lies in front.
 //
 // Written straight into the frame's readback buffers (RGBA16F colour, f32 depth; what the frame
-// returns), not drawn over the colour attachment: on CPU devices a full-screen draw cost a
-// fixed ~4 ms for the attachments and ~18 ns per pixel even with every fragment discarded.
+// returns), not drawn over the colour attachment: on CPU devices a full-screen draw costs a
+// fixed price for the attachments and a price per pixel even with every fragment discarded.
 // Only the hair's screen rectangle is dispatched. With occluders the copy-out pass has filled
 // the buffers with their image first; without, the pixels outside the rectangle are the
 // background, which the frame's read fills in on the host (render/src/target.rs
@@ -39,8 +39,7 @@ layout(buffer_reference, std430, buffer_reference_align = 16) readonly buffer Sh
 
 // The nine neighbours' shaded colours through the buffer reference where the device has one
 // (LOAD_BY_ADDRESS, raster_common.glsl): on CPU devices a gather instead of a loop over the
-// SIMD lanes per component (the 100k-strand close-up's resolve 13.2 -> 10.2 ms, Sintel's
-// 5.9 -> 4.4 ms; in the fragment shader this pass was before, references were slower).
+// SIMD lanes per component (in a fragment shader references are slower).
 vec4 load_shaded(uint i) {
     return LOAD_BY_ADDRESS != 0u ? ShadedRef(resolve.shaded_address).colours[i] : shaded[i];
 }

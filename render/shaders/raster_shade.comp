@@ -185,9 +185,7 @@ vec3 shade_fragment(VisibleFragment f, vec3 ray, RasterMaterial m) {
 void main() {
     // With K > 1, tiles in the dispatch order (dispatch_order.glsl): on CPU devices each worker
     // thread shades tiles from all over the frame, not the top or the bottom of it. With one
-    // fragment per pixel the work is light and even, and the tiles in their own order cost less
-    // (the 100k-strand close-up's shade pass 13 -> 11 ms; with K = 8 the ordered tiles are
-    // about 1.7 ms faster).
+    // fragment per pixel the work is light and even, and the tiles in their own order cost less.
     uvec2 xy = (VISIBILITY_SLOTS == 1u ? gl_GlobalInvocationID.xy : ORDERED_GLOBAL_INVOCATION_ID.xy) + area.rect.xy;
     if (xy.x >= area.rect.z || xy.y >= area.rect.w) {
         return;

@@ -245,9 +245,8 @@ void raster_fragment(uint pixel, float coverage, float ndc_z, inout ColumnAttrib
     uint first = pixel_word(pixel, k, 0u);
     // The test reads the pixel's coverage word and its threshold word; with K = 1 they sit side
     // by side and come through the reference in one 16-byte load (on CPU devices one address and
-    // bounds check for both words, which llvmpipe still gathers one 64-bit word at a time: the
-    // 100k-strand close-up's raster phases about 3 %, the far character's about 6 % faster;
-    // with an even K the same pairing of words K and K + 1 measured no gain, twice).
+    // bounds check for both words, which llvmpipe still gathers one 64-bit word at a time;
+    // with an even K the same pairing of words K and K + 1 gains nothing).
     uint64_t cover;
     uint64_t threshold;
     if (k == 1u && LOAD_BY_ADDRESS != 0u) {
@@ -491,9 +490,8 @@ void raster_segment(RasterVertex a, RasterVertex b, uint material, float random)
     // Two columns per turn, their pixels side by side in one inner loop: on CPU devices
     // (llvmpipe) each turn of a loop costs the SIMD group its mask bookkeeping and writes back
     // every value the loop carries under the lanes' mask, and the inner loop takes as many
-    // turns as the group's widest column — once per pair of columns now. The 100k-strand
-    // close-up's raster phases 55 + 141 -> 52 + 127 ms, the OIT close-up's 412 -> 395 ms frame
-    // (paired runs; four columns per turn measured no better). Which fragments are drawn and
+    // turns as the group's widest column — once per pair of columns now (four columns per turn
+    // are no better: docs/compute-raster-notes.md). Which fragments are drawn and
     // the image are the same: only their order within a segment changes, and the visibility
     // and coverage words do not depend on the order.
     for (int i = first; i <= last; i += 2) {

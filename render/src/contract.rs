@@ -246,12 +246,9 @@ pub const RASTER_TILE_WORDS: u32 = 3;
 /// `raster::COVERAGE_SCALE`): no coverage is added to a pixel past it, and a pixel at it reads
 /// as opaque (`coverage_alpha` in `raster_common.glsl`, `cpu::raster::RasterBuffers::alpha`).
 /// Optical depth 4.5: alpha 1 − 1.1 %. A pixel that reaches it holds at least that much hair,
-/// so reading it as opaque moves its alpha by at most 1.1 % (measured against the limit of 12
-/// used before: at most one level of 8 bits on the 100k-strand close-up, opaque and OIT, and
-/// the far character, mean FLIP under 0.0003; the Sintel groom 4 levels in 113 channels, FLIP
-/// 0.0002), while dense hair gets there after about three times fewer fragments than at 12:
-/// the occlusion tiles close after the front strands and cull more of the rest (the close-up's
-/// and the far character's raster phases about 9 % faster).
+/// so reading it as opaque moves its alpha by at most 1.1 %, while dense hair gets there after
+/// about three times fewer fragments than at a limit of 12: the occlusion tiles close after the
+/// front strands and cull more of the rest (`docs/compute-raster-notes.md`).
 pub const COVERAGE_LIMIT: u32 = 1152;
 
 /// The header's constants that are not bindings, as `(GLSL macro, value)`.

@@ -68,6 +68,44 @@ fn linear_energy(frame: &render::target::LinearFrame) -> f64 {
 
 fn main() -> ExitCode {
     run_gpu_tests(vec![
+        // docs/architecture.md: the graph `--print-graph` prints is the graph that runs, every
+        // read has its writer, and nothing in it is culled — for every example scene as it
+        // ships (its own effects), at a small size.
+        GpuTest::new("every_example_scene_runs_the_graph_it_prints", Requirements::NONE, |ctx| {
+            let dir = tempfile::tempdir()?;
+            let scenes = hairkit_tests::scenes::repo("assets/scenes");
+            let mut names: Vec<String> = std::fs::read_dir(&scenes)?
+                .filter_map(|e| e.ok().map(|e| e.path()))
+                .filter(|p| p.extension().is_some_and(|e| e == "json"))
+                .filter_map(|p| p.file_stem().and_then(|s| s.to_str()).map(str::to_owned))
+                .collect();
+            names.sort();
+            ensure!(names.len() >= 3, "example scenes: {names:?}");
+            for name in names {
+                let original: serde_json::Value =
+                    serde_json::from_str(&std::fs::read_to_string(scenes.join(format!("{name}.json")))?)?;
+                let path = scene_with_edit(dir.path(), &name, 160, 120, serde_json::json!({}), |json| {
+                    match original.get("effects") {
+                        Some(effects) => json["effects"] = effects.clone(),
+                        None => {
+                            json.as_object_mut().map(|o| o.remove("effects"));
+                        }
+                    }
+                    Ok(())
+                })?;
+                let renderer = SceneRenderer::new(ctx, &load_scene(&path)?, GenerationPath::Compute)?;
+                let printed = renderer.graph();
+                ensure!(printed.check().is_ok(), "{name}: {:?}", printed.check());
+                ensure!(printed.passes.iter().all(|p| !p.culled), "{name}: culled passes in\n{printed}");
+                let frame = renderer.render(ctx)?;
+                ensure!(
+                    frame.passes == printed.runnable(),
+                    "{name}: ran {:?}\nprinted\n{printed}",
+                    frame.passes
+                );
+            }
+            Ok(())
+        }),
         GpuTest::new("one_character_matches_its_golden_image", Requirements::NONE, |ctx| {
             let dir = tempfile::tempdir()?;
             let scene = load_scene(&small_scene(dir.path(), "one_character", 256, 192)?)?;

@@ -38,6 +38,9 @@ pub struct ShaderSpirv {
     pub workgroup_size: [u32; 3],
     /// SPIR-V words, little-endian bytes as the compiler wrote them.
     pub spirv: &'static [u8],
+    /// The push-constant block's byte range `[first member's offset, end of the last]`, read
+    /// from the module (`None`: it declares none): what the Rust side must push there.
+    pub push_constants: Option<[u32; 2]>,
 }
 
 impl ShaderSpirv {
@@ -243,10 +246,12 @@ fn compile_dir(src_dir: &Path, out_dir: &Path, contract: Option<&Contract>) -> R
         let _ = writeln!(
             module,
             "pub const {const_name}: ShaderSpirv = ShaderSpirv {{\n    name: {file_name:?},\n    \
-             stage: ShaderStage::{:?},\n    workgroup_size: {:?},\n    spirv: include_bytes!({:?}),\n}};\n",
+             stage: ShaderStage::{:?},\n    workgroup_size: {:?},\n    spirv: include_bytes!({:?}),\n    \
+             push_constants: {:?},\n}};\n",
             info.stage,
             info.workgroup_size,
-            spv.display().to_string()
+            spv.display().to_string(),
+            info.push_constants
         );
         all.push(const_name);
     }
@@ -274,6 +279,8 @@ struct Reflection {
     workgroup_size: [u32; 3],
     /// Every `Binding` decoration, sorted, without repeats.
     bindings: Vec<u32>,
+    /// The push-constant block's byte range, if the module declares one.
+    push_constants: Option<[u32; 2]>,
 }
 
 /// The descriptor bindings a SPIR-V module declares (its `Binding` decorations), sorted.
@@ -281,7 +288,98 @@ pub fn reflect_bindings(bytes: &[u8]) -> Result<Vec<u32>, String> {
     reflect(bytes).map(|r| r.bindings)
 }
 
-/// Reads the entry point's execution model, `LocalSize` and bindings from a SPIR-V module.
+/// The byte range of a SPIR-V module's push-constant block: from its first member's offset to
+/// the end of its last (`None` if it declares no push constants).
+pub fn reflect_push_constants(bytes: &[u8]) -> Result<Option<[u32; 2]>, String> {
+    reflect(bytes).map(|r| r.push_constants)
+}
+
+/// What the push-constant reflection needs of a module's types: sizes follow the explicit
+/// layout (`Offset`, `ArrayStride`, `MatrixStride`) the compiler wrote.
+#[derive(Debug, Default)]
+struct Types {
+    /// Scalar, vector, matrix, array and pointer types: (kind, operands after the result id).
+    defs: std::collections::HashMap<u32, (u32, Vec<u32>)>,
+    /// Struct members' offsets and matrix strides.
+    member_offsets: std::collections::HashMap<(u32, u32), u32>,
+    member_matrix_strides: std::collections::HashMap<(u32, u32), u32>,
+    array_strides: std::collections::HashMap<u32, u32>,
+}
+
+impl Types {
+    const OP_TYPE_BOOL: u32 = 20;
+    const OP_TYPE_INT: u32 = 21;
+    const OP_TYPE_FLOAT: u32 = 22;
+    const OP_TYPE_VECTOR: u32 = 23;
+    const OP_TYPE_MATRIX: u32 = 24;
+    const OP_TYPE_ARRAY: u32 = 28;
+    const OP_TYPE_STRUCT: u32 = 30;
+    const OP_TYPE_POINTER: u32 = 32;
+
+    /// The bytes a value of type `id` takes (a member of struct `parent` at `member` for
+    /// matrices, whose stride is a member decoration).
+    fn size(
+        &self,
+        id: u32,
+        member_of: Option<(u32, u32)>,
+        constants: &std::collections::HashMap<u32, u32>,
+        depth: u32,
+    ) -> Result<u32, String> {
+        if depth > 16 {
+            return Err("push-constant types nest too deep".into());
+        }
+        let (kind, ops) =
+            self.defs.get(&id).ok_or_else(|| format!("push-constant member of unknown type %{id}"))?;
+        Ok(match *kind {
+            Self::OP_TYPE_BOOL => 4,
+            Self::OP_TYPE_INT | Self::OP_TYPE_FLOAT => ops[0] / 8,
+            Self::OP_TYPE_VECTOR => self.size(ops[0], None, constants, depth + 1)? * ops[1],
+            Self::OP_TYPE_MATRIX => {
+                let stride = member_of
+                    .and_then(|m| self.member_matrix_strides.get(&m).copied())
+                    .map_or_else(|| self.size(ops[0], None, constants, depth + 1), Ok)?;
+                stride * ops[1]
+            }
+            Self::OP_TYPE_ARRAY => {
+                let length = constants.get(&ops[1]).copied().ok_or("array length is not a constant")?;
+                let stride = match self.array_strides.get(&id) {
+                    Some(s) => *s,
+                    None => self.size(ops[0], None, constants, depth + 1)?,
+                };
+                stride * length
+            }
+            Self::OP_TYPE_STRUCT => self.extent(id, constants, depth + 1)?.map_or(0, |[_, end]| end),
+            // A pointer in a push-constant block is a physical-storage-buffer address.
+            Self::OP_TYPE_POINTER => 8,
+            other => return Err(format!("push-constant member of unsupported type (opcode {other})")),
+        })
+    }
+
+    /// `[first member's offset, end of the last]` of struct `id`.
+    fn extent(
+        &self,
+        id: u32,
+        constants: &std::collections::HashMap<u32, u32>,
+        depth: u32,
+    ) -> Result<Option<[u32; 2]>, String> {
+        let (_, members) = self.defs.get(&id).ok_or_else(|| format!("unknown struct %{id}"))?;
+        let mut range: Option<[u32; 2]> = None;
+        for (m, &member_type) in members.iter().enumerate() {
+            let m = m as u32;
+            let offset =
+                *self.member_offsets.get(&(id, m)).ok_or("push-constant member without an Offset")?;
+            let end = offset + self.size(member_type, Some((id, m)), constants, depth)?;
+            range = Some(match range {
+                None => [offset, end],
+                Some([lo, hi]) => [lo.min(offset), hi.max(end)],
+            });
+        }
+        Ok(range)
+    }
+}
+
+/// Reads the entry point's execution model, `LocalSize`, bindings and push-constant range from
+/// a SPIR-V module.
 fn reflect(bytes: &[u8]) -> Result<Reflection, String> {
     const MAGIC: u32 = 0x0723_0203;
     const OP_ENTRY_POINT: u32 = 15;
@@ -290,7 +388,13 @@ fn reflect(bytes: &[u8]) -> Result<Reflection, String> {
     const OP_CONSTANT: u32 = 43;
     const OP_SPEC_CONSTANT: u32 = 50;
     const OP_DECORATE: u32 = 71;
+    const OP_MEMBER_DECORATE: u32 = 72;
+    const OP_VARIABLE: u32 = 59;
     const DECORATION_BINDING: u32 = 33;
+    const DECORATION_ARRAY_STRIDE: u32 = 6;
+    const DECORATION_MATRIX_STRIDE: u32 = 7;
+    const DECORATION_OFFSET: u32 = 35;
+    const STORAGE_PUSH_CONSTANT: u32 = 9;
     const MODE_LOCAL_SIZE: u32 = 17;
     const MODE_LOCAL_SIZE_ID: u32 = 38;
     if !bytes.len().is_multiple_of(4) || bytes.len() < 20 {
@@ -308,6 +412,10 @@ fn reflect(bytes: &[u8]) -> Result<Reflection, String> {
     let mut size_ids = None;
     let mut constants = std::collections::HashMap::new();
     let mut bindings = Vec::new();
+    let mut types = Types::default();
+    // Pointer types to push-constant storage (pointer id → pointee) and the variables of them.
+    let mut push_pointers = std::collections::HashMap::new();
+    let mut push_variables = Vec::new();
     let mut i = 5;
     while i < words.len() {
         let count = (words[i] >> 16) as usize;
@@ -339,6 +447,34 @@ fn reflect(bytes: &[u8]) -> Result<Reflection, String> {
             OP_DECORATE if operands.len() >= 3 && operands[1] == DECORATION_BINDING => {
                 bindings.push(operands[2]);
             }
+            OP_DECORATE if operands.len() >= 3 && operands[1] == DECORATION_ARRAY_STRIDE => {
+                types.array_strides.insert(operands[0], operands[2]);
+            }
+            OP_MEMBER_DECORATE if operands.len() >= 4 && operands[2] == DECORATION_OFFSET => {
+                types.member_offsets.insert((operands[0], operands[1]), operands[3]);
+            }
+            OP_MEMBER_DECORATE if operands.len() >= 4 && operands[2] == DECORATION_MATRIX_STRIDE => {
+                types.member_matrix_strides.insert((operands[0], operands[1]), operands[3]);
+            }
+            Types::OP_TYPE_POINTER if operands.len() >= 3 && operands[1] == STORAGE_PUSH_CONSTANT => {
+                push_pointers.insert(operands[0], operands[2]);
+                types.defs.insert(operands[0], (opcode, operands[1..].to_vec()));
+            }
+            Types::OP_TYPE_BOOL
+            | Types::OP_TYPE_INT
+            | Types::OP_TYPE_FLOAT
+            | Types::OP_TYPE_VECTOR
+            | Types::OP_TYPE_MATRIX
+            | Types::OP_TYPE_ARRAY
+            | Types::OP_TYPE_STRUCT
+            | Types::OP_TYPE_POINTER
+                if !operands.is_empty() =>
+            {
+                types.defs.insert(operands[0], (opcode, operands[1..].to_vec()));
+            }
+            OP_VARIABLE if operands.len() >= 3 && operands[2] == STORAGE_PUSH_CONSTANT => {
+                push_variables.push(operands[0]);
+            }
             _ => {}
         }
         i += count;
@@ -353,7 +489,18 @@ fn reflect(bytes: &[u8]) -> Result<Reflection, String> {
     let stage = stage.ok_or("no OpEntryPoint")?;
     bindings.sort_unstable();
     bindings.dedup();
-    Ok(Reflection { stage, workgroup_size, bindings })
+    let mut push_constants: Option<[u32; 2]> = None;
+    for pointer in push_variables {
+        let block =
+            *push_pointers.get(&pointer).ok_or("push-constant variable of an unknown pointer type")?;
+        if let Some([lo, hi]) = types.extent(block, &constants, 0)? {
+            push_constants = Some(match push_constants {
+                None => [lo, hi],
+                Some([a, b]) => [lo.min(a), hi.max(b)],
+            });
+        }
+    }
+    Ok(Reflection { stage, workgroup_size, bindings, push_constants })
 }
 
 #[cfg(test)]
@@ -373,7 +520,12 @@ mod tests {
             module(&[(5 << 16) | 15, 5, 4, u32::from_le_bytes(*b"main"), 0, (6 << 16) | 16, 4, 17, 64, 2, 1]);
         assert_eq!(
             reflect(&bytes),
-            Ok(Reflection { stage: ShaderStage::Compute, workgroup_size: [64, 2, 1], bindings: vec![] })
+            Ok(Reflection {
+                stage: ShaderStage::Compute,
+                workgroup_size: [64, 2, 1],
+                bindings: vec![],
+                push_constants: None
+            })
         );
     }
 
@@ -404,7 +556,12 @@ mod tests {
         ]);
         assert_eq!(
             reflect(&bytes),
-            Ok(Reflection { stage: ShaderStage::Compute, workgroup_size: [64, 1, 1], bindings: vec![] })
+            Ok(Reflection {
+                stage: ShaderStage::Compute,
+                workgroup_size: [64, 1, 1],
+                bindings: vec![],
+                push_constants: None
+            })
         );
     }
 
@@ -507,5 +664,37 @@ mod tests {
         assert!(reflect(&[1, 2, 3]).is_err());
         assert!(reflect(&module(&[(9 << 16) | 15])).is_err());
         assert!(reflect(&module(&[])).is_err());
+    }
+
+    /// A block with a scalar, a vector, a matrix, an array and a buffer address, compiled by
+    /// glslang: its range is the first member's offset to the end of the last.
+    #[test]
+    fn reflects_the_push_constant_range() {
+        let dir = std::env::temp_dir().join(format!("shader-build-push-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).expect("temp dir");
+        let src = dir.join("push.comp");
+        std::fs::write(
+            &src,
+            "#version 460\n#extension GL_EXT_buffer_reference : require\n\
+             layout(buffer_reference, std430) buffer Ref { uint x; };\n\
+             layout(local_size_x = 1) in;\n\
+             layout(push_constant) uniform P { layout(offset = 16) uint a; vec3 b; mat4 m; float c[3]; Ref r; } p;\n\
+             layout(std430, binding = 0) buffer O { float o[]; };\n\
+             void main() { o[0] = float(p.a) + p.b.x + p.m[0][0] + p.c[2] + float(p.r.x); }\n",
+        )
+        .expect("write");
+        let spv = dir.join("push.spv");
+        let compiler = std::env::var("GLSLANG_VALIDATOR").unwrap_or_else(|_| "glslangValidator".into());
+        let status = Command::new(compiler)
+            .args(["-V", "--target-env", "vulkan1.3", "-o"])
+            .arg(&spv)
+            .arg(&src)
+            .output()
+            .expect("glslangValidator runs (installed by `cargo xtask setup`)");
+        assert!(status.status.success(), "{}", String::from_utf8_lossy(&status.stdout));
+        let bytes = std::fs::read(&spv).expect("spv");
+        // a at 16, b at 32 (vec3: 16-aligned), m at 48 (64 bytes), c at 112 (3 × 4), r at 128 (8).
+        assert_eq!(reflect_push_constants(&bytes), Ok(Some([16, 136])));
+        let _ = std::fs::remove_dir_all(&dir);
     }
 }

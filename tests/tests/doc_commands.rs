@@ -118,8 +118,13 @@ fn profile_dir() -> Result<PathBuf> {
         .with_context(|| format!("{}: not inside a cargo target folder", exe.display()))
 }
 
-/// Builds the tools (a no-op when the test build made them, as the suite's does).
+/// Builds the tools, unless `cargo xtask test` says its build of the whole workspace made them
+/// (`HAIRKIT_TOOLS_BUILT=1`): a `cargo build` here would build them with other features than
+/// the test build did, and rebuild much of the workspace.
 fn build_tools() -> Result<()> {
+    if std::env::var_os("HAIRKIT_TOOLS_BUILT").is_some_and(|v| v == "1") {
+        return Ok(());
+    }
     let cargo = std::env::var_os("CARGO").unwrap_or_else(|| "cargo".into());
     let mut command = Command::new(cargo);
     command.current_dir(repo()).args(["build", "--quiet", "--workspace", "--bins"]);

@@ -26,6 +26,36 @@ fn main() -> ExitCode {
             }
             Ok(())
         }),
+        GpuTest::new("push_constants_are_checked_against_the_shaders", Requirements::NONE, |ctx| {
+            // pattern.comp declares two uints: build-time reflection gives the range, and the
+            // recorder's check (debug builds) refuses pushes that miss it.
+            ensure!(shaders::PATTERN_COMP.push_constants == Some([0, 8]), "{:?}", shaders::PATTERN_COMP);
+            let pipeline = gen_gpu::Pipeline::compute(
+                ctx,
+                &gen_gpu::ComputePipelineDesc {
+                    name: "pattern",
+                    shader: &shaders::PATTERN_COMP,
+                    bindings: &[gen_gpu::Binding::storage_buffer(
+                        gen_gpu::contract::binding::DIAGNOSTIC_OUTPUT,
+                        gen_gpu::vk::ShaderStageFlags::COMPUTE,
+                    )],
+                    push_constant_size: 16,
+                    specialization: &[],
+                },
+            )?;
+            ensure!(pipeline.push_mismatch(0, 8).is_none());
+            let short = pipeline.push_mismatch(0, 4).context("a struct missing a field")?;
+            ensure!(short.contains("reads push constants 0..8, but 0..4 is pushed"), "{short}");
+            let long = pipeline.push_mismatch(0, 20).context("a struct with a field too many")?;
+            ensure!(long.contains("0..20 is pushed, but the kernel declares 0..8"), "{long}");
+            // Every shader that has push constants has its range reflected.
+            for s in shaders::ALL.iter().chain(render::shaders::ALL) {
+                let words = s.words();
+                let declares = words.windows(4).any(|w| w[0] >> 16 == 4 && w[0] & 0xffff == 59 && w[3] == 9);
+                ensure!(declares == s.push_constants.is_some(), "{}: {:?}", s.name, s.push_constants);
+            }
+            Ok(())
+        }),
         GpuTest::new("a_pipeline_is_made_once_per_device_and_desc", Requirements::NONE, |ctx| {
             // write_pattern asks for its pipeline at every call: the device makes it once, and
             // the shared pipeline keeps working after the earlier calls' handles are gone.

@@ -155,6 +155,14 @@ pub fn run(options: &Options, env: &[(String, String)], timeline: &mut Timeline)
     let packages = options.package_args();
     let packages: Vec<&str> = packages.iter().map(String::as_str).collect();
     let passthrough: Vec<&str> = options.passthrough.iter().map(String::as_str).collect();
+    let mut env = env.to_vec();
+    if options.packages.is_empty() {
+        // The whole workspace's build makes every tool fresh (its bins are built for the
+        // integration tests and by --all-targets): the tests of the docs' commands use them
+        // as they are instead of running cargo again.
+        env.push(("HAIRKIT_TOOLS_BUILT".into(), "1".into()));
+    }
+    let env = &env[..];
     if !has_nextest() {
         eprintln!(
             "xtask: cargo-nextest is not installed: running the tests one binary at a time with `cargo test`"

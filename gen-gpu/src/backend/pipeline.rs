@@ -103,6 +103,9 @@ pub struct Pipeline {
     pub layout: vk::PipelineLayout,
     pub bind_point: vk::PipelineBindPoint,
     pub push_constant_stages: vk::ShaderStageFlags,
+    /// Each stage's push-constant block as its SPIR-V declares it (byte ranges): what
+    /// [`crate::Recorder::push_constants`] checks a Rust struct against.
+    push_blocks: Vec<[u32; 2]>,
     name: String,
 }
 
@@ -275,7 +278,8 @@ impl Pipeline {
             ctx.set_name(raw[0], desc.name);
             Ok(unfinished.finish(raw[0]))
         })?;
-        Ok(Self::handle(ctx, objects, vk::PipelineBindPoint::COMPUTE, push_stages, desc.name))
+        let blocks: Vec<[u32; 2]> = desc.shader.push_constants.into_iter().collect();
+        Ok(Self::handle(ctx, objects, vk::PipelineBindPoint::COMPUTE, push_stages, blocks, desc.name))
     }
 
     /// The handle callers hold to the registry's `objects`.
@@ -284,6 +288,7 @@ impl Pipeline {
         objects: PipelineObjects,
         bind_point: vk::PipelineBindPoint,
         push_constant_stages: vk::ShaderStageFlags,
+        push_blocks: Vec<[u32; 2]>,
         name: &str,
     ) -> Self {
         Pipeline {
@@ -292,8 +297,37 @@ impl Pipeline {
             layout: objects.layout,
             bind_point,
             push_constant_stages,
+            push_blocks,
             name: name.into(),
         }
+    }
+
+    /// Why pushing `len` bytes at `offset` does not match what the shaders declare, if it does
+    /// not. No stage may read push constants past the pushed bytes where it overlaps them (it
+    /// would read stale bytes); a compute shader's block must be the pushed bytes exactly, up to
+    /// a 16-byte alignment's padding at the end. Graphics pipelines may be pushed more than a
+    /// stage reads (a depth-only variant shares its colour variant's constants). A Rust struct
+    /// that mirrors a GLSL block by hand gets these from a field missing on either side.
+    pub fn push_mismatch(&self, offset: u32, len: u32) -> Option<String> {
+        let end = offset + len;
+        for &[lo, hi] in &self.push_blocks {
+            if lo < end && offset < hi && (lo < offset || hi > end) {
+                return Some(format!(
+                    "{}: a shader reads push constants {lo}..{hi}, but {offset}..{end} is pushed",
+                    self.name
+                ));
+            }
+        }
+        if self.bind_point == vk::PipelineBindPoint::COMPUTE
+            && let Some(&[lo, hi]) = self.push_blocks.first()
+            && (lo != offset || end > hi.next_multiple_of(16))
+        {
+            return Some(format!(
+                "{}: {offset}..{end} is pushed, but the kernel declares {lo}..{hi}",
+                self.name
+            ));
+        }
+        None
     }
 
     /// Creates a graphics pipeline (triangle lists, no culling, optional depth test).
@@ -327,7 +361,8 @@ impl Pipeline {
             .shared
             .pipelines
             .get_or_create(ctx.device(), key, || Self::create_graphics(ctx, desc, &shaders, push_stages))?;
-        Ok(Self::handle(ctx, objects, vk::PipelineBindPoint::GRAPHICS, push_stages, desc.name))
+        let blocks: Vec<[u32; 2]> = shaders.iter().filter_map(|s| s.push_constants).collect();
+        Ok(Self::handle(ctx, objects, vk::PipelineBindPoint::GRAPHICS, push_stages, blocks, desc.name))
     }
 
     fn create_graphics(

@@ -320,8 +320,8 @@ impl Generator {
     /// Whether the generate pass stores each vertex as one `u64vec4` (where the device has
     /// `shaderInt64`, unless [`GeneratorOptions::vec4_vertex_stores`]) rather than two `vec4`s:
     /// the same bytes either way. On CPU devices (llvmpipe) a store at a per-invocation address
-    /// is a loop over the SIMD lanes, so one store per vertex instead of two made the
-    /// strand-coherent pass about 5 % faster.
+    /// is a loop over the SIMD lanes, so one store per vertex instead of two is cheaper
+    /// (`docs/compute-raster-notes.md`).
     pub fn int64_vertex_stores(&self) -> bool {
         self.int64_stores
     }

@@ -13,10 +13,8 @@ pub struct VoxelSums {
 }
 
 /// Samples per segment: one per voxel of its length, at least one (`segment_samples` in
-/// `voxelize_common.glsl`). Two per voxel cost about 1.3× the voxelization time (66–71
-/// against 51–56 ms for 100k strands at 128×106×128, both summing samples per voxel) for the
-/// same images (mean FLIP of the volume vs the strands at 3×, 6×, 12× the distance 0.0104 /
-/// 0.0029 / 0.0009 with either; `render/tests/volume.rs`).
+/// `voxelize_common.glsl`). Two per voxel cost a third more voxelization time for the same
+/// images (`render/tests/volume.rs` compares the volume with the strands).
 pub fn segment_samples(length_voxels: f64) -> u32 {
     length_voxels.ceil().clamp(1.0, 4096.0) as u32
 }

@@ -33,7 +33,7 @@ impl SceneRenderer {
     /// Whether the compute rasterizer's front phase draws each character's strand segments
     /// that reached the last frame's image ([`Self::with_slot_order`]): with occlusion tiles
     /// and more than one visibility slot per pixel (OIT). With one slot (opaque and blended
-    /// scenes) it measured no faster than every eighth strand: their front phase closes the
+    /// scenes) it is no faster than every eighth strand: their front phase closes the
     /// tiles already, and the rest then generates the marked strands a second time.
     pub(crate) fn raster_slot_order(&self) -> bool {
         let several_slots =

@@ -48,8 +48,8 @@ pub(crate) fn plan_raster(
     // in the phases' subsets (with a slot order the front is the strands seen last frame), for
     // its characters whose bundles keep many strands (raster::second_front_pays; the others
     // skip the phase): the rest then meets tiles closed by a quarter of the strands, the second
-    // eighth those of the first (the 100k-strand close-up's frame 2-3 % faster in paired runs,
-    // for one more tile pass and dispatch; a third eighth gained nothing more). Stored strands
+    // eighth those of the first (worth one more tile pass and dispatch; a third eighth gains
+    // nothing more: docs/compute-raster-notes.md). Stored strands
     // are drawn in the first and last phase.
     let second = batch.iter().any(|&i| ids.second_front(i));
     let fused_parts = if ordered || !second { 1 } else { 2 };
@@ -200,7 +200,7 @@ pub(crate) fn record_tiles(
     );
     // Two stages: each tile's own word from its 64 pixels, then (after a barrier) its squares'
     // from the own words — where each invocation reading the 9 tiles' pixels itself read every
-    // pixel up to nine times (the OIT close-up's tile pass 9 ms).
+    // pixel up to nine times.
     for stage in 0..2 {
         if stage == 1 {
             rec.memory_barrier(

@@ -138,17 +138,16 @@ impl SlotOrderHistory {
 pub const SECOND_FRONT_MIN_DETAIL: f64 = 0.5;
 
 /// The live strands per bundle below which a character gets no second front eighth
-/// ([`second_front_pays`]): measured faster with it at 69 (the 100k-strand character), slower
-/// at 7 (the 10k-strand one); this lies between.
+/// ([`second_front_pays`]): bundles of many strands draw faster with it, bundles of a few
+/// slower (`docs/compute-raster-notes.md`); this lies between.
 pub const SECOND_FRONT_MIN_STRANDS: f64 = 32.0;
 
 /// Whether a character's strands, generated in the raster kernel, get a second front eighth
 /// ([`RasterPhase::sequence`]): when strand LOD keeps at least half of them
 /// ([`SECOND_FRONT_MIN_DETAIL`]; LOD off, or the detail level of the asset's mean bundle face
 /// at its bounds' centre) and its bundles keep [`SECOND_FRONT_MIN_STRANDS`] on average.
-/// Measured with it: the 100k-strand close-up 2-3 % faster; the 10k-strand close-up (7 strands
-/// per bundle) 3.5 % slower; the 100-head crowd at strand α 64, whose bundles keep a few
-/// widened strands, 10 % slower.
+/// Characters whose bundles keep a few widened strands (a crowd under strand LOD) draw slower
+/// with it: the second eighth costs more than the tiles it closes save.
 pub fn second_front_pays(asset: &hairmesh::asset::HairAsset, inputs: &gen_gpu::FrameInputs) -> bool {
     let lod = &inputs.lod;
     let bundles = asset.bundles.len() as f64;

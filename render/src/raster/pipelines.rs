@@ -64,8 +64,8 @@ pub fn straight_strand(
 /// Whether a character's segments need clipping to the view volume's depth (`0 ≤ z ≤ w`):
 /// the raster kernels come in both variants (`DEPTH_CLIPPING`, `strand_raster.glsl`), and a
 /// character wholly inside that depth range — nearly every character of nearly every frame —
-/// is drawn by the one without clipping. That one carries less through its strand loop (the
-/// far 100k-strand character's raster phases measured 6 % faster) and draws the same pixels
+/// is drawn by the one without clipping. That one carries less through its strand loop (faster
+/// on CPU devices: `docs/compute-raster-notes.md`) and draws the same pixels
 /// for such a character; the other is exact for any strand.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum DepthClipping {

@@ -109,7 +109,7 @@ impl<'a> Recorder<'a> {
         // bound — after any rendering, until the submission ends — only when its rasterizer
         // runs the binned commands, at the next flush; lavapipe flushes before each timestamp
         // write. So such a timestamp took the time of the next one: a pass's begin that of its
-        // end, and every pass after the first draw measured ~0 ms. A second write right after
+        // end, and every pass after the first draw seemed to take no time. A second write right after
         // flushes the first at its own time (its value is never read). Before any rendering
         // a timestamp reads the clock when written: no second write.
         if self.rendered.get() && self.ctx.capabilities().is_cpu() {
@@ -202,6 +202,8 @@ impl<'a> Recorder<'a> {
         if bytes.is_empty() {
             return;
         }
+        let mismatch = pipeline.push_mismatch(offset, bytes.len() as u32);
+        debug_assert!(mismatch.is_none(), "{}", mismatch.unwrap_or_default());
         // SAFETY: recording; the caller keeps offset + len within the layout's range.
         unsafe {
             self.device().cmd_push_constants(
@@ -214,7 +216,11 @@ impl<'a> Recorder<'a> {
         }
     }
 
+    /// Pushes `data` at offset 0. In debug builds its size is checked against the push-constant
+    /// blocks the pipeline's shaders declare ([`Pipeline::push_mismatch`]).
     pub fn push_constants<T: bytemuck::Pod>(&self, pipeline: &Pipeline, data: &T) {
+        let mismatch = pipeline.push_mismatch(0, size_of::<T>() as u32);
+        debug_assert!(mismatch.is_none(), "{}", mismatch.unwrap_or_default());
         // SAFETY: recording; the layout declares a push-constant range at offset 0 that the
         // caller sized for `T`.
         unsafe {
