@@ -10,6 +10,7 @@ pub mod convert;
 pub mod curve;
 pub mod dynamics;
 mod error;
+pub mod export;
 mod gltf_source;
 pub mod hair_mesh;
 pub mod head;

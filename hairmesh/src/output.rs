@@ -52,6 +52,8 @@ pub enum FileKind {
     Exr,
     /// A hairkit simulation cache (`render::animation::SimCache`).
     SimCache,
+    /// A USD text layer.
+    Usda,
     /// A JSON object with these top-level keys (e.g. a glTF has `asset`, hair-render's
     /// statistics `device` and `passes`).
     Json {
@@ -68,6 +70,7 @@ impl FileKind {
             "png" => Self::Png,
             "exr" => Self::Exr,
             "sim" => Self::SimCache,
+            "usda" => Self::Usda,
             "gltf" => Self::GLTF,
             _ => return None,
         })
@@ -81,6 +84,7 @@ impl FileKind {
             Self::Png => "PNG image",
             Self::Exr => "OpenEXR image",
             Self::SimCache => "hairkit simulation cache",
+            Self::Usda => "USD text layer",
             Self::Json { what, .. } => what,
         }
     }
@@ -91,6 +95,7 @@ impl FileKind {
             Self::Png => b"\x89PNG\r\n\x1a\n",
             Self::Exr => &[0x76, 0x2f, 0x31, 0x01],
             Self::SimCache => b"hairkit-sim\0",
+            Self::Usda => b"#usda 1.0",
             Self::Json { keys, .. } => {
                 let Ok(bytes) = head_of(path, MAX_RECOGNIZED_JSON) else { return false };
                 let Ok(serde_json::Value::Object(map)) = serde_json::from_slice(&bytes) else { return false };

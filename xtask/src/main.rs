@@ -9,6 +9,7 @@
 //!   `demo` call it when no folder holds the data set.
 
 mod data;
+mod python;
 mod setup;
 mod suite;
 

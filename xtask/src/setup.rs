@@ -42,6 +42,8 @@ pub struct Machine {
     pub lavapipe_icd: PathBuf,
     /// Whether this Mesa's lavapipe exposes VK_EXT_mesh_shader.
     pub mesa_has_mesh_shader: bool,
+    /// The venv interpreter with the export tests' clients ([`crate::python`]).
+    pub python: Option<PathBuf>,
 }
 
 impl Machine {
@@ -61,6 +63,11 @@ impl Machine {
         ];
         if self.mesa_has_mesh_shader {
             env.push(("HAIRKIT_REQUIRE_MESH_SHADER".into(), "1".into()));
+        }
+        // With the clients installed, a test that cannot run one fails instead of being ignored.
+        if let Some(python) = &self.python {
+            env.push(("HAIRKIT_PYTHON".into(), python.display().to_string()));
+            env.push(("HAIRKIT_REQUIRE_CLIENTS".into(), "1".into()));
         }
         env
     }
@@ -86,7 +93,17 @@ pub fn ensure_system_packages() -> Result<Machine> {
         .context("mesa-vulkan-drivers is still not installed after set-up")?;
     let lavapipe_icd = find_lavapipe_icd()?;
     eprintln!("xtask: system packages present; lavapipe from Mesa {mesa_version}");
-    Ok(Machine { mesa_has_mesh_shader: mesa_major(&mesa_version) >= MIN_MESA_MAJOR, lavapipe_icd })
+    let workspace = Path::new(env!("CARGO_MANIFEST_DIR")).parent().unwrap_or(Path::new("."));
+    let python = match crate::python::ensure_clients(workspace) {
+        Ok(p) => Some(p),
+        Err(e) => {
+            eprintln!(
+                "xtask: the export tests' Python clients are not installed ({e:#}): those tests will be ignored"
+            );
+            None
+        }
+    };
+    Ok(Machine { mesa_has_mesh_shader: mesa_major(&mesa_version) >= MIN_MESA_MAJOR, lavapipe_icd, python })
 }
 
 /// `(package, version)` for every one of our packages that dpkg reports as installed.

@@ -135,6 +135,44 @@ impl ConvertArgs {
     }
 }
 
+/// `hairmesh export`.
+#[derive(clap::Args, Debug)]
+struct ExportArgs {
+    /// The asset folder (or its hair.json).
+    asset: PathBuf,
+    /// The file to write: `.usda`.
+    #[arg(short, long)]
+    out: PathBuf,
+    /// Strands to export [default: all]; each bundle keeps the same share of its roots.
+    #[arg(long, value_parser = clap::value_parser!(u64).range(1..=100_000_000))]
+    strands: Option<u64>,
+    /// The hair colour (linear RGB, 0–1) of `groom_color` and `displayColor`.
+    #[arg(long, value_parser = parse_color, allow_hyphen_values = true)]
+    color: Option<[f32; 3]>,
+    /// The stage's metersPerUnit [default: 1; say it for an asset in file units, e.g. 0.01 for
+    /// centimetres].
+    #[arg(long)]
+    meters_per_unit: Option<f64>,
+    /// The stage's up axis: y or z.
+    #[arg(long, default_value = "y", value_parser = ["y", "z"])]
+    up_axis: String,
+    /// Replace the output even if it is not a USD text file.
+    #[arg(long)]
+    force: bool,
+}
+
+fn parse_color(s: &str) -> Result<[f32; 3], String> {
+    let parts: Vec<f32> = s
+        .split(',')
+        .map(|p| p.trim().parse::<f32>())
+        .collect::<Result<_, _>>()
+        .map_err(|e| format!("{s:?}: {e}"))?;
+    match parts[..] {
+        [r, g, b] if [r, g, b].iter().all(|c| (0.0..=1.0).contains(c)) => Ok([r, g, b]),
+        _ => Err(format!("{s:?}: expected R,G,B with each in 0..1")),
+    }
+}
+
 #[derive(Subcommand, Debug)]
 enum Command {
     /// Convert a scalp mesh (.gltf, .glb, .obj) into a hair asset folder.
@@ -149,6 +187,9 @@ enum Command {
         #[arg(long)]
         head: Option<PathBuf>,
     },
+    /// Export an asset's strands (as the renderer generates them) for other tools: `.usda`
+    /// (USD BasisCurves with Unreal's groom attributes).
+    Export(ExportArgs),
     /// Write the project's procedural head cap (the demo's scalp) as glTF.
     HeadCap {
         #[arg(short, long)]
@@ -175,6 +216,7 @@ fn run(cli: Cli) -> Result<()> {
         Command::Convert(args) => convert(&args),
         Command::Info { path } => info(&path),
         Command::Check { asset, head } => check(&asset, head.as_deref()),
+        Command::Export(args) => export(&args),
         Command::HeadCap { out, force } => {
             hairmesh::output::check_file(&out, FileKind::GLTF, &[], Replace::from_force(force))?;
             hairmesh::procedural::write_gltf(&out, &hairmesh::procedural::head_cap(8, 32), "head cap")
@@ -183,6 +225,54 @@ fn run(cli: Cli) -> Result<()> {
             Ok(())
         }
     }
+}
+
+fn export(o: &ExportArgs) -> Result<()> {
+    use hairmesh::export::{ExportOptions, UpAxis};
+    let ext = o.out.extension().and_then(|e| e.to_str()).map(str::to_ascii_lowercase);
+    if ext.as_deref() != Some("usda") {
+        anyhow::bail!("{}: the output must end in .usda (USD text)", o.out.display());
+    }
+    let inputs = [o.asset.as_path()];
+    hairmesh::output::check_file(&o.out, FileKind::Usda, &inputs, Replace::from_force(o.force))?;
+    let (asset, manifest) = step(&format!("reading {}", o.asset.display()), || Ok(read_asset(&o.asset)?))?;
+    let meters_per_unit = match (o.meters_per_unit, manifest.units.as_str()) {
+        (Some(m), _) if m.is_finite() && m > 0.0 => m,
+        (Some(m), _) => anyhow::bail!("--meters-per-unit {m}: expected a positive number"),
+        (None, "metres") => 1.0,
+        (None, units) => {
+            eprintln!(
+                "note: {} is in {units}: writing metersPerUnit = 1 (give --meters-per-unit, e.g. 0.01 for centimetres)",
+                o.asset.display()
+            );
+            1.0
+        }
+    };
+    let options = ExportOptions {
+        strands: o.strands,
+        color: o.color.unwrap_or(hairmesh::export::DEFAULT_COLOR),
+        meters_per_unit,
+        up_axis: if o.up_axis == "z" { UpAxis::Z } else { UpAxis::Y },
+    };
+    let wanted = o.strands.unwrap_or_else(|| asset.total_strands()).min(asset.total_strands());
+    let strands = step(&format!("generating {wanted} strands"), || {
+        Ok(hairmesh::export::export_strands(&asset, &options))
+    })?;
+    let points = hairmesh::export::exported_points(&strands);
+    // About 40 bytes of text per point for its position, width and colour.
+    hairmesh::output::check_space(&o.out, points * 48 + 4096)?;
+    step(&format!("writing {}", o.out.display()), || {
+        hairmesh::atomic::write_file_atomic(&o.out, |w| hairmesh::export::write_usda(w, &strands, &options))
+            .with_context(|| format!("writing {}", o.out.display()))
+    })?;
+    let bytes = std::fs::metadata(&o.out).map_or(0, |m| m.len());
+    println!(
+        "wrote {}: {} curves, {points} points, {}",
+        o.out.display(),
+        strands.len(),
+        hairmesh::terminal::bytes(bytes)
+    );
+    Ok(())
 }
 
 fn step<T>(what: &str, f: impl FnOnce() -> Result<T>) -> Result<T> {
