@@ -1,5 +1,6 @@
-//! Strands out of hairkit: the strands the renderer generates from an asset, written as USD
-//! (`.usda` text) for Unreal, Blender, Houdini and USD pipelines.
+//! Hair out of hairkit: the strands the renderer generates from an asset, written as USD
+//! (`.usda` text) for Unreal, Blender, Houdini and USD pipelines, and the hair mesh itself as
+//! glTF morph targets ([`hair_mesh_as_scalp`]).
 //!
 //! The strands are the CPU reference generator's ([`HairAsset::generate_strand`]) at full detail
 //! — the strands the GPU generates with LOD off, to f32 rounding — optionally fewer of them: each
@@ -20,6 +21,28 @@ use glam::{DVec2, DVec3};
 
 use crate::asset::HairAsset;
 use crate::reference::{BundleLod, Strand};
+
+/// The hair mesh as a scalp whose glTF morph targets are its layers above the roots: the form
+/// `hairmesh convert --morph-layers` reads (Blender's shape keys), so a hair mesh can be edited
+/// elsewhere and come back. Faces keep their quads; glTF stores them as triangle pairs, which
+/// import joins again.
+pub fn hair_mesh_as_scalp(hm: &crate::hair_mesh::HairMesh) -> crate::scalp::ScalpMesh {
+    use crate::hair_mesh::BundleFace;
+    crate::scalp::ScalpMesh {
+        positions: hm.layers.first().cloned().unwrap_or_default(),
+        uvs: hm.uvs.clone(),
+        faces: hm
+            .faces
+            .iter()
+            .map(|f| match f {
+                BundleFace::Quad(q) => q.to_vec(),
+                BundleFace::Triangle(t) => t.to_vec(),
+            })
+            .collect(),
+        morph_layers: hm.layers.iter().skip(1).cloned().collect(),
+        warnings: Vec::new(),
+    }
+}
 
 /// What [`export_strands`] and [`write_usda`] are asked for.
 #[derive(Clone, Debug, PartialEq)]

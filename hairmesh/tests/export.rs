@@ -91,7 +91,7 @@ fn export_refuses_bad_requests() -> Result<(), Failed> {
     let wrong = dir.path().join("strands.obj");
     let o = hairmesh(&["export", asset, "-o", wrong.to_str().ok_or("utf-8")?]);
     let e = String::from_utf8_lossy(&o.stderr).into_owned();
-    if o.status.success() || !e.contains("must end in .usda") {
+    if o.status.success() || !e.contains("must end in .usda") || !e.contains(".gltf") {
         return Err(format!("a .obj output: {e}").into());
     }
     let mine = dir.path().join("notes.usda");
@@ -117,6 +117,86 @@ fn export_refuses_bad_requests() -> Result<(), Failed> {
     Ok(())
 }
 
+/// The hair mesh out as glTF morph targets and back in through the loader `convert
+/// --morph-layers` uses: every root the same f32, every layer's displacement from it the same
+/// f32 (what glTF stores), bit for bit, and every face the same cycle of roots (import numbers
+/// vertices its own way and may start a quad elsewhere).
+fn hair_mesh_round_trips_through_gltf() -> Result<(), Failed> {
+    use hairmesh::hair_mesh::BundleFace;
+    let dir = tempfile::tempdir().map_err(|e| e.to_string())?;
+    let path = |name: &str| dir.path().join(name).to_str().map(str::to_owned).ok_or("utf-8");
+    let original = repo("assets/hair/head_cap_long");
+    let run = |args: &[&str]| -> Result<String, Failed> {
+        let o = hairmesh(args);
+        if !o.status.success() {
+            return Err(format!("hairmesh {args:?}: {}", String::from_utf8_lossy(&o.stderr)).into());
+        }
+        Ok(String::from_utf8_lossy(&o.stdout).into_owned())
+    };
+    let said = run(&["export", original.to_str().ok_or("utf-8")?, "-o", &path("a.gltf")?])?;
+    if !said.contains("morph targets") {
+        return Err(said.into());
+    }
+    // Back through the loader `convert --morph-layers` uses (convert itself then keeps the
+    // layers out of the head, which may move them).
+    let scalp =
+        hairmesh::import::load_scalp(&dir.path().join("a.gltf"), &hairmesh::scalp::ScalpSelector::All)
+            .map_err(|e| e.to_string())?;
+    let b = hairmesh::hair_mesh::HairMesh::from_morph_targets(&scalp).map_err(|e| e.to_string())?;
+    let (a, _) = hairmesh::asset_io::read_asset(&original).map_err(|e| e.to_string())?;
+    let (a, b) = (a.mesh(), &b);
+    if a.faces.len() != b.faces.len()
+        || a.layers.len() != b.layers.len()
+        || a.vertex_count() != b.vertex_count()
+    {
+        return Err(format!(
+            "faces {} → {}, layers {} → {}, vertices {} → {}",
+            a.faces.len(),
+            b.faces.len(),
+            a.layers.len(),
+            b.layers.len(),
+            a.vertex_count(),
+            b.vertex_count()
+        )
+        .into());
+    }
+    // A vertex is known by its root's f32 bits; its column is every layer's position at f32.
+    let key = |p: glam::DVec3| p.as_vec3().to_array().map(f32::to_bits);
+    // Layers above the roots are stored as f32 displacements from the root: equal to f32
+    // rounding of the displacement.
+    let same_column = |v: usize, w: usize| {
+        a.layers.iter().zip(&b.layers).all(|(la, lb)| {
+            let (d, e) = (la[v] - a.layers[0][v], lb[w] - b.layers[0][w]);
+            (d.as_vec3().as_dvec3() - e).abs().max_element() == 0.0
+        })
+    };
+    let b_by_root: std::collections::HashMap<[u32; 3], usize> =
+        (0..b.vertex_count()).map(|v| (key(b.layers[0][v]), v)).collect();
+    for v in 0..a.vertex_count() {
+        let w = *b_by_root.get(&key(a.layers[0][v])).ok_or(format!("root {v} is gone"))?;
+        if !same_column(v, w) {
+            return Err(format!("vertex {v}'s column moved").into());
+        }
+    }
+    let cycle = |m: &hairmesh::hair_mesh::HairMesh, f: &BundleFace| -> Vec<[u32; 3]> {
+        let vs: Vec<u32> = match f {
+            BundleFace::Quad(q) => q.to_vec(),
+            BundleFace::Triangle(t) => t.to_vec(),
+        };
+        let keys: Vec<[u32; 3]> = vs.iter().map(|&v| key(m.layers[0][v as usize])).collect();
+        let start = (0..keys.len()).min_by_key(|&i| keys[i]).unwrap_or(0);
+        keys[start..].iter().chain(&keys[..start]).copied().collect()
+    };
+    let mut fa: Vec<_> = a.faces.iter().map(|f| cycle(a, f)).collect();
+    let mut fb: Vec<_> = b.faces.iter().map(|f| cycle(b, f)).collect();
+    fa.sort();
+    fb.sort();
+    if fa != fb {
+        return Err("the faces differ".into());
+    }
+    Ok(())
+}
+
 fn main() -> ExitCode {
     let args = Arguments::from_args();
     let require = std::env::var("HAIRKIT_REQUIRE_CLIENTS").is_ok_and(|v| v == "1");
@@ -130,6 +210,10 @@ fn main() -> ExitCode {
                 .with_ignored_flag(true)
         }
     };
-    let tests = vec![usd, Trial::test("export_refuses_bad_requests", export_refuses_bad_requests)];
+    let tests = vec![
+        usd,
+        Trial::test("export_refuses_bad_requests", export_refuses_bad_requests),
+        Trial::test("hair_mesh_round_trips_through_gltf", hair_mesh_round_trips_through_gltf),
+    ];
     libtest_mimic::run(&args, tests).exit_code()
 }

@@ -140,7 +140,7 @@ impl ConvertArgs {
 struct ExportArgs {
     /// The asset folder (or its hair.json).
     asset: PathBuf,
-    /// The file to write: `.usda`.
+    /// The file to write: `.usda` (strands) or `.gltf` (the hair mesh).
     #[arg(short, long)]
     out: PathBuf,
     /// Strands to export [default: all]; each bundle keeps the same share of its roots.
@@ -187,8 +187,9 @@ enum Command {
         #[arg(long)]
         head: Option<PathBuf>,
     },
-    /// Export an asset's strands (as the renderer generates them) for other tools: `.usda`
-    /// (USD BasisCurves with Unreal's groom attributes).
+    /// Export an asset for other tools: `.usda` (its strands as the renderer generates them, USD
+    /// BasisCurves with Unreal's groom attributes) or `.gltf` (its hair mesh, the layers as morph
+    /// targets).
     Export(ExportArgs),
     /// Write the project's procedural head cap (the demo's scalp) as glTF.
     HeadCap {
@@ -230,12 +231,33 @@ fn run(cli: Cli) -> Result<()> {
 fn export(o: &ExportArgs) -> Result<()> {
     use hairmesh::export::{ExportOptions, UpAxis};
     let ext = o.out.extension().and_then(|e| e.to_str()).map(str::to_ascii_lowercase);
-    if ext.as_deref() != Some("usda") {
-        anyhow::bail!("{}: the output must end in .usda (USD text)", o.out.display());
-    }
+    let kind = match ext.as_deref() {
+        Some("usda") => FileKind::Usda,
+        Some("gltf") => FileKind::GLTF,
+        _ => anyhow::bail!(
+            "{}: the output must end in .usda (the strands, USD text) or .gltf (the hair mesh, its layers as morph targets)",
+            o.out.display()
+        ),
+    };
     let inputs = [o.asset.as_path()];
-    hairmesh::output::check_file(&o.out, FileKind::Usda, &inputs, Replace::from_force(o.force))?;
+    hairmesh::output::check_file(&o.out, kind, &inputs, Replace::from_force(o.force))?;
     let (asset, manifest) = step(&format!("reading {}", o.asset.display()), || Ok(read_asset(&o.asset)?))?;
+    if kind == FileKind::GLTF {
+        let hm = asset.mesh();
+        step(&format!("writing {}", o.out.display()), || {
+            hairmesh::procedural::write_gltf(&o.out, &hairmesh::export::hair_mesh_as_scalp(hm), "hair mesh")
+                .with_context(|| format!("writing {}", o.out.display()))
+        })?;
+        println!(
+            "wrote {}: the hair mesh, {} vertices × {} layers as morph targets, {} faces (read it back with `hairmesh convert {} --morph-layers`)",
+            o.out.display(),
+            hm.vertex_count(),
+            hm.layer_count(),
+            hm.faces.len(),
+            o.out.display()
+        );
+        return Ok(());
+    }
     let meters_per_unit = match (o.meters_per_unit, manifest.units.as_str()) {
         (Some(m), _) if m.is_finite() && m > 0.0 => m,
         (Some(m), _) => anyhow::bail!("--meters-per-unit {m}: expected a positive number"),

@@ -197,7 +197,9 @@ impl<'a> Recorder<'a> {
         unsafe { self.device().cmd_dispatch_indirect(self.cmd, args.raw, offset) };
     }
 
-    /// Raw push-constant bytes at `offset` (nothing for an empty slice).
+    /// Raw push-constant bytes at `offset` (nothing for an empty slice). In debug builds the
+    /// range is checked against the push-constant blocks the pipeline's shaders declare
+    /// ([`Pipeline::push_mismatch`]).
     pub fn push_constant_bytes(&self, pipeline: &Pipeline, offset: u32, bytes: &[u8]) {
         if bytes.is_empty() {
             return;
@@ -216,22 +218,9 @@ impl<'a> Recorder<'a> {
         }
     }
 
-    /// Pushes `data` at offset 0. In debug builds its size is checked against the push-constant
-    /// blocks the pipeline's shaders declare ([`Pipeline::push_mismatch`]).
+    /// Pushes `data` at offset 0 ([`Self::push_constant_bytes`]).
     pub fn push_constants<T: bytemuck::Pod>(&self, pipeline: &Pipeline, data: &T) {
-        let mismatch = pipeline.push_mismatch(0, size_of::<T>() as u32);
-        debug_assert!(mismatch.is_none(), "{}", mismatch.unwrap_or_default());
-        // SAFETY: recording; the layout declares a push-constant range at offset 0 that the
-        // caller sized for `T`.
-        unsafe {
-            self.device().cmd_push_constants(
-                self.cmd,
-                pipeline.layout,
-                pipeline.push_constant_stages,
-                0,
-                bytemuck::bytes_of(data),
-            );
-        }
+        self.push_constant_bytes(pipeline, 0, bytemuck::bytes_of(data));
     }
 
     pub fn dispatch(&self, x: u32, y: u32, z: u32) {
