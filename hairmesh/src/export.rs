@@ -1,6 +1,7 @@
 //! Hair out of hairkit: the strands the renderer generates from an asset, written as USD
-//! (`.usda` text) for Unreal, Blender, Houdini and USD pipelines, and the hair mesh itself as
-//! glTF morph targets ([`hair_mesh_as_scalp`]).
+//! (`.usda` text) for Unreal, Blender, Houdini and USD pipelines or as TressFX 4.0 (`.tfx`, for
+//! engines with TressFX), and the hair mesh itself as glTF morph targets
+//! ([`hair_mesh_as_scalp`]).
 //!
 //! The strands are the CPU reference generator's ([`HairAsset::generate_strand`]) at full detail
 //! — the strands the GPU generates with LOD off, to f32 rounding — optionally fewer of them: each
@@ -234,6 +235,66 @@ pub fn write_usda(
     Ok(())
 }
 
+/// TressFX 4.x's header size and version.
+const TFX_HEADER: u32 = 160;
+const TFX_VERSION: f32 = 4.0;
+
+/// Writes `strands` as a TressFX 4.0 `.tfx` file (the layout `crate::strands` reads): every
+/// strand must have the same vertex count (TressFX's rule); positions with w = 0 at the root
+/// (pinned) and 1 elsewhere, each strand's root uv and its root width as its thickness.
+pub fn write_tfx(out: &mut dyn Write, strands: &[ExportedStrand]) -> std::io::Result<()> {
+    let invalid = |what: String| std::io::Error::new(std::io::ErrorKind::InvalidData, what);
+    let per_strand = strands.first().map_or(0, |s| s.strand.positions.len());
+    if strands.is_empty() || per_strand < 2 {
+        return Err(invalid("no strands to export".into()));
+    }
+    if let Some(s) = strands.iter().find(|s| s.strand.positions.len() != per_strand) {
+        return Err(invalid(format!(
+            "TressFX needs one vertex count for every strand: strand {} of bundle {} has {}, the first {per_strand}",
+            s.strand.index,
+            s.strand.bundle,
+            s.strand.positions.len()
+        )));
+    }
+    let count = u32::try_from(strands.len()).map_err(|_| invalid("too many strands for TressFX".into()))?;
+    let vertices = u64::from(count) * per_strand as u64;
+    let positions = u64::from(TFX_HEADER);
+    let uvs = positions + vertices * 16;
+    let thickness = uvs + u64::from(count) * 8;
+    let end = thickness + u64::from(count) * 4;
+    let offset =
+        |o: u64| u32::try_from(o).map_err(|_| invalid(format!("{end} bytes: over TressFX's 4 GiB offsets")));
+    let mut header = Vec::with_capacity(TFX_HEADER as usize);
+    header.extend(TFX_VERSION.to_le_bytes());
+    header.extend(count.to_le_bytes());
+    header.extend((per_strand as u32).to_le_bytes());
+    // Positions, per-strand uv, per-vertex uv (none), thickness, colours (none).
+    for o in [offset(positions)?, offset(uvs)?, 0, offset(thickness)?, 0] {
+        header.extend(o.to_le_bytes());
+    }
+    header.resize(TFX_HEADER as usize, 0);
+    out.write_all(&header)?;
+    let mut buffer = Vec::with_capacity(per_strand * 16);
+    for s in strands {
+        buffer.clear();
+        for (k, p) in s.strand.positions.iter().enumerate() {
+            let w = if k == 0 { 0.0f32 } else { 1.0 };
+            for c in [p.x as f32, p.y as f32, p.z as f32, w] {
+                buffer.extend(c.to_le_bytes());
+            }
+        }
+        out.write_all(&buffer)?;
+    }
+    for s in strands {
+        out.write_all(&(s.root_uv.x as f32).to_le_bytes())?;
+        out.write_all(&(s.root_uv.y as f32).to_le_bytes())?;
+    }
+    for s in strands {
+        out.write_all(&(s.strand.widths.first().copied().unwrap_or(0.0) as f32).to_le_bytes())?;
+    }
+    Ok(())
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -282,6 +343,32 @@ mod tests {
             },
         );
         assert_eq!(first, &again);
+    }
+
+    /// A `.tfx` export reads back through hairkit's TressFX loader bit for bit at f32.
+    #[test]
+    fn tressfx_export_round_trips_through_the_loader() {
+        let asset = asset();
+        let strands =
+            export_strands(&asset, &ExportOptions { strands: Some(40), ..ExportOptions::default() });
+        let dir = tempfile::tempdir().expect("temp dir");
+        let path = dir.path().join("hair.tfx");
+        crate::atomic::write_file_atomic(&path, |w| write_tfx(w, &strands)).expect("write");
+        let back = crate::strands::load_strands(&path).expect("read back");
+        assert_eq!(back.format, "TressFX 4.0");
+        assert_eq!(back.strand_points, vec![33; strands.len()]);
+        let points: Vec<glam::Vec3> =
+            strands.iter().flat_map(|s| s.strand.positions.iter().map(|p| p.as_vec3())).collect();
+        assert_eq!(back.points, points);
+        let uvs: Vec<[f32; 2]> = strands.iter().map(|s| [s.root_uv.x as f32, s.root_uv.y as f32]).collect();
+        assert_eq!(back.root_uv, Some(uvs));
+        let thickness: Vec<f32> = strands.iter().map(|s| s.strand.widths[0] as f32).collect();
+        assert_eq!(back.thickness, Some(thickness));
+        // Strands of different lengths are refused, naming one.
+        let mut uneven = strands.clone();
+        uneven[5].strand.positions.pop();
+        let e = write_tfx(&mut Vec::new(), &uneven).expect_err("uneven");
+        assert!(e.to_string().contains("one vertex count for every strand"), "{e}");
     }
 
     #[test]

@@ -54,6 +54,8 @@ pub enum FileKind {
     SimCache,
     /// A USD text layer.
     Usda,
+    /// A TressFX 4.x strand file.
+    Tfx,
     /// A JSON object with these top-level keys (e.g. a glTF has `asset`, hair-render's
     /// statistics `device` and `passes`).
     Json {
@@ -71,6 +73,7 @@ impl FileKind {
             "exr" => Self::Exr,
             "sim" => Self::SimCache,
             "usda" => Self::Usda,
+            "tfx" => Self::Tfx,
             "gltf" => Self::GLTF,
             _ => return None,
         })
@@ -85,6 +88,7 @@ impl FileKind {
             Self::Exr => "OpenEXR image",
             Self::SimCache => "hairkit simulation cache",
             Self::Usda => "USD text layer",
+            Self::Tfx => "TressFX 4 strand file",
             Self::Json { what, .. } => what,
         }
     }
@@ -96,6 +100,7 @@ impl FileKind {
             Self::Exr => &[0x76, 0x2f, 0x31, 0x01],
             Self::SimCache => b"hairkit-sim\0",
             Self::Usda => b"#usda 1.0",
+            Self::Tfx => &[0, 0, 0x80, 0x40],
             Self::Json { keys, .. } => {
                 let Ok(bytes) = head_of(path, MAX_RECOGNIZED_JSON) else { return false };
                 let Ok(serde_json::Value::Object(map)) = serde_json::from_slice(&bytes) else { return false };

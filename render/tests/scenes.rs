@@ -68,6 +68,42 @@ fn linear_energy(frame: &render::target::LinearFrame) -> f64 {
 
 fn main() -> ExitCode {
     run_gpu_tests(vec![
+        // hairmesh export's TressFX file, drawn through the stored-strand path, against the
+        // same asset generated on the fly: the export holds the strands the renderer makes.
+        GpuTest::new("exported_strands_render_like_the_generated_ones", Requirements::NONE, |ctx| {
+            let dir = tempfile::tempdir()?;
+            let asset_dir = hairkit_tests::scenes::repo("assets/hair/head_cap_long");
+            let (asset, _) = hairmesh::asset_io::read_asset(&asset_dir)?;
+            let strands =
+                hairmesh::export::export_strands(&asset, &hairmesh::export::ExportOptions::default());
+            let tfx = dir.path().join("long.tfx");
+            hairmesh::atomic::write_file_atomic(&tfx, |w| hairmesh::export::write_tfx(w, &strands))?;
+            let effects = serde_json::json!({ "transparency": "opaque", "raster": "compute" });
+            let generated =
+                scene_with_edit(dir.path(), "one_character", 256, 192, effects.clone(), |json| {
+                    json["characters"][0]["color_variation"] = serde_json::json!(0.0);
+                    json["lod"] = serde_json::json!({ "enabled": false });
+                    Ok(())
+                })?;
+            let generated = load_scene(&generated)?;
+            let stored_path = dir.path().join("stored.json");
+            let mut json: serde_json::Value = serde_json::from_slice(&std::fs::read(&generated.path)?)?;
+            json["characters"][0]["hair"] = serde_json::json!(tfx);
+            json["characters"][0]["strand_width"] = serde_json::json!(asset.style.width);
+            std::fs::write(&stored_path, serde_json::to_vec_pretty(&json)?)?;
+            let stored = load_scene(&stored_path)?;
+            let a = SceneRenderer::new(ctx, &generated, GenerationPath::Compute)?.render(ctx)?;
+            let b = SceneRenderer::new(ctx, &stored, GenerationPath::Compute)?.render(ctx)?;
+            let stats = compare(
+                "exported_strands_tfx",
+                &b.image,
+                &a.image,
+                Tolerance { mean: 0.03, percentile: (0.99, 0.5) },
+            )
+            .map_err(anyhow::Error::msg)?;
+            eprintln!("exported strands against generated: mean FLIP {:.4}", stats.mean);
+            Ok(())
+        }),
         // docs/architecture.md: the graph `--print-graph` prints is the graph that runs, every
         // read has its writer, and nothing in it is culled — for every example scene as it
         // ships (its own effects), at a small size.

@@ -140,7 +140,7 @@ impl ConvertArgs {
 struct ExportArgs {
     /// The asset folder (or its hair.json).
     asset: PathBuf,
-    /// The file to write: `.usda` (strands) or `.gltf` (the hair mesh).
+    /// The file to write: `.usda` or `.tfx` (strands) or `.gltf` (the hair mesh).
     #[arg(short, long)]
     out: PathBuf,
     /// Strands to export [default: all]; each bundle keeps the same share of its roots.
@@ -188,8 +188,8 @@ enum Command {
         head: Option<PathBuf>,
     },
     /// Export an asset for other tools: `.usda` (its strands as the renderer generates them, USD
-    /// BasisCurves with Unreal's groom attributes) or `.gltf` (its hair mesh, the layers as morph
-    /// targets).
+    /// BasisCurves with Unreal's groom attributes), `.tfx` (the same strands, TressFX 4.0) or
+    /// `.gltf` (its hair mesh, the layers as morph targets).
     Export(ExportArgs),
     /// Write the project's procedural head cap (the demo's scalp) as glTF.
     HeadCap {
@@ -234,8 +234,9 @@ fn export(o: &ExportArgs) -> Result<()> {
     let kind = match ext.as_deref() {
         Some("usda") => FileKind::Usda,
         Some("gltf") => FileKind::GLTF,
+        Some("tfx") => FileKind::Tfx,
         _ => anyhow::bail!(
-            "{}: the output must end in .usda (the strands, USD text) or .gltf (the hair mesh, its layers as morph targets)",
+            "{}: the output must end in .usda (the strands, USD text), .tfx (the strands, TressFX 4.0) or .gltf (the hair mesh, its layers as morph targets)",
             o.out.display()
         ),
     };
@@ -262,6 +263,7 @@ fn export(o: &ExportArgs) -> Result<()> {
         (Some(m), _) if m.is_finite() && m > 0.0 => m,
         (Some(m), _) => anyhow::bail!("--meters-per-unit {m}: expected a positive number"),
         (None, "metres") => 1.0,
+        (None, _) if kind != FileKind::Usda => 1.0,
         (None, units) => {
             eprintln!(
                 "note: {} is in {units}: writing metersPerUnit = 1 (give --meters-per-unit, e.g. 0.01 for centimetres)",
@@ -284,8 +286,11 @@ fn export(o: &ExportArgs) -> Result<()> {
     // About 40 bytes of text per point for its position, width and colour.
     hairmesh::output::check_space(&o.out, points * 48 + 4096)?;
     step(&format!("writing {}", o.out.display()), || {
-        hairmesh::atomic::write_file_atomic(&o.out, |w| hairmesh::export::write_usda(w, &strands, &options))
-            .with_context(|| format!("writing {}", o.out.display()))
+        hairmesh::atomic::write_file_atomic(&o.out, |w| match kind {
+            FileKind::Tfx => hairmesh::export::write_tfx(w, &strands),
+            _ => hairmesh::export::write_usda(w, &strands, &options),
+        })
+        .with_context(|| format!("writing {}", o.out.display()))
     })?;
     let bytes = std::fs::metadata(&o.out).map_or(0, |m| m.len());
     println!(
