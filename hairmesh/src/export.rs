@@ -88,21 +88,12 @@ pub struct ExportedStrand {
 pub fn export_strands(asset: &HairAsset, options: &ExportOptions) -> Vec<ExportedStrand> {
     let total = asset.total_strands().max(1);
     let share = options.strands.map_or(1.0, |n| (n as f64 / total as f64).clamp(0.0, 1.0));
-    let segments_log2 = crate::reference::MAX_SEGMENTS_LOG2;
     let mut out = Vec::new();
     for (b, info) in asset.bundles.iter().enumerate() {
         let b = b as u32;
         let keep =
             ((f64::from(info.strands) * share).ceil() as u32).clamp(1, info.strands.max(1)).min(info.strands);
-        let lod = BundleLod {
-            strand_detail: 1.0,
-            strands: keep,
-            width_scale: 1.0,
-            vertex_x: f64::from(segments_log2),
-            level: segments_log2,
-            coarse_level: segments_log2,
-            gamma: 0.0,
-        };
+        let lod = BundleLod::full_detail(keep, crate::reference::MAX_SEGMENTS_LOG2);
         for j in 0..keep {
             let strand = asset.generate_strand(b, j, &lod);
             let root = asset.root_parameter(b, j);
@@ -126,6 +117,20 @@ fn f(x: f64) -> String {
     if v == v.trunc() && v.abs() < 1e7 { format!("{v:.1}") } else { format!("{v}") }
 }
 
+/// Refuses, by name, a strand with a non-finite position or width: no file format here holds one.
+fn check_finite(strands: &[ExportedStrand]) -> std::io::Result<()> {
+    let broken = strands.iter().find(|s| {
+        !s.strand.positions.iter().all(|p| p.is_finite()) || !s.strand.widths.iter().all(|w| w.is_finite())
+    });
+    match broken {
+        Some(s) => Err(std::io::Error::new(
+            std::io::ErrorKind::InvalidData,
+            format!("strand {} of bundle {} has a non-finite vertex", s.strand.index, s.strand.bundle),
+        )),
+        None => Ok(()),
+    }
+}
+
 /// Writes `strands` as a USD text layer (see the module docs) to `out`.
 pub fn write_usda(
     out: &mut dyn Write,
@@ -136,15 +141,7 @@ pub fn write_usda(
     if strands.is_empty() {
         return Err(invalid("no strands to export".into()));
     }
-    for s in strands {
-        if !s.strand.positions.iter().all(|p| p.is_finite()) || !s.strand.widths.iter().all(|w| w.is_finite())
-        {
-            return Err(invalid(format!(
-                "strand {} of bundle {} has a non-finite vertex",
-                s.strand.index, s.strand.bundle
-            )));
-        }
-    }
+    check_finite(strands)?;
     let axis = match options.up_axis {
         UpAxis::Y => "Y",
         UpAxis::Z => "Z",
@@ -256,6 +253,7 @@ pub fn write_tfx(out: &mut dyn Write, strands: &[ExportedStrand]) -> std::io::Re
             s.strand.positions.len()
         )));
     }
+    check_finite(strands)?;
     let count = u32::try_from(strands.len()).map_err(|_| invalid("too many strands for TressFX".into()))?;
     let vertices = u64::from(count) * per_strand as u64;
     let positions = u64::from(TFX_HEADER);
@@ -327,22 +325,15 @@ mod tests {
             assert!(!kept.is_empty(), "bundle {b} keeps a strand");
             assert!(kept.iter().enumerate().all(|(i, j)| *j == i as u32), "bundle {b}: a prefix {kept:?}");
         }
-        // The same strands the reference generator makes for the GPU with LOD off.
-        let first = &all[0].strand;
-        let again = asset.generate_strand(
-            first.bundle,
-            first.index,
-            &BundleLod {
-                strand_detail: 1.0,
-                strands: asset.bundles[0].strands,
-                width_scale: 1.0,
-                vertex_x: 5.0,
-                level: 5,
-                coarse_level: 5,
-                gamma: 0.0,
-            },
-        );
-        assert_eq!(first, &again);
+        // The strands the reference generator makes for the GPU with LOD off, in its order.
+        let lod_off = crate::reference::LodParams { enabled: false, ..Default::default() };
+        let view = crate::reference::ViewParams {
+            eye: DVec3::new(0.0, 1.6, 2.0),
+            vertical_resolution: 720.0,
+            projection: crate::reference::Projection::Perspective { fov_y: 0.8 },
+        };
+        let reference = asset.generate_reference(&view, &lod_off);
+        assert!(all.iter().map(|s| &s.strand).eq(reference.iter()));
     }
 
     /// A `.tfx` export reads back through hairkit's TressFX loader bit for bit at f32.
@@ -369,6 +360,10 @@ mod tests {
         uneven[5].strand.positions.pop();
         let e = write_tfx(&mut Vec::new(), &uneven).expect_err("uneven");
         assert!(e.to_string().contains("one vertex count for every strand"), "{e}");
+        let mut broken = strands.clone();
+        broken[2].strand.widths[4] = f64::INFINITY;
+        let e = write_tfx(&mut Vec::new(), &broken).expect_err("infinite width");
+        assert!(e.to_string().contains("non-finite"), "{e}");
     }
 
     #[test]

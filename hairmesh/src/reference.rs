@@ -200,20 +200,27 @@ pub fn style_level(
         .fold(f64::NEG_INFINITY, f64::max)
 }
 
+impl BundleLod {
+    /// LOD off: `strands` strands of `2^level` segments, nothing widened or morphed.
+    pub fn full_detail(strands: u32, level: u32) -> Self {
+        Self {
+            strand_detail: 1.0,
+            strands,
+            width_scale: 1.0,
+            vertex_x: f64::from(level),
+            level,
+            coarse_level: level,
+            gamma: 0.0,
+        }
+    }
+}
+
 /// LOD of bundle `b` seen from `view`.
 pub fn bundle_lod(asset: &HairAsset, bundle: u32, view: &ViewParams, lod: &LodParams) -> BundleLod {
     let info = &asset.bundles[bundle as usize];
     let e_max = lod.max_segments_log2.min(MAX_SEGMENTS_LOG2);
     if !lod.enabled {
-        return BundleLod {
-            strand_detail: 1.0,
-            strands: info.strands,
-            width_scale: 1.0,
-            vertex_x: f64::from(e_max),
-            level: e_max,
-            coarse_level: e_max,
-            gamma: 0.0,
-        };
+        return BundleLod::full_detail(info.strands, e_max);
     }
     let d = view.eye.distance(info.centre());
     let ls = detail_level(info.face_size(), d, lod.strand_alpha, view);

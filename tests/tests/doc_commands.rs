@@ -61,7 +61,7 @@ const NOT_RUN_HERE: &[(&str, &str)] = &[
 
 /// The repository's root.
 fn repo() -> PathBuf {
-    Path::new(env!("CARGO_MANIFEST_DIR")).join("..")
+    hairkit_tests::scenes::repo("")
 }
 
 /// The markdown files a user reads: the README and every page of `docs/`.

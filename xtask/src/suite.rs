@@ -162,18 +162,16 @@ pub fn run(options: &Options, env: &[(String, String)], timeline: &mut Timeline)
         // as they are instead of running cargo again.
         env.push(("HAIRKIT_TOOLS_BUILT".into(), "1".into()));
     }
-    let env = &env[..];
     if !has_nextest() {
         eprintln!(
             "xtask: cargo-nextest is not installed: running the tests one binary at a time with `cargo test`"
         );
         if options.lint {
-            timeline.step("cargo clippy", || cargo(&CLIPPY, env))?;
+            timeline.step("cargo clippy", || cargo(&CLIPPY, &env))?;
         }
         return timeline
-            .step("cargo test", || cargo(&[&["test"], &packages[..], &passthrough[..]].concat(), env));
+            .step("cargo test", || cargo(&[&["test"], &packages[..], &passthrough[..]].concat(), &env));
     }
-    let mut env = env.to_vec();
     let driver = if options.lint { clippy_driver() } else { None };
     match &driver {
         Some(driver) => {

@@ -240,7 +240,7 @@ fn run(cli: &Cli) -> Result<()> {
     let cache = match &cache_path {
         Some(cache_path) if animation.dynamic_characters() > 0 => {
             match render::sim_cache::SimCache::open(cache_path, &animation) {
-                Ok(c) if c.frames() >= cli.frames.end => Some(c),
+                Ok(c) if c.frames() >= cli.frames.end => Some((c, cache_path)),
                 Ok(c) => {
                     eprintln!(
                         "hair-render: {} holds frames 0..{}, not ..{}: simulating in memory",
@@ -274,11 +274,8 @@ fn run(cli: &Cli) -> Result<()> {
             let cached;
             let positions = match &cache {
                 // The cache was checked to hold every frame of the range.
-                Some(c) => {
-                    cached = c.positions(i)?.with_context(|| {
-                        let file = cache_path.as_deref().unwrap_or(std::path::Path::new("the cache"));
-                        format!("{}: frame {i}", file.display())
-                    })?;
+                Some((c, file)) => {
+                    cached = c.positions(i)?.with_context(|| format!("{}: frame {i}", file.display()))?;
                     &cached
                 }
                 None => {

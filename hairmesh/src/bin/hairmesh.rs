@@ -283,8 +283,13 @@ fn export(o: &ExportArgs) -> Result<()> {
         Ok(hairmesh::export::export_strands(&asset, &options))
     })?;
     let points = hairmesh::export::exported_points(&strands);
-    // About 40 bytes of text per point for its position, width and colour.
-    hairmesh::output::check_space(&o.out, points * 48 + 4096)?;
+    // TressFX: 16 bytes per point and 12 per strand after its header. USD text: a point's
+    // position, width and colour take up to about 100 bytes as decimals (about 70 typically).
+    let needed = match kind {
+        FileKind::Tfx => points * 16 + strands.len() as u64 * 12 + 160,
+        _ => points * 100 + strands.len() as u64 * 40 + 4096,
+    };
+    hairmesh::output::check_space(&o.out, needed)?;
     step(&format!("writing {}", o.out.display()), || {
         hairmesh::atomic::write_file_atomic(&o.out, |w| match kind {
             FileKind::Tfx => hairmesh::export::write_tfx(w, &strands),
