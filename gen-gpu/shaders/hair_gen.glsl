@@ -45,7 +45,8 @@ struct GenParams {
 struct Bundle {
     vec4 bounds_min;     // xyz, w: face size (strand LOD h)
     vec4 bounds_max;     // xyz, w: hair length (vertex LOD h)
-    uvec4 info;          // x: strands N_i; y: bit 0 domain (0 square, 1 triangle), bits 1-3 root symmetry;
+    uvec4 info;          // x: strands N_i; y: bit 0 domain (0 square, 1 triangle), bits 1-3 root symmetry,
+                         //    bits 4-10 tip layer (1..L);
                          // z: sample set; w: cell x (bits 0-13), y (14-27), orientation (28-30)
 };
 
@@ -209,7 +210,7 @@ vec2 root_parameter(uint bundle, uint strand) {
     Bundle b = bundles[bundle];
     SampleSetInfo set = sample_sets[b.info.z];
     vec2 p = unpackUnorm2x16(samples[set.offset + strand % max(set.count, 1u)]);
-    uint symmetry = b.info.y >> 1u;
+    uint symmetry = (b.info.y >> 1u) & 7u;
     if ((b.info.y & 1u) == 0u) {
         return square_symmetry(symmetry, p);
     }
@@ -237,8 +238,12 @@ float smoothstep_safe(float edge0, float edge1, float x) {
     return t * t * (3.0 - 2.0 * t);
 }
 
-float length_scale(uint seed) {
-    return 1.0 - clamp(params.style0.w, 0.0, 1.0) * seeded_random(seed, 0u);
+// The fraction of the hair-mesh curve a strand covers (HairAsset::strand_point): its bundle's
+// reach (tip layer / L: bundles of different lengths) times the style's length variation.
+float length_scale(uint bundle, uint seed) {
+    float tip = float((bundles[bundle].info.y >> 4u) & 0x7fu);
+    float reach = tip / float(max(params.layout_info.w, 1u));
+    return (1.0 - clamp(params.style0.w, 0.0, 1.0) * seeded_random(seed, 0u)) * reach;
 }
 
 vec3 frizz_noise(uint seed, float x) {
@@ -412,7 +417,7 @@ void styling_frame(vec3 u, vec3 v, out vec3 fu, out vec3 fv, out vec3 fw) {
 // One styled strand point (HairAsset::strand_point), every value sampled from the textures.
 vec3 strand_point(uint bundle, uint strand, vec2 root, float tau) {
     uint seed = strand_seed(bundle, strand);
-    float t_curve = tau * length_scale(seed);
+    float t_curve = tau * length_scale(bundle, seed);
     vec3 position = curve_position(bundle, root, t_curve);
     if (tau <= 0.0) {
         return position;
@@ -721,7 +726,7 @@ vec3 control_strand_point(StrandStyle st, float tau, float t_curve, SegmentContr
 // strand_point() from the workgroup's control data (strand_load_control).
 vec3 coherent_strand_point(uint bundle, uint strand, float tau) {
     uint seed = strand_seed(bundle, strand);
-    float t_curve = tau * length_scale(seed);
+    float t_curve = tau * length_scale(bundle, seed);
     float local;
     return control_strand_point(strand_style(bundle, seed), tau, t_curve,
                                 shared_segment(floor_int(curve_segment(t_curve, local))));
@@ -897,7 +902,7 @@ struct StrandStream {
     uint bundle;
     uint strand;
     uint seed;           // strand_seed(bundle, strand)
-    float scale;         // length_scale(seed)
+    float scale;         // length_scale(bundle, seed)
     StrandStyle style;   // strand_style(bundle, seed)
     vec2 root;           // root_parameter(bundle, strand)
     StrandCell cell;
@@ -916,7 +921,7 @@ StrandStream strand_stream(uint bundle, uint strand, BundleLod l, bool from_cont
     s.bundle = bundle;
     s.strand = strand;
     s.seed = strand_seed(bundle, strand);
-    s.scale = length_scale(s.seed);
+    s.scale = length_scale(bundle, s.seed);
     s.style = strand_style(bundle, s.seed);
     s.root = root_parameter(bundle, strand);
     s.cell = strand_cell(bundle, s.root);

@@ -36,7 +36,7 @@ impl TextureBytes {
 }
 
 /// `Bundle` in `hair_gen.glsl` (std430, 48 bytes): bounds with face size and hair length, then
-/// strands, domain | root symmetry << 1, sample set, packed cell.
+/// strands, domain | root symmetry << 1 | tip layer << 4, sample set, packed cell.
 #[repr(C)]
 #[derive(Clone, Copy, Debug, bytemuck::Pod, bytemuck::Zeroable)]
 struct GpuBundle {
@@ -125,7 +125,7 @@ fn gpu_bundle(asset: &HairAsset, b: usize) -> GpuBundle {
     GpuBundle {
         bounds_min: [lo.x, lo.y, lo.z, info.face_size() as f32],
         bounds_max: [hi.x, hi.y, hi.z, info.length as f32],
-        info: [info.strands, domain | (symmetry << 1), set, cell],
+        info: [info.strands, domain | (symmetry << 1) | (asset.tip_layer(b as u32) << 4), set, cell],
     }
 }
 

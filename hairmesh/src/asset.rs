@@ -243,9 +243,11 @@ pub struct HairAsset {
     pub(crate) revision: u64,
 }
 
-/// The bundle-table entry of `face`: its root area, its curves' bounds (widened by the
-/// styling `margin`) and its longest vertex column.
-fn bundle_info(hm: &HairMesh, face: &BundleFace, strands: u32, margin: f64) -> BundleInfo {
+/// The bundle-table entry of face `b`: its root area, the bounds of its curves up to its tip
+/// layer (widened by the styling `margin`) and its longest vertex column up to that layer.
+fn bundle_info(hm: &HairMesh, b: usize, strands: u32, margin: f64) -> BundleInfo {
+    let face = &hm.faces[b];
+    let tip = hm.tip_layer(b) as usize;
     let root = &hm.layers[0];
     let v = block_vertices(face).map(|i| root[i as usize]);
     let area = 0.5 * ((v[1] - v[0]).cross(v[2] - v[0]).length() + (v[2] - v[0]).cross(v[3] - v[0]).length());
@@ -254,8 +256,11 @@ fn bundle_info(hm: &HairMesh, face: &BundleFace, strands: u32, margin: f64) -> B
     let mut length: f64 = 0.0;
     for &v in face.vertices() {
         let column = hm.column(v);
-        length = length.max(column.windows(2).map(|p| p[0].distance(p[1])).sum());
-        for p in column_segments(&column).iter().flat_map(|s| s.0) {
+        length =
+            length.max(column[..=tip.min(column.len() - 1)].windows(2).map(|p| p[0].distance(p[1])).sum());
+        // The segments are those of the whole column: a short bundle's last segment still
+        // bends toward the layer after its tip, as the generator's curve does.
+        for p in column_segments(&column).iter().take(tip).flat_map(|s| s.0) {
             lo = lo.min(p);
             hi = hi.max(p);
         }
@@ -285,6 +290,7 @@ impl HairAsset {
             return Err(bad(format!("{} sample sets (expected 1..=64)", params.sample_sets)));
         }
         style.validate().map_err(|e| HairMeshError::InvalidParameter { what: "style", message: e })?;
+        hm.check_tip_layers().map_err(|e| bad(format!("the hair mesh's tip layers: {e}")))?;
         if !hm.layers.iter().flatten().all(|p| p.is_finite()) {
             return Err(bad(
                 "the hair mesh has positions out of floating-point range (is the length or droop far too large?)"
@@ -297,7 +303,7 @@ impl HairAsset {
         let hm = &mesh;
         let textures = HairTextures::build(hm, params.layout);
         let margin = style.max_displacement();
-        let areas: Vec<f64> = hm.faces.iter().map(|f| bundle_info(hm, f, 1, margin).area).collect();
+        let areas: Vec<f64> = (0..hm.faces.len()).map(|b| bundle_info(hm, b, 1, margin).area).collect();
         let total_area: f64 = areas.iter().sum();
         if !(total_area > 0.0 && total_area.is_finite()) {
             return Err(bad(format!(
@@ -336,8 +342,7 @@ impl HairAsset {
             }
         };
         let longest = counts.iter().copied().max().unwrap_or(1);
-        let bundles =
-            hm.faces.iter().zip(&counts).map(|(face, &n)| bundle_info(hm, face, n, margin)).collect();
+        let bundles = counts.iter().enumerate().map(|(b, &n)| bundle_info(hm, b, n, margin)).collect();
         let sets = |domain: SampleDomain, salt: u64| -> Vec<SampleSet> {
             (0..params.sample_sets)
                 .map(|k| {
@@ -391,8 +396,8 @@ impl HairAsset {
     pub fn set_style(&mut self, style: Style) -> AssetChange {
         self.style = style;
         let margin = style.max_displacement();
-        for (b, face) in self.mesh.faces.iter().enumerate() {
-            self.bundles[b] = bundle_info(&self.mesh, face, self.bundles[b].strands, margin);
+        for b in 0..self.mesh.faces.len() {
+            self.bundles[b] = bundle_info(&self.mesh, b, self.bundles[b].strands, margin);
         }
         let since = self.revision;
         self.revision += 1;
@@ -432,13 +437,49 @@ impl HairAsset {
         let mut bundles = Vec::new();
         for (b, face) in self.mesh.faces.iter().enumerate() {
             if face.vertices().iter().any(|&v| moved[v as usize]) {
-                self.bundles[b] = bundle_info(&self.mesh, face, self.bundles[b].strands, margin);
+                self.bundles[b] = bundle_info(&self.mesh, b, self.bundles[b].strands, margin);
                 bundles.push(b as u32);
             }
         }
         let since = self.revision;
         self.revision += 1;
         Ok(AssetChange { texels, bundles, since, revision: self.revision })
+    }
+
+    /// The layer bundle `b`'s strands end at (1..=L; [`HairMesh::tip_layers`]).
+    pub fn tip_layer(&self, bundle: u32) -> u32 {
+        self.mesh.tip_layer(bundle as usize)
+    }
+
+    /// The fraction of the hair mesh's curve parameter bundle `b`'s strands cover: its tip
+    /// layer over L (1 for a bundle that reaches the last layer). Every generator scales a
+    /// strand's curve parameter by it, with the style's length variation.
+    pub fn reach(&self, bundle: u32) -> f64 {
+        f64::from(self.tip_layer(bundle)) / f64::from(self.mesh.layer_count().max(1) as u32)
+    }
+
+    /// Ends the strands of `bundles` at `layer` (clamped to 1..=L): a shorter or longer bundle
+    /// of the same hair mesh. Rewrites those bundles' table entries (bounds, length); the
+    /// textures stay.
+    pub fn set_tip_layer(&mut self, bundles: &[u32], layer: u32) -> Result<AssetChange> {
+        if let Some(&b) = bundles.iter().find(|&&b| b as usize >= self.bundles.len()) {
+            return Err(HairMeshError::InvalidParameter {
+                what: "tip layer",
+                message: format!("bundle {b} does not exist ({} bundles)", self.bundles.len()),
+            });
+        }
+        self.mesh.set_tip_layer(bundles, layer);
+        let margin = self.style.max_displacement();
+        let mut changed: Vec<u32> = bundles.to_vec();
+        changed.sort_unstable();
+        changed.dedup();
+        for &b in &changed {
+            self.bundles[b as usize] =
+                bundle_info(&self.mesh, b as usize, self.bundles[b as usize].strands, margin);
+        }
+        let since = self.revision;
+        self.revision += 1;
+        Ok(AssetChange { texels: Vec::new(), bundles: changed, since, revision: self.revision })
     }
 
     /// Union of the bundles' bounds (object space, with the styling margin).

@@ -502,6 +502,7 @@ fn validate_mesh(path: &Path, m: &Manifest) -> Result<()> {
             ));
         }
     }
+    mesh.check_tip_layers().map_err(|e| err("mesh.tip_layers", e))?;
     match &mesh.uvs {
         Some(uvs) if uvs.len() == vertices && uvs.iter().all(|u| u.is_finite()) => Ok(()),
         Some(uvs) => Err(err(

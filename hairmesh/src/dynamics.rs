@@ -622,7 +622,7 @@ mod tests {
                 faces.push(crate::BundleFace::Quad([v(0, 0), v(1, 0), v(1, 1), v(0, 1)]));
             }
         }
-        HairMesh { layers: layer_list, faces, uvs: None }
+        HairMesh { layers: layer_list, faces, uvs: None, tip_layers: None }
     }
 
     fn still(_: f64) -> Affine3A {

@@ -82,6 +82,13 @@ pub struct HairMesh {
     pub faces: Vec<BundleFace>,
     /// Root uv per vertex, when the scalp had texture coordinates.
     pub uvs: Option<Vec<DVec2>>,
+    /// The layer each face's strands end at (the paper's *tip layer*, 1..=L), one per face:
+    /// bundles of different lengths — a short fringe, a long back — in one hair mesh. Absent
+    /// when every bundle reaches the last layer (so older assets read and write unchanged).
+    /// Vertex columns still run through every layer: a column shared by a short and a long
+    /// face goes on for the long one, and the short face's curve ends where its tip layer is.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub tip_layers: Option<Vec<u32>>,
 }
 
 impl HairMesh {
@@ -91,6 +98,44 @@ impl HairMesh {
 
     pub fn vertex_count(&self) -> usize {
         self.layers.first().map_or(0, Vec::len)
+    }
+
+    /// The layer face `face`'s strands end at (1..=L).
+    pub fn tip_layer(&self, face: usize) -> u32 {
+        let last = self.layer_count() as u32;
+        self.tip_layers.as_ref().and_then(|t| t.get(face)).map_or(last, |&t| t.clamp(1, last.max(1)))
+    }
+
+    /// Sets the tip layers of `faces` to `layer`, clamped to 1..=L; returns whether anything
+    /// changed. A mesh whose faces all reach the last layer drops the list (the older form).
+    pub fn set_tip_layer(&mut self, faces: &[u32], layer: u32) -> bool {
+        let last = self.layer_count() as u32;
+        let layer = layer.clamp(1, last.max(1));
+        let mut tips: Vec<u32> = (0..self.faces.len()).map(|f| self.tip_layer(f)).collect();
+        let mut changed = false;
+        for &f in faces {
+            if let Some(t) = tips.get_mut(f as usize)
+                && *t != layer
+            {
+                *t = layer;
+                changed = true;
+            }
+        }
+        self.tip_layers = if tips.iter().all(|&t| t == last) { None } else { Some(tips) };
+        changed
+    }
+
+    /// Whether the tip layers fit the mesh: one per face, each in 1..=L.
+    pub fn check_tip_layers(&self) -> std::result::Result<(), String> {
+        let Some(tips) = &self.tip_layers else { return Ok(()) };
+        if tips.len() != self.faces.len() {
+            return Err(format!("{} tip layers for {} faces", tips.len(), self.faces.len()));
+        }
+        let last = self.layer_count() as u32;
+        match tips.iter().position(|&t| t == 0 || t > last) {
+            Some(f) => Err(format!("face {f} ends at layer {} (expected 1..={last})", tips[f])),
+            None => Ok(()),
+        }
     }
 
     /// The vertex column of vertex `v` through all layers.
@@ -142,7 +187,7 @@ impl HairMesh {
                     .collect()
             })
             .collect();
-        Ok(Self { layers, faces, uvs: scalp.uvs.clone() })
+        Ok(Self { layers, faces, uvs: scalp.uvs.clone(), tip_layers: None })
     }
 
     /// Builds the hair mesh by laying hair over a head: each vertex column flows over a sphere
@@ -221,7 +266,7 @@ impl HairMesh {
                 layer.push(p);
             }
         }
-        Ok(Self { layers, faces: bundle_faces(scalp), uvs: scalp.uvs.clone() })
+        Ok(Self { layers, faces: bundle_faces(scalp), uvs: scalp.uvs.clone(), tip_layers: None })
     }
 
     /// Builds the hair mesh from the scalp's morph targets: layer k is target k.
@@ -234,7 +279,7 @@ impl HairMesh {
         }
         let mut layers = vec![scalp.positions.clone()];
         layers.extend(scalp.morph_layers.iter().cloned());
-        Ok(Self { layers, faces: bundle_faces(scalp), uvs: scalp.uvs.clone() })
+        Ok(Self { layers, faces: bundle_faces(scalp), uvs: scalp.uvs.clone(), tip_layers: None })
     }
 }
 

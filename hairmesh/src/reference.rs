@@ -288,7 +288,8 @@ impl HairAsset {
     /// Position of strand `j` of bundle `b` at strand parameter `tau`, styled.
     pub fn strand_point(&self, bundle: u32, strand: u32, root: DVec2, tau: f64) -> DVec3 {
         let style = &self.style;
-        let lambda = style.length_scale(bundle, strand);
+        // The strand covers its bundle's reach (tip layer / L) scaled by its length variation.
+        let lambda = style.length_scale(bundle, strand) * self.reach(bundle);
         let t_curve = tau * lambda;
         let tex = &self.textures;
         let position = tex.curve_point(self.curve, bundle, root.x, root.y, t_curve);

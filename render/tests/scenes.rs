@@ -104,6 +104,74 @@ fn main() -> ExitCode {
             eprintln!("exported strands against generated: mean FLIP {:.4}", stats.mean);
             Ok(())
         }),
+        // Bundles of different lengths (a fringe of short bundles in front, the long back):
+        // every renderer path generates them as the f64 reference does — drawn on the fly and
+        // drawn as the reference's strands (exported to TressFX, the stored-strand path), the
+        // images agree; against the same hair at one length they do not.
+        GpuTest::new("bundles_of_different_lengths_render_as_the_reference", Requirements::NONE, |ctx| {
+            let dir = tempfile::tempdir()?;
+            let (mut asset, manifest) =
+                hairmesh::asset_io::read_asset(&hairkit_tests::scenes::repo("assets/hair/head_cap_long"))?;
+            let uniform = asset.clone();
+            let layers = asset.mesh().layer_count() as u32;
+            let front: Vec<u32> = (0..asset.bundles.len() as u32)
+                .filter(|&b| asset.bundles[b as usize].centre().z > 0.02)
+                .collect();
+            ensure!(!front.is_empty() && front.len() < asset.bundles.len(), "{} front bundles", front.len());
+            asset.set_tip_layer(&front, (layers / 3).max(1))?;
+            let mixed_dir = dir.path().join("mixed");
+            hairmesh::asset_io::write_asset(&mixed_dir, &asset, manifest.precision, &manifest.units, None)?;
+            let as_tfx =
+                |asset: &hairmesh::asset::HairAsset, name: &str| -> anyhow::Result<std::path::PathBuf> {
+                    let strands =
+                        hairmesh::export::export_strands(asset, &hairmesh::export::ExportOptions::default());
+                    let tfx = dir.path().join(name);
+                    hairmesh::atomic::write_file_atomic(&tfx, |w| hairmesh::export::write_tfx(w, &strands))?;
+                    Ok(tfx)
+                };
+            let (mixed_tfx, uniform_tfx) = (as_tfx(&asset, "mixed.tfx")?, as_tfx(&uniform, "uniform.tfx")?);
+            let render =
+                |name: &str, hair: &Path, effects: serde_json::Value| -> anyhow::Result<render::RgbaImage> {
+                    let path = scene_with_edit(dir.path(), "one_character", 256, 192, effects, |json| {
+                        json["characters"][0]["hair"] = serde_json::json!(hair);
+                        json["characters"][0]["color_variation"] = serde_json::json!(0.0);
+                        if hair.extension().is_some_and(|e| e == "tfx") {
+                            json["characters"][0]["strand_width"] = serde_json::json!(asset.style.width);
+                        }
+                        json["lod"] = serde_json::json!({ "enabled": false });
+                        Ok(())
+                    })?;
+                    let frame =
+                        SceneRenderer::new(ctx, &load_scene(&path)?, GenerationPath::Compute)?.render(ctx)?;
+                    let file =
+                        hairkit_tests::image_compare::output_dir().join(format!("bundle-lengths-{name}.png"));
+                    render::output::write_png(&file, &frame.image)?;
+                    Ok(frame.image)
+                };
+            for raster in ["compute", "triangles"] {
+                let effects = serde_json::json!({ "transparency": "opaque", "raster": raster });
+                let generated = render(&format!("{raster}-generated"), &mixed_dir, effects.clone())?;
+                let stored = render(&format!("{raster}-stored"), &mixed_tfx, effects.clone())?;
+                let uniform = render(&format!("{raster}-one-length"), &uniform_tfx, effects)?;
+                let stats = compare(
+                    &format!("bundle_lengths_{raster}"),
+                    &generated,
+                    &stored,
+                    Tolerance { mean: 0.03, percentile: (0.99, 0.5) },
+                )
+                .map_err(anyhow::Error::msg)?;
+                let any = Tolerance { mean: 1.0, percentile: (0.99, 1.0) };
+                let apart =
+                    compare(&format!("bundle_lengths_{raster}_vs_one_length"), &generated, &uniform, any)
+                        .map_err(anyhow::Error::msg)?;
+                eprintln!(
+                    "  {raster}: mean FLIP {:.4} against the reference's strands, {:.4} against one length",
+                    stats.mean, apart.mean
+                );
+                ensure!(apart.mean > 4.0 * stats.mean.max(0.005), "the short bundles do not show: {apart:?}");
+            }
+            Ok(())
+        }),
         // docs/architecture.md: the graph `--print-graph` prints is the graph that runs, every
         // read has its writer, and nothing in it is culled — for every example scene as it
         // ships (its own effects), at a small size.

@@ -760,6 +760,46 @@ fn main() -> ExitCode {
                 other => bail!("expected an over-budget error, got {:?}", other.map(|c| c.strands.len())),
             }
         }),
+        GpuTest::new("bundles_of_different_lengths_match_the_reference", Requirements::NONE, move |ctx| {
+            // Tip layers 1..=4 side by side (a short fringe beside a long back): each bundle's
+            // strands end at their own layer, under strand and vertex LOD too, on every
+            // filtering and precision of the compute path and (where the device has it) on
+            // the mesh path.
+            let mut asset = head_cap_asset(1500, styled(0.1))?;
+            let layers = asset.mesh().layer_count() as u32;
+            for b in 0..asset.bundles.len() as u32 {
+                asset.set_tip_layer(&[b], 1 + b % layers)?;
+            }
+            let short = asset.bundles.iter().map(|b| b.length).fold(f64::INFINITY, f64::min);
+            let long = asset.bundles.iter().map(|b| b.length).fold(0.0, f64::max);
+            ensure!(short < 0.4 * long, "the bundles are not of different lengths: {short} vs {long}");
+            let (near, far) = (Vec3::new(0.0, 1.7, 0.5), Vec3::new(0.3, 1.8, 3.0));
+            // Coarse enough at the far eye to drop strands and vertices (short bundles first).
+            let coarse = LodParams { strand_alpha: 8.0, vertex_alpha: 24.0, ..lod };
+            check_oracle(ctx, "mixed tip layers", &asset, &[near, far], &[full, coarse])?;
+            if ctx.capabilities().mesh_shader.is_some() {
+                let hair = GpuHair::upload(ctx, &asset, TexturePrecision::F32)?;
+                let generator = Generator::new(ctx, Filtering::StrandCoherent)?;
+                for (eye, l) in [(near, full), (far, coarse)] {
+                    let inputs = inputs_for(&asset, eye, l);
+                    let capture = generator.capture(ctx, &hair, &inputs, GenerationPath::Mesh)?;
+                    let e = compare_to_reference(&asset, &inputs, &capture)?;
+                    eprintln!("  mixed tip layers, mesh path, lod {}: {e:?}", l.enabled);
+                    ensure!(e.strands > 0 && e.max_position_widths <= 0.05, "mesh path: {e:?}");
+                    if l.enabled {
+                        ensure!(
+                            e.strands < 1500 && e.vertices < 33 * e.strands,
+                            "LOD kept every strand and vertex: {e:?}"
+                        );
+                    }
+                }
+            } else {
+                eprintln!(
+                    "  mixed tip layers: no mesh shaders on this device, the mesh path is not compared"
+                );
+            }
+            Ok(())
+        }),
         GpuTest::new("a_bundle_with_one_strand_and_tiny_assets", Requirements::NONE, move |ctx| {
             let scalp = hairmesh::ScalpMesh {
                 positions: vec![

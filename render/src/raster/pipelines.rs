@@ -47,7 +47,8 @@ impl FusedStrands {
 
 /// The points [`FusedStrands::Straight`] draws for strand `strand` of `bundle` with
 /// `segments` segments: from the hair-mesh curve's point at the root (curve parameter 0) to
-/// its point at the strand's length (the style's length scale), evenly spaced. Object space.
+/// its point at the strand's length (the style's length scale times its bundle's reach), evenly
+/// spaced. Object space.
 pub fn straight_strand(
     hair: &hairmesh::asset::HairAsset,
     bundle: u32,
@@ -57,7 +58,7 @@ pub fn straight_strand(
     let root = hair.root_parameter(bundle, strand);
     let at = |t: f64| hair.textures.curve_point(hair.curve, bundle, root.x, root.y, t);
     let (start, end) = (at(0.0), at(1.0));
-    let scale = hair.style.length_scale(bundle, strand);
+    let scale = hair.style.length_scale(bundle, strand) * hair.reach(bundle);
     (0..=segments).map(|k| start.lerp(end, f64::from(k) / f64::from(segments) * scale).as_vec3()).collect()
 }
 
