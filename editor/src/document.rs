@@ -52,6 +52,12 @@ pub enum Edit {
         before: HairColor,
         after: HairColor,
     },
+    /// Bundles' tip layers (`(bundle, layer)`): before the edit and after it, same bundles in
+    /// the same order.
+    TipLayers {
+        before: Vec<(u32, u32)>,
+        after: Vec<(u32, u32)>,
+    },
 }
 
 /// The hair's linear RGB base colour and per-strand variation.
@@ -320,6 +326,29 @@ impl Document {
         Ok(())
     }
 
+    /// Ends bundles at new tip layers (`(bundle, layer)`, layers clamped to 1..=L): shorter or
+    /// longer bundles of the same hair mesh, one undo step.
+    pub fn set_tip_layers(&mut self, tips: &[(u32, u32)]) -> Result<(), EditorError> {
+        let last = self.asset.mesh().layer_count() as u32;
+        let bundles = self.asset.bundles.len() as u32;
+        if let Some(&(b, _)) = tips.iter().find(|(b, _)| *b >= bundles) {
+            return Err(EditorError::Edit {
+                source: hairmesh::HairMeshError::InvalidParameter {
+                    what: "tip layer",
+                    message: format!("bundle {b} does not exist ({bundles} bundles)"),
+                },
+            });
+        }
+        let after: Vec<(u32, u32)> = tips.iter().map(|&(b, l)| (b, l.clamp(1, last.max(1)))).collect();
+        let before: Vec<(u32, u32)> = after.iter().map(|&(b, _)| (b, self.asset.tip_layer(b))).collect();
+        if before == after {
+            return Ok(());
+        }
+        self.apply_tips(&after)?;
+        self.record(Edit::TipLayers { before, after }, None);
+        Ok(())
+    }
+
     /// Ends the current gesture: the next edit starts a new undo step.
     pub fn end_gesture(&mut self) {
         self.open_gesture = None;
@@ -414,6 +443,22 @@ impl Document {
             Edit::Style { before, after } => self.apply_style(if forward { *after } else { *before }),
             Edit::Color { before, after } => self.color = if forward { *after } else { *before },
             Edit::Vertices { before, after, .. } => self.apply_moves(if forward { after } else { before })?,
+            Edit::TipLayers { before, after } => self.apply_tips(if forward { after } else { before })?,
+        }
+        Ok(())
+    }
+
+    /// Sets each bundle's tip layer, one asset change per layer given.
+    fn apply_tips(&mut self, tips: &[(u32, u32)]) -> Result<(), EditorError> {
+        let mut by_layer = std::collections::BTreeMap::<u32, Vec<u32>>::new();
+        for &(b, l) in tips {
+            by_layer.entry(l).or_default().push(b);
+        }
+        for (layer, bundles) in by_layer {
+            let change = Arc::make_mut(&mut self.asset)
+                .set_tip_layer(&bundles, layer)
+                .map_err(|source| EditorError::Edit { source })?;
+            self.push_change(change);
         }
         Ok(())
     }

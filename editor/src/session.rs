@@ -65,6 +65,8 @@ pub enum Command {
     Sculpt(Sculpt),
     /// Vertices moved to these positions.
     Vertices(Vec<VertexMove>),
+    /// Bundles ended at these tip layers (`[bundle, layer]` pairs).
+    TipLayers(Vec<(u32, u32)>),
 }
 
 impl Session {
@@ -85,6 +87,7 @@ impl Session {
                 Edit::Color { after, .. } => Command::Color(*after),
                 Edit::Vertices { made_by: Some(s), .. } => Command::Sculpt(s.clone()),
                 Edit::Vertices { after, made_by: None, .. } => Command::Vertices(after.clone()),
+                Edit::TipLayers { after, .. } => Command::TipLayers(after.clone()),
             })
             .collect();
         Self { format: FORMAT.into(), version: VERSION, start, camera, commands }
@@ -141,6 +144,7 @@ impl Session {
                     doc.sculpt(&moves, Some(sculpt.clone()), None)?;
                 }
                 Command::Vertices(moves) => doc.move_vertices(moves, None)?,
+                Command::TipLayers(tips) => doc.set_tip_layers(tips)?,
             }
         }
         Ok(doc)

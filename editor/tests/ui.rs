@@ -501,6 +501,33 @@ fn grab_rotate_scale_the_selection_like_a_modeller(_: &gen_gpu::Context) -> Resu
     // A tip the turn drives into the head is pushed out; the rest turn exactly.
     let (lo, hi) = h.state().doc.as_ref().context("doc")?.asset().bounds();
     ensure!(worst < 0.02 * lo.distance(hi), "tips are {worst} from where the turn puts them");
+    // `[` twice: the faces whose every corner the box selected end two layers earlier (one
+    // undo step each), the others keep the outer layer; undo takes them back one by one.
+    let faces: Vec<usize> = (0..turned.faces.len())
+        .filter(|&f| turned.faces[f].vertices().iter().all(|v| selection.contains(v)))
+        .collect();
+    ensure!(!faces.is_empty(), "the box holds no whole face");
+    let layers = turned.layer_count() as u32;
+    let tips = |h: &Harness<'_, EditorApp>| -> Result<Vec<u32>> {
+        let mesh = h.state().doc.as_ref().context("doc")?.asset().mesh().clone();
+        Ok((0..mesh.faces.len()).map(|f| mesh.tip_layer(f)).collect())
+    };
+    for _ in 0..2 {
+        h.key_press(egui::Key::OpenBracket);
+        h.step();
+    }
+    let shortened = tips(&h)?;
+    for (f, &t) in shortened.iter().enumerate() {
+        let expected = if faces.contains(&f) { layers - 2 } else { layers };
+        ensure!(t == expected, "face {f} ends at layer {t}, expected {expected}");
+    }
+    h.key_press_modifiers(egui::Modifiers::COMMAND, egui::Key::Z);
+    h.step();
+    ensure!(tips(&h)?.iter().enumerate().all(|(f, &t)| t == if faces.contains(&f) { layers - 1 } else { layers }));
+    h.key_press_modifiers(egui::Modifiers::COMMAND, egui::Key::Z);
+    h.step();
+    let mesh = h.state().doc.as_ref().context("doc")?.asset().mesh().clone();
+    ensure!(mesh.tip_layers.is_none(), "undo left tip layers: {:?}", mesh.tip_layers);
     Ok(())
 }
 
@@ -558,6 +585,9 @@ fn a_saved_session_replays_to_the_saved_asset(_: &gen_gpu::Context) -> Result<()
     h.step();
     h.key_press(egui::Key::Enter);
     h.step();
+    // `[`: the selected faces' bundles end a layer earlier.
+    h.key_press(egui::Key::OpenBracket);
+    h.step();
     settle(&mut h)?;
     let dir = tempfile::tempdir()?;
     let (saved, session_file, replayed) =
@@ -568,7 +598,8 @@ fn a_saved_session_replays_to_the_saved_asset(_: &gen_gpu::Context) -> Result<()
     let session = editor::session::Session::read(&session_file)?;
     ensure!(
         session.commands.len() >= 2
-            && session.commands.iter().any(|c| matches!(c, editor::session::Command::Sculpt(_))),
+            && session.commands.iter().any(|c| matches!(c, editor::session::Command::Sculpt(_)))
+            && session.commands.iter().any(|c| matches!(c, editor::session::Command::TipLayers(_))),
         "{} commands",
         session.commands.len()
     );

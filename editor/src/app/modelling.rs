@@ -3,7 +3,8 @@
 //! tips in (Ctrl-drag boxes them out), A selects every tip facing the camera, Alt+A none, Escape
 //! none; G, R and S grab, rotate and scale the selection ([`crate::transform`]) with mirror and
 //! soft selection; every column bends under its tip, the inner vertices follow and everything
-//! stays out of the head ([`crate::sculpt`]).
+//! stays out of the head ([`crate::sculpt`]). `[` and `]` end the selected faces' bundles a
+//! layer earlier or later (bundles of different lengths: a fringe, a long back).
 
 use egui::{Color32, Key, Pos2, Rect, Stroke};
 use glam::{DVec3, Vec2, Vec3};
@@ -73,6 +74,12 @@ impl EditorApp {
                 .find(|(k, _)| i.key_pressed(*k) && i.modifiers.is_none())
                 .map(|(_, kind)| kind)
             });
+            let step = ui.input(|i| {
+                (i.key_pressed(Key::CloseBracket) as i32) - (i.key_pressed(Key::OpenBracket) as i32)
+            });
+            if step != 0 {
+                self.step_tip_layers(step);
+            }
             if let Some(kind) = kind {
                 let at = response.hover_pos().unwrap_or(rect.center()) - rect.min;
                 self.start_transform(kind, Vec2::new(at.x, at.y));
@@ -225,6 +232,44 @@ impl EditorApp {
             self.modal = None;
             if let Some(doc) = self.doc.as_mut() {
                 doc.end_gesture();
+            }
+        }
+    }
+
+    /// The faces (bundles) whose every column is selected: a polygon modeller's faces of a
+    /// vertex selection.
+    pub(super) fn selected_faces(&self, doc: &Document) -> Vec<u32> {
+        let faces = &doc.asset().mesh().faces;
+        (0..faces.len() as u32)
+            .filter(|&f| faces[f as usize].vertices().iter().all(|v| self.selection.binary_search(v).is_ok()))
+            .collect()
+    }
+
+    /// Ends the selected faces' bundles `delta` layers later (negative: earlier), each within
+    /// 1..=L; one undo step.
+    pub fn step_tip_layers(&mut self, delta: i32) {
+        let Some(doc) = &self.doc else { return };
+        let faces = self.selected_faces(doc);
+        if faces.is_empty() {
+            self.note = Some("select every corner of the faces to shorten or lengthen (Shift-drag a box)".into());
+            return;
+        }
+        let last = doc.asset().mesh().layer_count() as i64;
+        let tips: Vec<(u32, u32)> = faces
+            .iter()
+            .map(|&f| (f, (i64::from(doc.asset().tip_layer(f)) + i64::from(delta)).clamp(1, last.max(1)) as u32))
+            .collect();
+        let (shortest, longest) = tips.iter().fold((u32::MAX, 0), |(lo, hi), &(_, l)| (lo.min(l), hi.max(l)));
+        let result = self.doc.as_mut().map(|doc| doc.set_tip_layers(&tips));
+        match result {
+            Some(Err(e)) => self.error = Some(e.to_string()),
+            _ => {
+                let layers = if shortest == longest {
+                    format!("layer {shortest}")
+                } else {
+                    format!("layers {shortest}..{longest}")
+                };
+                self.note = Some(format!("{} bundles end at {layers} of {last}", tips.len()));
             }
         }
     }

@@ -327,6 +327,16 @@ impl EditorApp {
                 .labelled_by(label.id)
                 .on_hover_text("Tips within this fraction of the hair's length of the dragged one follow it, less the further they are (0: only the dragged column)");
         });
+        ui.horizontal(|ui| {
+            ui.label("Selected bundles");
+            let hint = "The faces whose every corner is selected end a layer earlier or later (keys [ and ])";
+            if ui.button("Shorter").on_hover_text(hint).clicked() {
+                self.step_tip_layers(-1);
+            }
+            if ui.button("Longer").on_hover_text(hint).clicked() {
+                self.step_tip_layers(1);
+            }
+        });
         ui.separator();
         // LOD preview: the distance the hair is seen from, and what the generator drew there.
         ui.horizontal(|ui| {

@@ -193,6 +193,23 @@ impl EditorApp {
                     }
                 }
             }
+            // Bundles that end before the outer layer: their tip faces, where their strands end.
+            let short_edge = Stroke::new(1.5, Color32::from_rgba_unmultiplied(255, 170, 90, 150));
+            for (f, face) in mesh.faces.iter().enumerate() {
+                let tip = mesh.tip_layer(f) as usize;
+                if tip >= outer {
+                    continue;
+                }
+                let vs = face.vertices();
+                for k in 0..vs.len() {
+                    let (a, b) = (vs[k] as usize, vs[(k + 1) % vs.len()] as usize);
+                    if let (Some(pa), Some(pb), true) =
+                        (to_screen(mesh.layers[tip][a]), to_screen(mesh.layers[tip][b]), facing[a] && facing[b])
+                    {
+                        painter.line_segment([pa, pb], short_edge);
+                    }
+                }
+            }
             let dot = Color32::from_rgba_unmultiplied(160, 220, 255, 160);
             for (p, &f) in mesh.layers[outer].iter().zip(&facing) {
                 if let (Some(s), true) = (to_screen(*p), f) {
