@@ -523,7 +523,9 @@ fn grab_rotate_scale_the_selection_like_a_modeller(_: &gen_gpu::Context) -> Resu
     }
     h.key_press_modifiers(egui::Modifiers::COMMAND, egui::Key::Z);
     h.step();
-    ensure!(tips(&h)?.iter().enumerate().all(|(f, &t)| t == if faces.contains(&f) { layers - 1 } else { layers }));
+    ensure!(
+        tips(&h)?.iter().enumerate().all(|(f, &t)| t == if faces.contains(&f) { layers - 1 } else { layers })
+    );
     h.key_press_modifiers(egui::Modifiers::COMMAND, egui::Key::Z);
     h.step();
     let mesh = h.state().doc.as_ref().context("doc")?.asset().mesh().clone();
@@ -618,7 +620,7 @@ fn a_saved_session_replays_to_the_saved_asset(_: &gen_gpu::Context) -> Result<()
 
 /// The hairstyles the repository ships, each a session in `assets/sessions/` whose replay is
 /// the asset of the same name in `assets/hair/`.
-const SHIPPED: [&str; 3] = ["ponytail", "side_parted_bob", "over_one_shoulder"];
+const SHIPPED: [&str; 4] = ["ponytail", "side_parted_bob", "over_one_shoulder", "short_front_long_back"];
 
 /// Applies G, R or S (`key`) to the selection, constrained to `axis` when given, by the typed
 /// `value`, as an artist types it.
@@ -667,7 +669,7 @@ fn author_shipped_sessions(dir: &Path) -> Result<()> {
     for name in SHIPPED.into_iter().filter(|n| only.as_deref().is_none_or(|o| o == *n)) {
         let mut h = editor();
         h.state_mut().convert.strands = 20_000;
-        let head = if name == "ponytail" { &lee } else { &sintel };
+        let head = if matches!(name, "ponytail" | "short_front_long_back") { &lee } else { &sintel };
         h.state_mut().open(head);
         settle(&mut h)?;
         let frame = h.state().head_frame.context("no head frame")?;
@@ -702,6 +704,24 @@ fn author_shipped_sessions(dir: &Path) -> Result<()> {
                 select_tips(&mut h, |p| p.z <= 0.2)?;
                 typed_transform(&mut h, egui::Key::S, Some(egui::Key::Y), "0.35")?;
                 h.state_mut().camera.yaw = 0.7;
+            }
+            "short_front_long_back" => {
+                // Bundles of different lengths: the bundles rooted at the front half of the scalp
+                // cut to the first layer with `[` (short, combed back), the back left long.
+                h.state_mut().apply_preset(preset("Long wavy")?);
+                settle(&mut h)?;
+                let mesh = h.state().doc.as_ref().context("doc")?.asset().mesh().clone();
+                h.state_mut().selection = (0..mesh.vertex_count() as u32)
+                    .filter(|&v| frame.to_local(mesh.layers[0][v as usize]).z > -0.1)
+                    .collect();
+                let rect = h.state().viewport_rect;
+                h.hover_at(rect.center());
+                h.step();
+                for _ in 1..mesh.layer_count() {
+                    h.key_press(egui::Key::OpenBracket);
+                    h.step();
+                }
+                h.state_mut().camera.yaw = 0.9;
             }
             _ => {
                 // Long hair brought forward over the right shoulder.

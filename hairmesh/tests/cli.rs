@@ -83,6 +83,12 @@ fn convert_and_info_on_the_readme_examples() {
     let (ok, stdout, stderr) = hairmesh(&["info", draped.to_str().expect("utf-8")]);
     assert!(ok, "{stderr}");
     assert!(stdout.contains("draped around") && stdout.contains("above:0,0.8192"), "{stdout}");
+    // An asset of bundles of different lengths says how many end where.
+    let (ok, stdout, _) = hairmesh(&["info", &repo("assets/hair/short_front_long_back")]);
+    assert!(
+        ok && stdout.contains("bundles end at different layers: ") && stdout.contains("at layer 1"),
+        "{stdout}"
+    );
     let (ok, stdout, _) = hairmesh(&["info", &data("strands/tressfx/v4/Ratboy_mohawk.tfx")]);
     assert!(ok && stdout.contains("2228"), "{stdout}");
     let (ok, stdout, _) = hairmesh(&["info", &data("strands/tressfx/v4/Ratboy_mohawk.tfxbone")]);

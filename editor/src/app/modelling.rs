@@ -251,13 +251,16 @@ impl EditorApp {
         let Some(doc) = &self.doc else { return };
         let faces = self.selected_faces(doc);
         if faces.is_empty() {
-            self.note = Some("select every corner of the faces to shorten or lengthen (Shift-drag a box)".into());
+            self.note =
+                Some("select every corner of the faces to shorten or lengthen (Shift-drag a box)".into());
             return;
         }
         let last = doc.asset().mesh().layer_count() as i64;
         let tips: Vec<(u32, u32)> = faces
             .iter()
-            .map(|&f| (f, (i64::from(doc.asset().tip_layer(f)) + i64::from(delta)).clamp(1, last.max(1)) as u32))
+            .map(|&f| {
+                (f, (i64::from(doc.asset().tip_layer(f)) + i64::from(delta)).clamp(1, last.max(1)) as u32)
+            })
             .collect();
         let (shortest, longest) = tips.iter().fold((u32::MAX, 0), |(lo, hi), &(_, l)| (lo.min(l), hi.max(l)));
         let result = self.doc.as_mut().map(|doc| doc.set_tip_layers(&tips));

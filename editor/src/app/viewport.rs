@@ -203,9 +203,11 @@ impl EditorApp {
                 let vs = face.vertices();
                 for k in 0..vs.len() {
                     let (a, b) = (vs[k] as usize, vs[(k + 1) % vs.len()] as usize);
-                    if let (Some(pa), Some(pb), true) =
-                        (to_screen(mesh.layers[tip][a]), to_screen(mesh.layers[tip][b]), facing[a] && facing[b])
-                    {
+                    if let (Some(pa), Some(pb), true) = (
+                        to_screen(mesh.layers[tip][a]),
+                        to_screen(mesh.layers[tip][b]),
+                        facing[a] && facing[b],
+                    ) {
                         painter.line_segment([pa, pb], short_edge);
                     }
                 }

@@ -245,6 +245,12 @@ fn export(o: &ExportArgs) -> Result<()> {
     let (asset, manifest) = step(&format!("reading {}", o.asset.display()), || Ok(read_asset(&o.asset)?))?;
     if kind == FileKind::GLTF {
         let hm = asset.mesh();
+        if hm.tip_layers.is_some() {
+            eprintln!(
+                "warning: {} has bundles of different lengths; a glTF hair mesh does not carry tip layers, so read back every bundle reaches the last layer",
+                o.asset.display()
+            );
+        }
         step(&format!("writing {}", o.out.display()), || {
             hairmesh::procedural::write_gltf(&o.out, &hairmesh::export::hair_mesh_as_scalp(hm), "hair mesh")
                 .with_context(|| format!("writing {}", o.out.display()))
@@ -512,6 +518,14 @@ fn info(path: &Path) -> Result<()> {
                 println!("scalp:    {} (faces `{}`), {layers}", p.file, p.selector);
             }
             println!("bundles:  {} ({} layers)", asset.bundles.len(), t.layout.layers);
+            if let Some(tips) = &mesh.tip_layers {
+                let mut counts = std::collections::BTreeMap::<u32, usize>::new();
+                for &t in tips {
+                    *counts.entry(t).or_default() += 1;
+                }
+                let counts: Vec<String> = counts.iter().map(|(t, n)| format!("{n} at layer {t}")).collect();
+                println!("lengths:  bundles end at different layers: {}", counts.join(", "));
+            }
             println!("strands:  {}", asset.total_strands());
             println!(
                 "textures: {}×{} texels, {} curve slices, {:?}",
