@@ -957,9 +957,11 @@ fn presets_on_both_heads_stay_off_the_face(_: &gen_gpu::Context) -> Result<()> {
             let c = hairmesh::head::check_strands(&asset, &surface, Some(&frame));
             let share = |n: u64| 100.0 * n as f64 / c.strands as f64;
             let line = format!(
-                "{} on {}: {:.1} % of strands enter the head (deepest {:.3} radii), {} over the face",
+                "{} on {}: {} of {} strands ({:.2} %) enter the head (deepest {:.3} radii), {} over the face",
                 preset.name,
                 head.file_name().unwrap_or_default().to_string_lossy(),
+                c.entering,
+                c.strands,
                 share(c.entering),
                 c.deepest / frame.radius,
                 c.over_face
@@ -973,11 +975,13 @@ fn presets_on_both_heads_stay_off_the_face(_: &gen_gpu::Context) -> Result<()> {
     let over_face: Vec<&String> =
         report.iter().filter(|(_, c, _)| c.over_face * 1000 > c.strands).map(|(l, _, _)| l).collect();
     ensure!(over_face.is_empty(), "hair over the face: {over_face:#?}");
-    // Entering the head: at most 3 % of the strands, less than 0.25 skull radii deep (what is
-    // left between hair-mesh vertices once the curves are kept out; docs/editor.md's table).
+    // Entering the head: with the head field every generator pushes strand vertices out, so
+    // none should; what the field's grid cannot resolve (a thin ear, both its sides within a
+    // cell) may keep one strand in a thousand, less than 0.02 skull radii deep
+    // (docs/editor.md's table). Without the field it was up to 2 %, 0.14 radii deep.
     let entering: Vec<&String> = report
         .iter()
-        .filter(|(_, c, deepest)| c.entering * 100 > 3 * c.strands || *deepest > 0.25)
+        .filter(|(_, c, deepest)| c.entering * 1000 > c.strands || *deepest > 0.02)
         .map(|(l, _, _)| l)
         .collect();
     ensure!(entering.is_empty(), "strands entering the head: {entering:#?}");

@@ -40,6 +40,8 @@ struct GenParams {
     uvec4 seed_info;     // x: style seed; y: triangle set base (index of the first triangle set); z, w: -
     vec4 viewport;       // x: width, y: height in pixels
     vec4 lod_error;      // x: style-aware vertex LOD's error bound epsilon in pixels (0: off); yzw: -
+    vec4 head_field;     // xyz: the head field's grid origin; w: its cell (0: no field)
+    vec4 head_margin;    // x: the margin strands keep from the head; yzw: -
 };
 
 struct Bundle {
@@ -71,6 +73,8 @@ layout(set = 0, binding = HK_BINDING_HAIR_MESH_TEXTURE) uniform sampler3D hair_m
 // û in rgb, w in alpha (gen-gpu packs the asset's two layer textures into one at upload).
 layout(set = 0, binding = HK_BINDING_U_TEXTURE) uniform sampler3D u_tex;
 layout(set = 0, binding = HK_BINDING_V_TEXTURE) uniform sampler3D v_tex;
+// The head's signed distances (hairmesh::head_field), one channel.
+layout(set = 0, binding = HK_BINDING_HEAD_FIELD) uniform sampler3D head_field_tex;
 
 #include "float_int.glsl"
 
@@ -226,6 +230,74 @@ vec2 root_parameter(uint bundle, uint strand) {
 
 vec2 centre_parameter(uint bundle) {
     return (bundles[bundle].info.y & 1u) == 1u ? vec2(0.5, 1.0 / 3.0) : vec2(0.5, 0.5);
+}
+
+// ---------------------------------------------------------------- head collision (head_field.rs)
+
+// The head field's signed distance at p (x) and its gradient (yzw): trilinear interpolation of
+// the grid and that interpolant's derivative (HeadField::sample); false outside the grid.
+bool head_field_sample(vec3 p, out vec4 distance_gradient) {
+    ivec3 size = textureSize(head_field_tex, 0);
+    vec3 f = (p - params.head_field.xyz) / params.head_field.w;
+    distance_gradient = vec4(0.0);
+    if (any(lessThan(f, vec3(0.0))) || any(greaterThan(f, vec3(size - 1)))) {
+        return false;
+    }
+    ivec3 i0 = min(floor_int3(f), size - 1);
+    ivec3 i1 = min(i0 + 1, size - 1);
+    vec3 w = f - vec3(i0);
+    float c000 = texelFetch(head_field_tex, ivec3(i0.x, i0.y, i0.z), 0).r;
+    float c100 = texelFetch(head_field_tex, ivec3(i1.x, i0.y, i0.z), 0).r;
+    float c010 = texelFetch(head_field_tex, ivec3(i0.x, i1.y, i0.z), 0).r;
+    float c110 = texelFetch(head_field_tex, ivec3(i1.x, i1.y, i0.z), 0).r;
+    float c001 = texelFetch(head_field_tex, ivec3(i0.x, i0.y, i1.z), 0).r;
+    float c101 = texelFetch(head_field_tex, ivec3(i1.x, i0.y, i1.z), 0).r;
+    float c011 = texelFetch(head_field_tex, ivec3(i0.x, i1.y, i1.z), 0).r;
+    float c111 = texelFetch(head_field_tex, ivec3(i1.x, i1.y, i1.z), 0).r;
+    float c00 = mix(c000, c100, w.x);
+    float c10 = mix(c010, c110, w.x);
+    float c01 = mix(c001, c101, w.x);
+    float c11 = mix(c011, c111, w.x);
+    float dx = mix(mix(c100 - c000, c110 - c010, w.y), mix(c101 - c001, c111 - c011, w.y), w.z);
+    float dy = mix(c10 - c00, c11 - c01, w.z);
+    float dz = mix(c01, c11, w.y) - mix(c00, c10, w.y);
+    distance_gradient = vec4(mix(mix(c00, c10, w.y), mix(c01, c11, w.y), w.z), vec3(dx, dy, dz) / params.head_field.w);
+    return true;
+}
+
+// Strand-level collision (HeadField::push_out): a styled vertex inside the head, or closer than
+// the margin (grown by (1 - slope) cells where the grid blurs a thin part such as an ear), moves
+// out along the field's gradient, step by step, each step halved until the field puts the
+// vertex further out.
+vec3 keep_out_of_head(vec3 p) {
+    vec4 here;
+    if (params.head_field.w <= 0.0 || !head_field_sample(p, here)) {
+        return p;
+    }
+    vec3 q = p;
+    for (uint i = 0u; i < HK_HEAD_PUSH_STEPS; ++i) {
+        float slope = length(here.yzw);
+        float goal = params.head_margin.x + (1.0 - min(slope, 1.0)) * params.head_field.w;
+        if (here.x >= goal || !(slope > 1e-9)) {
+            break;
+        }
+        vec3 step = here.yzw / slope * (goal - here.x);
+        bool moved = false;
+        for (uint h = 0u; h <= HK_HEAD_PUSH_HALVINGS; ++h) {
+            vec4 next;
+            if (head_field_sample(q + step, next) && next.x > here.x) {
+                q += step;
+                here = next;
+                moved = true;
+                break;
+            }
+            step *= 0.5;
+        }
+        if (!moved) {
+            break;
+        }
+    }
+    return q;
 }
 
 // ---------------------------------------------------------------- styling (style.rs)
@@ -433,7 +505,7 @@ vec3 strand_point(uint bundle, uint strand, vec2 root, float tau) {
     vec3 fw;
     vec4 u_w = fetch(u_tex, z);
     styling_frame(u_w.xyz, fetch(v_tex, z).xyz, fu, fv, fw);
-    return style_apply(strand_style(bundle, seed), tau, position, centre, fu, fv, fw, u_w.w);
+    return keep_out_of_head(style_apply(strand_style(bundle, seed), tau, position, centre, fu, fv, fw, u_w.w));
 }
 
 float width_at(float tau) {
@@ -720,7 +792,7 @@ vec3 control_strand_point(StrandStyle st, float tau, float t_curve, SegmentContr
     vec3 fv;
     vec3 fw;
     styling_frame(u_w.xyz, mix(c.v[0], c.v[1], f), fu, fv, fw);
-    return style_apply(st, tau, position, centre, fu, fv, fw, u_w.w);
+    return keep_out_of_head(style_apply(st, tau, position, centre, fu, fv, fw, u_w.w));
 }
 
 // strand_point() from the workgroup's control data (strand_load_control).

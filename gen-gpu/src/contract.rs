@@ -11,7 +11,7 @@
 //! # Set 0 of a strand pipeline
 //! | bindings | what | written by |
 //! |---|---|---|
-//! | [`binding::GEN_PARAMS`] … [`binding::V_TEXTURE`] (0–6) | frame parameters, bundle table, root samples, the three 3D textures (hair mesh, û with w, v̂) | the CPU (per frame / per asset) |
+//! | [`binding::GEN_PARAMS`] … [`binding::HEAD_FIELD`] (0–7) | frame parameters, bundle table, root samples, the three 3D textures (hair mesh, û with w, v̂), the head's distance field | the CPU (per frame / per asset) |
 //! | [`binding::BUNDLE_LODS`] … [`binding::STRAND_INFO`] (8–11) | LOD per bundle, prefix sum + indirect arguments, strand vertices, strand info | the generator |
 //! | [`binding::FIRST_CONSUMER`] and up (12–) | the consumer's own buffers (render: OIT lists, shadow maps, lights) | the consumer |
 //!
@@ -64,6 +64,9 @@ pub mod binding {
     pub const U_TEXTURE: u32 = 5;
     /// v̂ (sampler3D).
     pub const V_TEXTURE: u32 = 6;
+    /// The head's signed distance field (sampler3D, one channel; `hairmesh::head_field`):
+    /// strand vertices are pushed out of the head through it.
+    pub const HEAD_FIELD: u32 = 7;
     /// LOD per bundle (written by the LOD pass).
     pub const BUNDLE_LODS: u32 = 8;
     /// Prefix sum of strands per bundle, dispatch and draw arguments.
@@ -97,6 +100,11 @@ pub const FRAGMENT_PUSH_OFFSET: u32 = 16;
 /// (`hairmesh::reference::MAX_SEGMENTS_LOG2`; gen-gpu checks they agree at compile time).
 pub const MAX_SEGMENTS_LOG2: u32 = 5;
 
+/// Steps and step halvings of the head push (`hairmesh::head_field::PUSH_STEPS`,
+/// `PUSH_HALVINGS`; gen-gpu checks they agree at compile time).
+pub const HEAD_PUSH_STEPS: u32 = 4;
+pub const HEAD_PUSH_HALVINGS: u32 = 3;
+
 /// Most hair-mesh layers `L` (`hairmesh::hair_mesh::MAX_LAYERS`): sizes the strand-coherent
 /// control data in shared memory.
 pub const MAX_LAYERS: u32 = 64;
@@ -129,6 +137,7 @@ pub const GLSL_DEFINES: &[(&str, u64)] = &[
     ("HK_BINDING_HAIR_MESH_TEXTURE", binding::HAIR_MESH_TEXTURE as u64),
     ("HK_BINDING_U_TEXTURE", binding::U_TEXTURE as u64),
     ("HK_BINDING_V_TEXTURE", binding::V_TEXTURE as u64),
+    ("HK_BINDING_HEAD_FIELD", binding::HEAD_FIELD as u64),
     ("HK_BINDING_BUNDLE_LODS", binding::BUNDLE_LODS as u64),
     ("HK_BINDING_STRAND_OFFSETS", binding::STRAND_OFFSETS as u64),
     ("HK_BINDING_STRAND_VERTICES", binding::STRAND_VERTICES as u64),
@@ -142,6 +151,8 @@ pub const GLSL_DEFINES: &[(&str, u64)] = &[
     ("HK_MAX_SEGMENTS_LOG2", MAX_SEGMENTS_LOG2 as u64),
     ("HK_MAX_VERTICES", MAX_VERTICES),
     ("HK_MAX_LAYERS", MAX_LAYERS as u64),
+    ("HK_HEAD_PUSH_STEPS", HEAD_PUSH_STEPS as u64),
+    ("HK_HEAD_PUSH_HALVINGS", HEAD_PUSH_HALVINGS as u64),
     ("HK_SPARSE_SLOT_STRIDE", SPARSE_SLOT_STRIDE as u64),
     ("HK_DISPATCH_WORKERS_CONSTANT_ID", DISPATCH_WORKERS_CONSTANT_ID as u64),
 ];
@@ -155,6 +166,7 @@ pub const BINDINGS: &[u32] = &[
     binding::HAIR_MESH_TEXTURE,
     binding::U_TEXTURE,
     binding::V_TEXTURE,
+    binding::HEAD_FIELD,
     binding::BUNDLE_LODS,
     binding::STRAND_OFFSETS,
     binding::STRAND_VERTICES,

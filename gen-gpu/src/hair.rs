@@ -25,13 +25,15 @@ pub struct TextureBytes {
     /// û with w in its alpha channel (one texture: a fetch reads both).
     pub u: u64,
     pub v: u64,
+    /// The head's distance field (0 without one).
+    pub head_field: u64,
     /// Bundle table and root sample sets.
     pub buffers: u64,
 }
 
 impl TextureBytes {
     pub fn total(&self) -> u64 {
-        self.hair_mesh + self.uv + self.u + self.v + self.buffers
+        self.hair_mesh + self.uv + self.u + self.v + self.head_field + self.buffers
     }
 }
 
@@ -56,6 +58,10 @@ pub struct GpuHair {
     /// û in rgb, w in alpha ([`u_w_texel`]).
     pub(crate) u: Image,
     pub(crate) v: Image,
+    /// The head's signed distances (one channel, half floats: only values near the surface
+    /// matter, where they are small); a 2×2×2 placeholder when the asset has no field
+    /// (`GenParams.head_field.w` = 0 tells the shaders).
+    pub(crate) head_field: Image,
     pub(crate) sampler: Sampler,
     pub(crate) bundles: Buffer,
     pub(crate) samples: Buffer,
@@ -205,6 +211,20 @@ impl GpuHair {
         }
         let (u, u_bytes) = upload("u and w", &t.u, rgba, u_w)?;
         let (v, v_bytes) = upload("v", &t.v, rgba, texels(&t.v, 4, half))?;
+        let placeholder = Texture3 { width: 2, height: 2, depth: 2, channels: 1, data: vec![0.0; 8] };
+        let field = asset.head_field.as_ref().map_or(&placeholder, |f| &f.distance);
+        if field.width.max(field.height).max(field.depth) > max3d {
+            return Err(GpuError::OverBudget {
+                name: "head field".into(),
+                requested: u64::from(field.width.max(field.height).max(field.depth)),
+                budget: u64::from(max3d),
+                why: "maxImageDimension3D",
+            });
+        }
+        let field_texels: Vec<u8> =
+            field.data.iter().flat_map(|&d| half::f16::from_f64(d).to_bits().to_le_bytes()).collect();
+        let (head_field, field_bytes) = upload("head field", field, vk::Format::R16_SFLOAT, field_texels)?;
+        let field_bytes = if asset.head_field.is_some() { field_bytes } else { 0 };
 
         // Cells pack into one u32 each (hair_gen.glsl, block_coord).
         if t.layout.width > CELL_AXIS_LIMIT || t.layout.height > CELL_AXIS_LIMIT {
@@ -235,6 +255,7 @@ impl GpuHair {
             uv,
             u,
             v,
+            head_field,
             sampler: Sampler::linear_clamp(ctx, "hair texture sampler")?,
             bundles,
             samples,
@@ -247,6 +268,7 @@ impl GpuHair {
                 uv: uv_bytes,
                 u: u_bytes,
                 v: v_bytes,
+                head_field: field_bytes,
                 buffers: (bundle_bytes.len() + sample_bytes.len() + set_bytes.len()) as u64,
             },
             asset: asset.clone(),
@@ -295,9 +317,10 @@ impl GpuHair {
             || old.bundles.len() != new.bundles.len()
             || old.square_sets != new.square_sets
             || old.triangle_sets != new.triangle_sets
+            || old.head_field != new.head_field
         {
             return Err(GpuError::Mismatch(
-                "the asset's layout, normalization, bundles or sample sets changed: upload it again".into(),
+                "the asset's layout, normalization, bundles, sample sets or head field changed: upload it again".into(),
             ));
         }
         check_u_w(nt)?;

@@ -77,6 +77,7 @@ mod contract_tests {
             ("HK_BINDING_HAIR_MESH_TEXTURE", u64::from(binding::HAIR_MESH_TEXTURE)),
             ("HK_BINDING_U_TEXTURE", u64::from(binding::U_TEXTURE)),
             ("HK_BINDING_V_TEXTURE", u64::from(binding::V_TEXTURE)),
+            ("HK_BINDING_HEAD_FIELD", u64::from(binding::HEAD_FIELD)),
             ("HK_BINDING_BUNDLE_LODS", u64::from(binding::BUNDLE_LODS)),
             ("HK_BINDING_STRAND_OFFSETS", u64::from(binding::STRAND_OFFSETS)),
             ("HK_BINDING_STRAND_VERTICES", u64::from(binding::STRAND_VERTICES)),

@@ -238,6 +238,10 @@ pub struct HairAsset {
     /// Where the hair mesh came from, when it came from a scalp file.
     #[serde(default)]
     pub provenance: Option<ScalpProvenance>,
+    /// The head strands are kept out of ([`crate::head_field`]), when the asset was made
+    /// with a head: every generator pushes strand vertices out of it.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub head_field: Option<crate::head_field::HeadField>,
     /// Edits since the asset was built or loaded ([`Self::move_vertices`]).
     #[serde(skip)]
     pub(crate) revision: u64,
@@ -376,6 +380,7 @@ impl HairAsset {
             style,
             mesh,
             provenance: None,
+            head_field: None,
             revision: 0,
         })
     }

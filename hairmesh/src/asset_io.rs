@@ -25,6 +25,7 @@ use serde::{Deserialize, Serialize};
 
 use crate::asset::{BundleInfo, HairAsset, SampleSet, ScalpProvenance};
 use crate::hair_mesh::{BundleFace, HairMesh};
+use crate::head_field::HeadField;
 use crate::output::Replace;
 use crate::roots::SampleDomain;
 use crate::style::Style;
@@ -94,7 +95,25 @@ pub struct Manifest {
     pub mesh: HairMesh,
     /// The scalp file, face selector and layer source the mesh was made from.
     pub scalp: Option<ScalpProvenance>,
+    /// The head's distance field strands are kept out of ([`crate::head_field`]), when the
+    /// asset was converted with a head.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub head_field: Option<HeadFieldFile>,
 }
+
+/// Where a [`HeadField`] is stored and its grid: `size` points from `lo`, `cell` apart, one
+/// channel of signed distances in `file` (slices stacked in rows).
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct HeadFieldFile {
+    pub file: String,
+    pub lo: glam::DVec3,
+    pub cell: f64,
+    pub margin: f64,
+    pub size: [u32; 3],
+}
+
+const HEAD_FIELD_FILE: &str = "head_field.exr";
 
 const CHANNELS_3: [&str; 3] = ["R", "G", "B"];
 
@@ -156,6 +175,13 @@ pub fn write_asset_replacing(
         style: asset.style,
         mesh: asset.mesh().clone(),
         scalp: asset.provenance.clone(),
+        head_field: asset.head_field.as_ref().map(|f| HeadFieldFile {
+            file: HEAD_FIELD_FILE.into(),
+            lo: f.lo,
+            cell: f.cell,
+            margin: f.margin,
+            size: [f.distance.width, f.distance.height, f.distance.depth],
+        }),
     };
     let json = serde_json::to_vec_pretty(&manifest)
         .map_err(|e| HairMeshError::Io { path: dir.join(MANIFEST), message: e.to_string() })?;
@@ -174,6 +200,11 @@ pub fn write_asset_replacing(
         ] {
             let bytes = encode_exr(tex, precision).map_err(std::io::Error::other)?;
             std::fs::write(tmp.join(&file.file), bytes)?;
+        }
+        if let Some(field) = &asset.head_field {
+            // Half floats whatever the asset's precision: the field holds no more.
+            let bytes = encode_exr(&field.distance, Precision::F16).map_err(std::io::Error::other)?;
+            std::fs::write(tmp.join(HEAD_FIELD_FILE), bytes)?;
         }
         write_preview(&tmp.join("preview.png"), &t.hair_mesh)?;
         std::fs::write(tmp.join(MANIFEST), &json)
@@ -271,6 +302,15 @@ pub fn read_asset(path: &Path) -> Result<(HairAsset, Manifest)> {
         style: m.style,
         mesh: m.mesh.clone(),
         provenance: m.scalp.clone(),
+        head_field: match &m.head_field {
+            Some(f) => Some(HeadField {
+                lo: f.lo,
+                cell: f.cell,
+                margin: f.margin,
+                distance: read_texture_sized(&dir.join(&f.file), "head_field", Precision::F16, f.size, 1)?,
+            }),
+            None => None,
+        },
         revision: 0,
     };
     check_mesh_matches_texture(&dir.join(&m.textures.hair_mesh.file), m, &asset.textures.hair_mesh)?;
@@ -365,6 +405,27 @@ fn validate_manifest(path: &Path, m: &Manifest) -> Result<()> {
     }
     if l.cells.len() != l.bundles as usize {
         return Err(err("layout.cells", format!("{} cells for {} bundles", l.cells.len(), l.bundles)));
+    }
+    if let Some(f) = &m.head_field {
+        let most = HeadField::MAX_POINTS;
+        // Only the file this version writes, in the asset's own folder.
+        if f.file != HEAD_FIELD_FILE {
+            return Err(err("head_field.file", format!("`{}` (expected `{HEAD_FIELD_FILE}`)", f.file)));
+        }
+        if !f.size.iter().all(|n| (2..=most).contains(n)) {
+            return Err(err("head_field.size", format!("{:?} (each 2..={most})", f.size)));
+        }
+        if !(f.lo.is_finite()
+            && f.cell.is_finite()
+            && f.cell > 0.0
+            && f.margin.is_finite()
+            && f.margin >= 0.0)
+        {
+            return Err(err(
+                "head_field",
+                format!("lo {}, cell {}, margin {} (finite, cell > 0, margin ≥ 0)", f.lo, f.cell, f.margin),
+            ));
+        }
     }
     if let Some(i) = l.cells.iter().position(|c| c.x >= l.width - 1 || c.y >= l.height - 1) {
         return Err(err(
@@ -514,9 +575,28 @@ fn validate_mesh(path: &Path, m: &Manifest) -> Result<()> {
 }
 
 fn read_texture(path: &Path, field: &str, m: &Manifest, file: &TextureFile) -> Result<Texture3> {
+    read_texture_sized(
+        path,
+        field,
+        m.precision,
+        [m.layout.width, m.layout.height, file.slices],
+        file.channels,
+    )
+}
+
+/// An EXR holding `size[2]` slices of `size[0]`×`size[1]` texels of `channels` channels in
+/// `precision`, stacked in rows.
+fn read_texture_sized(
+    path: &Path,
+    field: &str,
+    precision: Precision,
+    size: [u32; 3],
+    channels: u32,
+) -> Result<Texture3> {
     use exr::prelude::*;
     let err = |message: String| field_error(path, field, message);
-    let (w, h, d) = (m.layout.width, m.layout.height, file.slices);
+    let [w, h, d] = size;
+    let file = TextureFile { file: String::new(), channels, slices: d };
     // Compressed EXR of this size can hardly exceed 4× its raw f32 size plus headers.
     let limit = u64::from(w) * u64::from(h) * u64::from(d) * u64::from(file.channels) * 16 + (1 << 20);
     let bytes = read_limited(path, limit)?;
@@ -572,14 +652,11 @@ fn read_texture(path: &Path, field: &str, m: &Manifest, file: &TextureFile) -> R
     for channel in channels {
         let Some(c) = CHANNELS_3.iter().position(|name| channel.name.to_string() == *name) else { continue };
         let ok_type = matches!(
-            (&channel.sample_data, m.precision),
+            (&channel.sample_data, precision),
             (FlatSamples::F32(_), Precision::F32) | (FlatSamples::F16(_), Precision::F16)
         );
         if !ok_type {
-            return Err(err(format!(
-                "channel {} is not {:?} as the manifest says",
-                channel.name, m.precision
-            )));
+            return Err(err(format!("channel {} is not {precision:?} as the manifest says", channel.name)));
         }
         for (i, v) in channel.sample_data.values_as_f32().enumerate() {
             if !v.is_finite() {
@@ -597,5 +674,6 @@ pub fn asset_files(dir: &Path, m: &Manifest) -> Vec<PathBuf> {
     [MANIFEST, &t.hair_mesh.file, &t.uv.file, &t.w.file, &t.u.file, &t.v.file, "preview.png"]
         .iter()
         .map(|f| dir.join(f))
+        .chain(m.head_field.as_ref().map(|f| dir.join(&f.file)))
         .collect()
 }

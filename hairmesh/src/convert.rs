@@ -97,10 +97,19 @@ pub struct ConvertSettings {
     pub sample_sets: u32,
     pub layout: SliceLayout,
     pub style: Style,
+    /// Strand-level collision: the asset carries the head's distance field and every
+    /// generator keeps strand vertices out of the head ([`crate::head_field`]).
+    #[serde(default = "collision_on")]
+    pub collision: bool,
     /// Where the files a glTF refers to may be (trusting a file is a choice per run, never
     /// stored).
     #[serde(skip)]
     pub references: References,
+}
+
+/// Sessions written before collision existed convert with it, like new ones.
+fn collision_on() -> bool {
+    true
 }
 
 /// glTF's up, the default of every file.
@@ -122,6 +131,7 @@ impl Default for ConvertSettings {
             sample_sets: 1,
             layout: SliceLayout::Lattice,
             style: Style::default(),
+            collision: true,
             references: References::InsideFolder,
         }
     }
@@ -297,9 +307,24 @@ pub fn convert_scalp(
     };
     progress("textures and blue-noise root sets");
     let mut asset = HairAsset::build(&hm, &params, settings.style)?;
+    if settings.collision {
+        progress("the head's distance field");
+        // Over the hair's bounds and a fifth of their size around them (room for edits).
+        let (lo, hi) = asset.bounds();
+        let room = DVec3::splat(0.2 * lo.distance(hi));
+        asset.head_field =
+            crate::head_field::HeadField::build(&head, (lo - room, hi + room), strand_clearance(&head));
+    }
     asset.provenance =
         Some(ScalpProvenance { file: input.display().to_string(), selector: settings.scalp.clone(), layers });
     Ok(Converted { asset, scalp, length, pushed_out })
+}
+
+/// How close to the head a strand vertex may come ([`crate::head_field`]): twice the hair
+/// mesh's [`clearance`], so that the field's interpolation error near curved parts of the head
+/// still leaves the strands outside.
+pub fn strand_clearance(head: &crate::head::HeadSurface) -> f64 {
+    2.0 * clearance(head)
 }
 
 /// How close to the head a hair-mesh vertex may come, as a fraction of the head's size.

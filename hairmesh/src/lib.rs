@@ -14,6 +14,7 @@ pub mod export;
 mod gltf_source;
 pub mod hair_mesh;
 pub mod head;
+pub mod head_field;
 pub mod head_frame;
 pub mod import;
 pub mod inner;

@@ -21,7 +21,7 @@ pub const FOLDER_MARKER: &str = ".hairkit-output";
 
 /// Files an asset folder may hold (the asset writer's names).
 const ASSET_FILES: &[&str] =
-    &["hair.json", "hair_mesh.exr", "uv.exr", "w.exr", "u.exr", "v.exr", "preview.png"];
+    &["hair.json", "hair_mesh.exr", "uv.exr", "w.exr", "u.exr", "v.exr", "preview.png", "head_field.exr"];
 
 /// Largest JSON file read to recognize it.
 const MAX_RECOGNIZED_JSON: u64 = 64 << 20;

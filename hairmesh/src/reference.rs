@@ -310,7 +310,10 @@ impl HairAsset {
         let v = DVec3::from_array(v);
         let wdir = u.cross(v).try_normalize().unwrap_or_else(|| u.any_orthonormal_vector());
         let frame = [u, wdir.cross(u), wdir];
-        style.apply(&StyleInput { bundle, strand, tau, position, centre, frame, w: w[0] })
+        let styled = style.apply(&StyleInput { bundle, strand, tau, position, centre, frame, w: w[0] });
+        // Strand-level collision: whatever the curve and the style did, the vertex ends outside
+        // the head (the root, on the scalp, is left where it grows).
+        self.head_field.as_ref().map_or(styled, |field| field.push_out(styled))
     }
 
     /// Every strand the view asks for, as the GPU must produce them.

@@ -439,3 +439,33 @@ fn a_new_style_regrows_the_bundle_bounds() {
     let fresh = HairAsset::build(a.mesh(), &params(), wider).expect("fresh");
     assert_eq!(a.bundles, fresh.bundles, "as if built with the style");
 }
+
+/// The head's distance field (strand-level collision) goes with the asset: read back equal,
+/// and a manifest that points elsewhere or sizes it wrongly is refused by field.
+#[test]
+fn the_head_field_round_trips_and_bad_ones_are_refused() {
+    let scalp = common::patch(3, DVec3::new(0.5, 1.0, 0.0), 1.0, &mut SplitMix64::new(11));
+    let head = hairmesh::head::HeadSurface::from_mesh(&scalp);
+    let mut a = asset();
+    let (lo, hi) = a.bounds();
+    a.head_field = hairmesh::head_field::HeadField::build(&head, (lo, hi), 0.01);
+    assert!(a.head_field.is_some(), "the patch gives a field");
+    let dir = tempfile::tempdir().expect("temp dir");
+    let path = dir.path().join("with_field");
+    write_asset(&path, &a, Precision::F32, "units", None).expect("write");
+    let (b, _) = read_asset(&path).expect("read");
+    assert_eq!(b.head_field, a.head_field, "the field read back");
+    let text = std::fs::read_to_string(path.join(MANIFEST)).expect("manifest");
+    let json: serde_json::Value = serde_json::from_str(&text).expect("json");
+    for (key, value, expected) in [
+        ("file", serde_json::json!("../escape.exr"), "head_field.file"),
+        ("size", serde_json::json!([2, 2, 5000]), "head_field.size"),
+        ("cell", serde_json::json!(-1.0), "head_field"),
+    ] {
+        let mut broken = json.clone();
+        broken["head_field"][key] = value;
+        std::fs::write(path.join(MANIFEST), serde_json::to_vec(&broken).expect("json")).expect("write");
+        let err = read_asset(&path).expect_err("a bad head field").to_string();
+        assert!(err.contains(expected) && err.contains(MANIFEST), "{key}: {err}");
+    }
+}

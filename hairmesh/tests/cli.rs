@@ -247,7 +247,8 @@ fn check_finds_strands_inside_the_head() {
     let out = dir.path().join("cap");
     let out_text = out.to_str().expect("utf-8");
     let cap = repo("assets/head_cap.gltf");
-    let (ok, _, stderr) = hairmesh(&["convert", &cap, "-o", out_text, "--strands", "2000"]);
+    // Without the head field: what `check` finds is the hair mesh's doing alone.
+    let (ok, _, stderr) = hairmesh(&["convert", &cap, "-o", out_text, "--strands", "2000", "--no-collision"]);
     assert!(ok, "{stderr}");
     let (ok, stdout, stderr) = hairmesh(&["check", out_text]);
     assert!(ok && stdout.contains("strands entering the head: 0 (0.00 %)"), "{stdout}{stderr}");
@@ -276,6 +277,29 @@ fn check_finds_strands_inside_the_head() {
         .expect("a count");
     assert!(entering > 1000, "{stdout}");
     assert!(stdout.contains("hair-mesh vertices inside:"), "{stdout}");
+    // The same pull on hair converted with its head field: the strands are pushed out of the
+    // cap wherever they cross it, so check finds next to none (the tips themselves sit inside).
+    let with_field = dir.path().join("field");
+    let (ok, _, stderr) =
+        hairmesh(&["convert", &cap, "-o", with_field.to_str().expect("utf-8"), "--strands", "2000"]);
+    assert!(ok, "{stderr}");
+    let (mut asset, _) = hairmesh::asset_io::read_asset(&with_field).expect("asset");
+    assert!(asset.head_field.is_some(), "no head field");
+    asset.move_vertices(&moves).expect("move");
+    let pulled = dir.path().join("pulled");
+    hairmesh::asset_io::write_asset(&pulled, &asset, Default::default(), "metres", Some(&cap))
+        .expect("write");
+    let (_, stdout, _) = hairmesh(&["check", pulled.to_str().expect("utf-8"), "--head", &cap]);
+    let kept_out: u64 = stdout
+        .lines()
+        .find_map(|l| l.strip_prefix("strands entering the head: "))
+        .and_then(|l| l.split_whitespace().next())
+        .and_then(|n| n.parse().ok())
+        .expect("a count");
+    assert!(
+        kept_out * 20 < entering,
+        "{kept_out} strands enter with the field, {entering} without: {stdout}"
+    );
 }
 
 /// Vector options take negative components as written (`--drape -0.1,…`, not `--drape=-0.1,…`).

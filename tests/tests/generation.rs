@@ -800,6 +800,80 @@ fn main() -> ExitCode {
             }
             Ok(())
         }),
+        GpuTest::new("strands_stay_out_of_the_head_as_in_the_reference", Requirements::NONE, move |ctx| {
+            // Long hair draped over the sample head, converted with its head field: every
+            // strand vertex the GPU generates is outside the head (by the exact surface), as the
+            // reference's are; without the field, vertices of the same hair enter it.
+            let head = data_set::locate(data_set::SAMPLE_HEAD)?;
+            let mesh = hairmesh::import::load_scalp(&head, &hairmesh::ScalpSelector::All)?;
+            let surface = hairmesh::head::HeadSurface::from_mesh(&mesh);
+            let frame = hairmesh::head_frame::HeadFrame::estimate(&mesh).context("head frame")?;
+            let settings = hairmesh::convert::ConvertSettings {
+                scalp: "auto".into(),
+                layers: 6,
+                length: Some(2.5 * frame.radius),
+                shape: hairmesh::convert::LayerShape::Drape {
+                    centre: frame.centre,
+                    comb: -2.5 * frame.front,
+                    lift: 0.04,
+                },
+                up: frame.up,
+                strands: 3000,
+                style: styled(frame.radius * 5.0),
+                ..hairmesh::convert::ConvertSettings::default()
+            };
+            let asset = hairmesh::convert::convert_scalp(&head, &settings, &mut |_| {})?.asset;
+            let field = asset.head_field.as_ref().context("no head field")?;
+            let tolerance = hairmesh::head::CHECK_TOLERANCE * surface.size();
+            let inside = |capture: &Capture| -> usize {
+                capture
+                    .strands
+                    .iter()
+                    .flat_map(|s| s.positions.iter().skip(1))
+                    .filter(|p| surface.signed_distance(p.as_dvec3()) < -tolerance)
+                    .count()
+            };
+            let eye = (frame.centre + frame.front * 6.0 * frame.radius).as_vec3();
+            let mut bare = asset.clone();
+            bare.head_field = None;
+            for (filtering, precision) in [
+                (Filtering::StrandCoherent, TexturePrecision::F32),
+                (Filtering::Hardware, TexturePrecision::F16),
+            ] {
+                let generator = Generator::new(ctx, filtering)?;
+                let inputs = inputs_for(&asset, eye, full);
+                let capture = generator.capture(
+                    ctx,
+                    &GpuHair::upload(ctx, &asset, precision)?,
+                    &inputs,
+                    GenerationPath::Compute,
+                )?;
+                let e = compare_to_reference(&asset, &inputs, &capture)?;
+                let without = generator.capture(
+                    ctx,
+                    &GpuHair::upload(ctx, &bare, precision)?,
+                    &inputs,
+                    GenerationPath::Compute,
+                )?;
+                let (kept, entered) = (inside(&capture), inside(&without));
+                eprintln!(
+                    "  {filtering:?}/{precision:?}: {} vertices, {kept} inside the head with the field ({}×{}×{}), {entered} without; against the reference: position max {:.4} mean {:.5} widths",
+                    e.vertices,
+                    field.distance.width,
+                    field.distance.height,
+                    field.distance.depth,
+                    e.max_position_widths,
+                    e.mean_position_widths
+                );
+                ensure!(entered > 0, "without the field no vertex enters the head: the test shows nothing");
+                ensure!(kept == 0, "{kept} generated vertices inside the head");
+                // (Half-float textures are off by more than this anyway: check_oracle's bounds.)
+                if precision == TexturePrecision::F32 {
+                    ensure!(e.mean_position_widths < 0.01 && e.max_position_widths < 0.5, "{e:?}");
+                }
+            }
+            Ok(())
+        }),
         GpuTest::new("a_bundle_with_one_strand_and_tiny_assets", Requirements::NONE, move |ctx| {
             let scalp = hairmesh::ScalpMesh {
                 positions: vec![

@@ -151,6 +151,11 @@ impl EditorApp {
             let l = ui.label("Root seed");
             ui.add(egui::DragValue::new(&mut c.seed)).labelled_by(l.id);
             ui.end_row();
+            ui.label("Collision");
+            ui.checkbox(&mut c.collision, "keep strands out of the head").on_hover_text(
+                "The asset carries the head's distance field and every strand vertex is pushed out of the head (off: only the hair mesh is kept out)",
+            );
+            ui.end_row();
         });
         let scalp = self.doc.as_ref().and_then(Document::scalp_file).filter(|f| f.is_file());
         ui.horizontal(|ui| {

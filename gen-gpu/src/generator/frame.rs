@@ -75,6 +75,10 @@ pub(crate) struct GenParams {
     seed_info: [u32; 4],
     viewport: [f32; 4],
     lod_error: [f32; 4],
+    /// The head's distance field: xyz its grid's origin, w its cell (0: no field).
+    head_field: [f32; 4],
+    /// x: the margin strands keep from the head; yzw: -.
+    head_margin: [f32; 4],
 }
 
 /// Per-frame buffers, sized from the LOD result.
@@ -189,6 +193,11 @@ pub(super) fn params(hair: &GpuHair, inputs: &FrameInputs, capacity: u64, chunk_
         ],
         viewport: [inputs.viewport[0] as f32, inputs.viewport[1] as f32, 0.0, 0.0],
         lod_error: [f(lod.vertex_error_pixels), 0.0, 0.0, 0.0],
+        head_field: asset
+            .head_field
+            .as_ref()
+            .map_or([0.0; 4], |h| [f(h.lo.x), f(h.lo.y), f(h.lo.z), f(h.cell)]),
+        head_margin: [asset.head_field.as_ref().map_or(0.0, |h| f(h.margin)), 0.0, 0.0, 0.0],
     }
 }
 
@@ -279,6 +288,7 @@ impl Generator {
                 (b::HAIR_MESH_TEXTURE, &hair.hair_mesh, &hair.sampler),
                 (b::U_TEXTURE, &hair.u, &hair.sampler),
                 (b::V_TEXTURE, &hair.v, &hair.sampler),
+                (b::HEAD_FIELD, &hair.head_field, &hair.sampler),
             ],
         );
     }

@@ -112,6 +112,9 @@ pub use crate::contract::{MAX_VERTICES, VERTEX_BYTES};
 const _: () = assert!(crate::contract::MAX_SEGMENTS_LOG2 == hairmesh::reference::MAX_SEGMENTS_LOG2);
 // The strand-coherent tables in shared memory are sized for the most layers an asset may have.
 const _: () = assert!(crate::contract::MAX_LAYERS == hairmesh::hair_mesh::MAX_LAYERS);
+// The head push takes the reference's steps (hair_gen.glsl, keep_out_of_head).
+const _: () = assert!(crate::contract::HEAD_PUSH_STEPS == hairmesh::head_field::PUSH_STEPS);
+const _: () = assert!(crate::contract::HEAD_PUSH_HALVINGS == hairmesh::head_field::PUSH_HALVINGS);
 /// Chunks of strand slots (`MAX_CHUNKS` in `hair_outputs.glsl`).
 pub const MAX_CHUNKS: u64 = 16;
 const DISPATCH_ARGS_OFFSET: u64 = 16;
@@ -195,7 +198,7 @@ pub fn strand_bindings(extra: &[u32]) -> Vec<Binding> {
     use crate::contract::binding as b;
     let all = vk::ShaderStageFlags::ALL;
     let buffers = [b::GEN_PARAMS, b::BUNDLES, b::ROOT_SAMPLES, b::SAMPLE_SETS];
-    let textures = [b::HAIR_MESH_TEXTURE, b::U_TEXTURE, b::V_TEXTURE];
+    let textures = [b::HAIR_MESH_TEXTURE, b::U_TEXTURE, b::V_TEXTURE, b::HEAD_FIELD];
     let outputs = [b::BUNDLE_LODS, b::STRAND_OFFSETS, b::STRAND_VERTICES, b::STRAND_INFO];
     let mut list: Vec<Binding> = buffers.iter().map(|&i| Binding::storage_buffer(i, all)).collect();
     list.extend(textures.iter().map(|&i| Binding {

@@ -109,6 +109,10 @@ struct ConvertArgs {
     /// Store textures as half floats.
     #[arg(long)]
     f16: bool,
+    /// No strand-level collision: the asset carries no head distance field, and strands may
+    /// dip into the head between the hair mesh's vertices.
+    #[arg(long)]
+    no_collision: bool,
 }
 
 /// Warnings printed before the rest are summarized in one line.
@@ -348,6 +352,7 @@ fn convert(o: &ConvertArgs) -> Result<()> {
             LayoutArg::Blocks => SliceLayout::Blocks,
         },
         style: o.style()?,
+        collision: !o.no_collision,
         references: if o.trust_paths { References::Anywhere } else { References::InsideFolder },
     };
     // Each step's time is printed when the next one starts, the last one's after the call.
@@ -393,6 +398,17 @@ fn convert(o: &ConvertArgs) -> Result<()> {
     println!("layers:         {} (hair length {length:.4})", hm.layer_count());
     if pushed_out > 0 {
         println!("kept outside:   {pushed_out} hair-mesh vertices moved out of the head");
+    }
+    if let Some(f) = &asset.head_field {
+        println!(
+            "head field:     {}×{}×{} points, cell {:.4} {units}, strands kept {:.4} {units} out ({} bytes on the GPU)",
+            f.distance.width,
+            f.distance.height,
+            f.distance.depth,
+            f.cell,
+            f.margin,
+            f.texels() * 2
+        );
     }
     println!("strands:        {}", asset.total_strands());
     println!(

@@ -15,6 +15,7 @@
 //! (`plot-*.png`). A progress bar shows the stage on a terminal.
 
 mod accuracy;
+mod collision;
 mod crowd;
 mod dynamics;
 mod generation;
@@ -125,8 +126,9 @@ fn median(mut v: Vec<f64>) -> f64 {
 }
 
 /// The report's sections in order, as `--only` names them.
-const SECTIONS: [&str; 10] = [
+const SECTIONS: [&str; 11] = [
     "generation",
+    "collision",
     "memory",
     "stored",
     "accuracy",
@@ -275,6 +277,7 @@ fn run(cli: &Cli) -> Result<()> {
         progress.set_message(*name);
         sections.push(match *name {
             "generation" => generation_section(&setup, &progress)?,
+            "collision" => collision::collision_section(&setup, &progress)?,
             "memory" => memory_section(&setup)?,
             "stored" => stored_section(&setup, &progress)?,
             "accuracy" => accuracy_section(&setup)?,
