@@ -157,6 +157,8 @@ pub struct EditorApp {
     pub mirror_x: bool,
     /// Soft-selection radius as a fraction of the hair's length (0: off).
     pub soft_radius: f64,
+    /// The layer the *Layer* row inserts before or removes (1 = the first above the roots).
+    pub layer_pick: u32,
     /// Painting the scalp: the head's faces and the selection (while the mode is on).
     pub scalp_paint: Option<crate::scalp_paint::ScalpPaint>,
     /// The scalp brush's radius in viewport pixels.
@@ -258,6 +260,7 @@ impl EditorApp {
             show_overlay: true,
             mirror_x: false,
             soft_radius: 0.0,
+            layer_pick: 1,
             scalp_paint: None,
             brush_radius: 30.0,
             hairline_offset: hairmesh::head_frame::HAIRLINE_OFFSET,

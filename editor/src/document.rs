@@ -58,6 +58,34 @@ pub enum Edit {
         before: Vec<(u32, u32)>,
         after: Vec<(u32, u32)>,
     },
+    /// A layer inserted, removed or extruded: the hair mesh before and after.
+    Layers {
+        op: LayerOp,
+        before: Box<hairmesh::HairMesh>,
+        after: Box<hairmesh::HairMesh>,
+    },
+}
+
+/// An edit of the hair mesh's layers (`hairmesh::layer_ops`).
+#[derive(Clone, Debug, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum LayerOp {
+    /// A layer between layers `at − 1` and `at`, halfway along every column's curve.
+    Insert { at: u32 },
+    /// Layer `layer` removed.
+    Remove { layer: u32 },
+    /// The bundles of `faces` one layer longer (a new outer layer when one already ends there).
+    Extrude { faces: Vec<u32> },
+}
+
+impl LayerOp {
+    fn apply(&self, mesh: &mut hairmesh::HairMesh) -> hairmesh::Result<()> {
+        match self {
+            LayerOp::Insert { at } => mesh.insert_layer(*at as usize),
+            LayerOp::Remove { layer } => mesh.remove_layer(*layer as usize),
+            LayerOp::Extrude { faces } => mesh.extrude_faces(faces).map(drop),
+        }
+    }
 }
 
 /// The hair's linear RGB base colour and per-strand variation.
@@ -349,6 +377,17 @@ impl Document {
         Ok(())
     }
 
+    /// Inserts, removes or extrudes a layer of the hair mesh (one undo step). The asset's
+    /// textures are baked again and the preview uploads it whole.
+    pub fn edit_layers(&mut self, op: &LayerOp) -> Result<(), EditorError> {
+        let before = self.asset.mesh().clone();
+        let mut after = before.clone();
+        op.apply(&mut after).map_err(|source| EditorError::Edit { source })?;
+        self.apply_mesh(&after)?;
+        self.record(Edit::Layers { op: op.clone(), before: Box::new(before), after: Box::new(after) }, None);
+        Ok(())
+    }
+
     /// Ends the current gesture: the next edit starts a new undo step.
     pub fn end_gesture(&mut self) {
         self.open_gesture = None;
@@ -444,7 +483,18 @@ impl Document {
             Edit::Color { before, after } => self.color = if forward { *after } else { *before },
             Edit::Vertices { before, after, .. } => self.apply_moves(if forward { after } else { before })?,
             Edit::TipLayers { before, after } => self.apply_tips(if forward { after } else { before })?,
+            Edit::Layers { before, after, .. } => self.apply_mesh(if forward { after } else { before })?,
         }
+        Ok(())
+    }
+
+    /// Replaces the hair mesh with one of the same faces and any number of layers: a new asset,
+    /// uploaded whole.
+    fn apply_mesh(&mut self, mesh: &hairmesh::HairMesh) -> Result<(), EditorError> {
+        let asset = self.asset.with_layers(mesh.clone()).map_err(|source| EditorError::Edit { source })?;
+        self.asset = Arc::new(asset);
+        self.changes.clear();
+        self.generation = next_generation();
         Ok(())
     }
 

@@ -67,6 +67,8 @@ pub enum Command {
     Vertices(Vec<VertexMove>),
     /// Bundles ended at these tip layers (`[bundle, layer]` pairs).
     TipLayers(Vec<(u32, u32)>),
+    /// A layer inserted, removed or extruded.
+    Layers(crate::document::LayerOp),
 }
 
 impl Session {
@@ -88,6 +90,7 @@ impl Session {
                 Edit::Vertices { made_by: Some(s), .. } => Command::Sculpt(s.clone()),
                 Edit::Vertices { after, made_by: None, .. } => Command::Vertices(after.clone()),
                 Edit::TipLayers { after, .. } => Command::TipLayers(after.clone()),
+                Edit::Layers { op, .. } => Command::Layers(op.clone()),
             })
             .collect();
         Self { format: FORMAT.into(), version: VERSION, start, camera, commands }
@@ -145,6 +148,7 @@ impl Session {
                 }
                 Command::Vertices(moves) => doc.move_vertices(moves, None)?,
                 Command::TipLayers(tips) => doc.set_tip_layers(tips)?,
+                Command::Layers(op) => doc.edit_layers(op)?,
             }
         }
         Ok(doc)

@@ -530,6 +530,33 @@ fn grab_rotate_scale_the_selection_like_a_modeller(_: &gen_gpu::Context) -> Resu
     h.step();
     let mesh = h.state().doc.as_ref().context("doc")?.asset().mesh().clone();
     ensure!(mesh.tip_layers.is_none(), "undo left tip layers: {:?}", mesh.tip_layers);
+    // E: the boxed faces grow past the outer layer by a new one only they reach.
+    h.key_press(egui::Key::E);
+    h.step();
+    let extruded = h.state().doc.as_ref().context("doc")?.asset().mesh().clone();
+    ensure!(extruded.layer_count() == layers as usize + 1, "{} layers after E", extruded.layer_count());
+    for f in 0..extruded.faces.len() {
+        let expected = if faces.contains(&f) { layers + 1 } else { layers };
+        ensure!(extruded.tip_layer(f) == expected, "face {f} ends at {} after E", extruded.tip_layer(f));
+    }
+    // The panel's Insert before (layer 1): one more layer, every bundle ending at the same vertex.
+    h.get_by_label("Insert before").click_accesskit();
+    h.step();
+    h.step();
+    let inserted = h.state().doc.as_ref().context("doc")?.asset().mesh().clone();
+    ensure!(
+        inserted.layer_count() == layers as usize + 2,
+        "{} layers after the insert",
+        inserted.layer_count()
+    );
+    ensure!(inserted.layers.last() == extruded.layers.last(), "the insert moved the outer layer");
+    // Two undos: the hair mesh as it was, bit for bit.
+    for _ in 0..2 {
+        h.key_press_modifiers(egui::Modifiers::COMMAND, egui::Key::Z);
+        h.step();
+    }
+    let back = h.state().doc.as_ref().context("doc")?.asset().mesh().clone();
+    ensure!(back == mesh, "undo did not give the hair mesh back");
     Ok(())
 }
 
@@ -587,8 +614,10 @@ fn a_saved_session_replays_to_the_saved_asset(_: &gen_gpu::Context) -> Result<()
     h.step();
     h.key_press(egui::Key::Enter);
     h.step();
-    // `[`: the selected faces' bundles end a layer earlier.
+    // `[`: the selected faces' bundles end a layer earlier; E takes them a layer further.
     h.key_press(egui::Key::OpenBracket);
+    h.step();
+    h.key_press(egui::Key::E);
     h.step();
     settle(&mut h)?;
     let dir = tempfile::tempdir()?;
@@ -601,7 +630,8 @@ fn a_saved_session_replays_to_the_saved_asset(_: &gen_gpu::Context) -> Result<()
     ensure!(
         session.commands.len() >= 2
             && session.commands.iter().any(|c| matches!(c, editor::session::Command::Sculpt(_)))
-            && session.commands.iter().any(|c| matches!(c, editor::session::Command::TipLayers(_))),
+            && session.commands.iter().any(|c| matches!(c, editor::session::Command::TipLayers(_)))
+            && session.commands.iter().any(|c| matches!(c, editor::session::Command::Layers(_))),
         "{} commands",
         session.commands.len()
     );
@@ -892,6 +922,9 @@ fn presets_follow_the_head_frame(_: &gen_gpu::Context) -> Result<()> {
     use hairmesh::convert::{LayerShape, sample_head};
     let long_wavy = editor::presets::PRESETS.iter().find(|p| p.name == "Long wavy").context("preset")?;
     let mut h = builder().build_ui_state(|ui, app: &mut EditorApp| app.ui(ui), app());
+    // The frame is what this test is about: no head field (presets_on_both_heads_stay_off_the_face
+    // tests the collision), which saves a second per conversion.
+    h.state_mut().convert.collision = false;
     let lee = sample_head::locate()?;
     let sintel = data_set::require("heads/sintel/sintel_bust.obj");
     let mut frames = Vec::new();
@@ -995,6 +1028,8 @@ fn scalp_painting_adds_the_faces_under_the_brush(_: &gen_gpu::Context) -> Result
     use hairmesh::ScalpSelector;
     let mut h = editor();
     hairmesh::convert::sample_head::locate()?;
+    // Which faces grow hair is what this test is about: no head field for its conversions.
+    h.state_mut().convert.collision = false;
     h.state_mut().open_sample_head();
     settle(&mut h)?;
     h.state_mut().start_scalp_paint();

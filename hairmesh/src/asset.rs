@@ -487,6 +487,36 @@ impl HairAsset {
         Ok(AssetChange { texels: Vec::new(), bundles: changed, since, revision: self.revision })
     }
 
+    /// This asset with its hair mesh replaced by `mesh` — the same faces and vertices, any
+    /// number of layers ([`crate::layer_ops`]) — its textures baked again on the same slice
+    /// layout and its bundle entries measured again; strands per bundle, root sample sets,
+    /// style, provenance and head field stay. A new asset (its revision starts over): the GPU
+    /// copy is uploaded whole.
+    pub fn with_layers(&self, mut mesh: HairMesh) -> Result<HairAsset> {
+        let bad = |message: String| HairMeshError::InvalidParameter { what: "layer edit", message };
+        if mesh.faces != self.mesh.faces || mesh.vertex_count() != self.mesh.vertex_count() {
+            return Err(bad("the faces or vertices differ from the asset's hair mesh".into()));
+        }
+        let layers = mesh.layer_count();
+        if layers == 0 || layers > crate::hair_mesh::MAX_LAYERS as usize {
+            return Err(bad(format!("{layers} layers (expected 1..={})", crate::hair_mesh::MAX_LAYERS)));
+        }
+        if mesh.layers.iter().any(|l| l.len() != mesh.vertex_count())
+            || !mesh.layers.iter().flatten().all(|p| p.is_finite())
+        {
+            return Err(bad(
+                "a layer has the wrong number of vertices or a position that is not finite".into()
+            ));
+        }
+        mesh.check_tip_layers().map_err(|e| bad(format!("tip layers: {e}")))?;
+        mesh.uvs = self.mesh.uvs.clone();
+        let textures = self.textures.rebuilt_with(&mesh).map_err(bad)?;
+        let margin = self.style.max_displacement();
+        let bundles =
+            (0..mesh.faces.len()).map(|b| bundle_info(&mesh, b, self.bundles[b].strands, margin)).collect();
+        Ok(HairAsset { textures, bundles, mesh, revision: 0, ..self.clone() })
+    }
+
     /// Union of the bundles' bounds (object space, with the styling margin).
     pub fn bounds(&self) -> (DVec3, DVec3) {
         self.bundles.iter().fold((DVec3::INFINITY, DVec3::NEG_INFINITY), |(lo, hi), b| {

@@ -96,8 +96,12 @@ impl HeadField {
                 data: coarse,
             },
         };
-        // The coarse interpolant is off by at most its cell diagonal (distance is 1-Lipschitz).
-        let band = 3.0_f64.sqrt() * cell * (1.0 + f64::from(COARSE)) + 2.0 * margin + 4.0 * cell;
+        // Distance is 1-Lipschitz, so the coarse interpolant (a convex blend of its corners) is
+        // off by at most the weighted distance to them: half its cell's diagonal. A push reads
+        // the corners of a cell within a cell's diagonal of the vertex, which is at most the
+        // margin out or two cells in (how deep strands dip in between the hair mesh's vertices).
+        let sqrt3 = 3.0_f64.sqrt();
+        let band = sqrt3 * cell * (0.5 * f64::from(COARSE) + 1.0) + 2.0 * cell + 2.0 * margin;
         let mut data = vec![0.0; (w * h * d) as usize];
         // Rows in parallel.
         data.par_chunks_mut(w as usize).enumerate().for_each(|(row, out)| {

@@ -20,6 +20,7 @@ pub mod import;
 pub mod inner;
 pub mod input;
 pub mod lattice;
+pub mod layer_ops;
 pub mod output;
 pub mod procedural;
 pub mod reference;

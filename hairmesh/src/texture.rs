@@ -402,6 +402,17 @@ impl HairTextures {
         textures
     }
 
+    /// The textures of `hm` — the faces and vertices these were baked from, any number of
+    /// layers (one inserted, removed or extruded) — on this 2D slice layout, with a
+    /// normalization from `hm`'s bounds.
+    pub fn rebuilt_with(&self, hm: &HairMesh) -> Result<Self, String> {
+        let texels = texel_vertices(&self.layout, &hm.faces)?;
+        let layout = TextureLayout { layers: hm.layer_count() as u32, ..self.layout.clone() };
+        let mut textures = Self::empty(layout, Normalization::of_mesh(hm));
+        textures.bake(hm, &texels, None);
+        Ok(textures)
+    }
+
     /// All-zero textures of a layout.
     fn empty(layout: TextureLayout, normalization: Normalization) -> Self {
         let (w, h) = (layout.width, layout.height);

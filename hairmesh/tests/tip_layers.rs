@@ -169,3 +169,44 @@ fn a_hair_mesh_with_bad_tip_layers_builds_no_asset() {
         assert!(err.contains(expected), "{err}");
     }
 }
+
+#[test]
+fn layers_inserted_removed_and_extruded_keep_the_hair() {
+    let (layers, length) = (3, 1.5);
+    let asset = build(&straight_hair(3, layers, length), 200);
+    let (view, lod) = full_detail();
+    let before = asset.generate_reference(&view, &lod);
+    let ends = |strands: &[hairmesh::reference::Strand]| -> Vec<(DVec3, DVec3)> {
+        strands.iter().map(|s| (s.positions[0], s.positions[s.positions.len() - 1])).collect()
+    };
+    // A layer inserted halfway up the second segment: the same straight strands, more layers.
+    let mut mesh = asset.mesh().clone();
+    mesh.insert_layer(2).expect("insert");
+    let inserted = asset.with_layers(mesh).expect("rebuilt");
+    assert_eq!((inserted.textures.layout.layers, inserted.mesh().layer_count()), (4, 4));
+    let after = inserted.generate_reference(&view, &lod);
+    assert_eq!(after.len(), before.len());
+    for ((a, b), (c, d)) in ends(&before).iter().zip(&ends(&after)) {
+        assert!(a.distance(*c) < 1e-9 && b.distance(*d) < 1e-9, "{a}→{b} became {c}→{d}");
+    }
+    // Removing it gives the first asset's strands back.
+    let mut mesh = inserted.mesh().clone();
+    mesh.remove_layer(2).expect("remove");
+    let removed = inserted.with_layers(mesh).expect("rebuilt");
+    for (s, t) in before.iter().zip(&removed.generate_reference(&view, &lod)) {
+        let far = s.positions.iter().zip(&t.positions).map(|(p, q)| p.distance(*q)).fold(0.0, f64::max);
+        assert!(far < 1e-9, "bundle {} strand {}: {far}", s.bundle, s.index);
+    }
+    // Extruding two faces: they grow by a layer's length, the others stay.
+    let mut mesh = asset.mesh().clone();
+    assert!(mesh.extrude_faces(&[0, 4]).expect("extrude"));
+    let extruded = asset.with_layers(mesh).expect("rebuilt");
+    for (b, info) in extruded.bundles.iter().enumerate() {
+        let expected = if b == 0 || b == 4 { length * 4.0 / 3.0 } else { length };
+        assert!((info.length - expected).abs() < 1e-9, "bundle {b}: {}", info.length);
+    }
+    // Another hair mesh's faces are refused.
+    let other = straight_hair(2, layers, length);
+    let err = asset.with_layers(other).expect_err("other faces").to_string();
+    assert!(err.contains("faces or vertices differ"), "{err}");
+}

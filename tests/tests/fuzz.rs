@@ -197,18 +197,28 @@ fn asset_folders() {
         &hairmesh::ExtrudeParams { layers: 2, length: 0.1, ..Default::default() },
     )
     .expect("extrude");
-    let asset = HairAsset::build(
+    let mut asset = HairAsset::build(
         &hm,
         &AssetParams { strands: StrandCount::Total(100), ..Default::default() },
         Default::default(),
     )
     .expect("asset");
+    // Everything an asset may hold: bundles of different lengths and the head's field.
+    asset.set_tip_layer(&[0, 2], 1).expect("tip layers");
+    let (lo, hi) = asset.bounds();
+    asset.head_field = hairmesh::head_field::HeadField::build(
+        &hairmesh::head::HeadSurface::from_mesh(&scalp),
+        (lo, hi),
+        1e-3,
+    );
+    assert!(asset.head_field.is_some(), "the cap gives a head field");
     let dir = tempfile::tempdir().expect("temp dir");
     write_asset(dir.path(), &asset, Precision::F16, "m", None).expect("write");
-    let files: Vec<(String, Vec<u8>)> = ["hair.json", "hair_mesh.exr", "uv.exr", "w.exr", "u.exr", "v.exr"]
-        .iter()
-        .map(|f| (f.to_string(), std::fs::read(dir.path().join(f)).expect("asset file")))
-        .collect();
+    let files: Vec<(String, Vec<u8>)> =
+        ["hair.json", "hair_mesh.exr", "uv.exr", "w.exr", "u.exr", "v.exr", "head_field.exr"]
+            .iter()
+            .map(|f| (f.to_string(), std::fs::read(dir.path().join(f)).expect("asset file")))
+            .collect();
     // Each file of the folder in turn, the others intact.
     for (i, (name, bytes)) in files.iter().enumerate() {
         let others: Vec<(&str, Vec<u8>)> = files
@@ -297,54 +307,58 @@ fn conversion_options() {
         proptest::option::weighted(0.15, hostile_f64()),
         sample_sets,
         (mostly(0.0..0.005), mostly(0.0..0.05), mostly(-3.0..3.0)),
+        // The head field on a quarter of the conversions (it costs the most time).
+        proptest::bool::weighted(0.25),
     );
     let mut runner = runner("conversion_options", cases());
     let converted_count = std::sync::atomic::AtomicU32::new(0);
-    let result = runner.run(&settings, |(layers, length, shape, strands, density, sample_sets, style)| {
-        let mut s = ConvertSettings {
-            layers,
-            length,
-            shape,
-            strands,
-            density,
-            sample_sets,
-            ..ConvertSettings::default()
-        };
-        (s.style.width, s.style.curl.radius, s.style.twist) = style;
-        // Only small conversions finish quickly; a large valid one says nothing more.
-        if s.density.is_some_and(|d| d > 0.0 && d < 1e9) {
-            s.density = Some(1e4);
-        }
-        match convert_scalp(&head, &s, &mut |_| {}) {
-            Err(e) => {
-                let text = e.to_string();
-                prop_assert!(!text.contains("Some(") && !text.contains("Total("), "a debug dump: {text}");
-                Ok(())
+    let result =
+        runner.run(&settings, |(layers, length, shape, strands, density, sample_sets, style, collision)| {
+            let mut s = ConvertSettings {
+                layers,
+                length,
+                shape,
+                strands,
+                density,
+                sample_sets,
+                collision,
+                ..ConvertSettings::default()
+            };
+            (s.style.width, s.style.curl.radius, s.style.twist) = style;
+            // Only small conversions finish quickly; a large valid one says nothing more.
+            if s.density.is_some_and(|d| d > 0.0 && d < 1e9) {
+                s.density = Some(1e4);
             }
-            Ok(converted) => {
-                converted_count.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
-                let out = dir.path().join("asset");
-                match hairmesh::asset_io::write_asset(
-                    &out,
-                    &converted.asset,
-                    Default::default(),
-                    "metres",
-                    None,
-                ) {
-                    Ok(()) => {
-                        let back = hairmesh::asset_io::read_asset(&out);
-                        prop_assert!(
-                            back.is_ok(),
-                            "written but unreadable: {:?}",
-                            back.err().map(|e| e.to_string())
-                        );
-                    }
-                    Err(e) => prop_assert!(e.to_string().contains("not written"), "{e}"),
+            match convert_scalp(&head, &s, &mut |_| {}) {
+                Err(e) => {
+                    let text = e.to_string();
+                    prop_assert!(!text.contains("Some(") && !text.contains("Total("), "a debug dump: {text}");
+                    Ok(())
                 }
-                Ok(())
+                Ok(converted) => {
+                    converted_count.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
+                    let out = dir.path().join("asset");
+                    match hairmesh::asset_io::write_asset(
+                        &out,
+                        &converted.asset,
+                        Default::default(),
+                        "metres",
+                        None,
+                    ) {
+                        Ok(()) => {
+                            let back = hairmesh::asset_io::read_asset(&out);
+                            prop_assert!(
+                                back.is_ok(),
+                                "written but unreadable: {:?}",
+                                back.err().map(|e| e.to_string())
+                            );
+                        }
+                        Err(e) => prop_assert!(e.to_string().contains("not written"), "{e}"),
+                    }
+                    Ok(())
+                }
             }
-        }
-    });
+        });
     if let Err(e) = result {
         panic!("conversion options: {e}");
     }

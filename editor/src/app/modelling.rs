@@ -4,7 +4,8 @@
 //! none; G, R and S grab, rotate and scale the selection ([`crate::transform`]) with mirror and
 //! soft selection; every column bends under its tip, the inner vertices follow and everything
 //! stays out of the head ([`crate::sculpt`]). `[` and `]` end the selected faces' bundles a
-//! layer earlier or later (bundles of different lengths: a fringe, a long back).
+//! layer earlier or later (bundles of different lengths: a fringe, a long back); E extrudes
+//! them by a layer.
 
 use egui::{Color32, Key, Pos2, Rect, Stroke};
 use glam::{DVec3, Vec2, Vec3};
@@ -79,6 +80,9 @@ impl EditorApp {
             });
             if step != 0 {
                 self.step_tip_layers(step);
+            }
+            if ui.input(|i| i.key_pressed(Key::E) && i.modifiers.is_none()) {
+                self.extrude_selected_faces();
             }
             if let Some(kind) = kind {
                 let at = response.hover_pos().unwrap_or(rect.center()) - rect.min;
@@ -274,6 +278,31 @@ impl EditorApp {
                 };
                 self.note = Some(format!("{} bundles end at {layers} of {last}", tips.len()));
             }
+        }
+    }
+
+    /// Extrudes the selected faces' bundles by a layer (E): a new outer layer when one of them
+    /// ends at the outer layer, reached by them alone.
+    pub fn extrude_selected_faces(&mut self) {
+        let Some(doc) = &self.doc else { return };
+        let faces = self.selected_faces(doc);
+        if faces.is_empty() {
+            self.note = Some("select every corner of the faces to extrude (Shift-drag a box)".into());
+            return;
+        }
+        let n = faces.len();
+        self.edit_layers(
+            &crate::document::LayerOp::Extrude { faces },
+            &format!("{n} bundles extruded by a layer"),
+        );
+    }
+
+    /// Runs a layer edit, reporting `done` or the error.
+    pub fn edit_layers(&mut self, op: &crate::document::LayerOp, done: &str) {
+        let Some(doc) = self.doc.as_mut() else { return };
+        match doc.edit_layers(op) {
+            Ok(()) => self.note = Some(format!("{done}: {} layers", doc.asset().mesh().layer_count())),
+            Err(e) => self.error = Some(e.to_string()),
         }
     }
 

@@ -332,6 +332,35 @@ impl EditorApp {
                 .labelled_by(label.id)
                 .on_hover_text("Tips within this fraction of the hair's length of the dragged one follow it, less the further they are (0: only the dragged column)");
         });
+        if let Some(doc) = &self.doc {
+            let layers = doc.asset().mesh().layer_count() as u32;
+            ui.horizontal(|ui| {
+                let label = ui.label("Layer");
+                self.layer_pick = self.layer_pick.clamp(1, layers.max(1));
+                ui.add(egui::DragValue::new(&mut self.layer_pick).range(1..=layers.max(1)))
+                    .labelled_by(label.id)
+                    .on_hover_text("Layer 1 is the first above the roots");
+                let pick = self.layer_pick;
+                if ui
+                    .button("Insert before")
+                    .on_hover_text(
+                        "A layer halfway between this one and the one below, on every column's curve",
+                    )
+                    .clicked()
+                {
+                    self.edit_layers(
+                        &crate::document::LayerOp::Insert { at: pick },
+                        &format!("layer inserted before layer {pick}"),
+                    );
+                }
+                if ui.add_enabled(layers > 1, egui::Button::new("Remove")).clicked() {
+                    self.edit_layers(
+                        &crate::document::LayerOp::Remove { layer: pick },
+                        &format!("layer {pick} removed"),
+                    );
+                }
+            });
+        }
         ui.horizontal(|ui| {
             ui.label("Selected bundles");
             let hint = "The faces whose every corner is selected end a layer earlier or later (keys [ and ])";
@@ -340,6 +369,13 @@ impl EditorApp {
             }
             if ui.button("Longer").on_hover_text(hint).clicked() {
                 self.step_tip_layers(1);
+            }
+            if ui
+                .button("Extrude")
+                .on_hover_text("The selected faces' bundles grow by a layer past their tips (E)")
+                .clicked()
+            {
+                self.extrude_selected_faces();
             }
         });
         ui.separator();
