@@ -159,6 +159,9 @@ pub struct EditorApp {
     pub soft_radius: f64,
     /// The layer the *Layer* row inserts before or removes (1 = the first above the roots).
     pub layer_pick: u32,
+    /// The layer G, R and S take hold of (0: the tips): the layers above it follow the
+    /// transform, the ones below bend under it.
+    pub held_layer: u32,
     /// Painting the scalp: the head's faces and the selection (while the mode is on).
     pub scalp_paint: Option<crate::scalp_paint::ScalpPaint>,
     /// The scalp brush's radius in viewport pixels.
@@ -261,6 +264,7 @@ impl EditorApp {
             mirror_x: false,
             soft_radius: 0.0,
             layer_pick: 1,
+            held_layer: 0,
             scalp_paint: None,
             brush_radius: 30.0,
             hairline_offset: hairmesh::head_frame::HAIRLINE_OFFSET,

@@ -42,13 +42,17 @@ pub struct Sculpt {
     /// What mirrored seeds are mirrored across.
     #[serde(default)]
     pub mirror: MirrorPlane,
+    /// The layer the transform takes hold of (`None`: the tips; [`TipDrag::at_layer`]).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub layer: Option<u32>,
 }
 
 impl Sculpt {
     /// The edit made again on `mesh` (the mesh it was made on), kept out of `head` when it
     /// was.
     pub fn moves(&self, mesh: &HairMesh, head: Option<Arc<HeadSurface>>) -> Vec<VertexMove> {
-        let mut drag = TipDrag::with_seeds(mesh, &self.seeds, self.soft_radius).across(self.mirror);
+        let mut drag =
+            TipDrag::with_seeds(mesh, &self.seeds, self.soft_radius, self.layer).across(self.mirror);
         if let (true, Some(head)) = (self.outside_head, head) {
             drag = drag.outside(head);
         }
@@ -56,11 +60,15 @@ impl Sculpt {
     }
 }
 
-/// A drag of one tip (with its mirror and soft selection), from the mesh at its start.
+/// A drag of one tip (with its mirror and soft selection), from the mesh at its start. With a
+/// layer handle ([`TipDrag::at_layer`]) it takes hold of that layer instead: the layer and
+/// those above it undergo the transform, the ones below bend under it by the column rule.
 #[derive(Clone, Debug)]
 pub struct TipDrag {
     seeds: Vec<(u32, bool)>,
     soft_radius: f64,
+    /// The layer held (`None`: the tips).
+    layer: Option<u32>,
     mirror: MirrorPlane,
     rest: HairMesh,
     columns: Vec<Column>,
@@ -146,7 +154,7 @@ impl TipDrag {
     pub fn new(mesh: &HairMesh, vertex: u32, mirror: Option<u32>, soft_radius: f64) -> Self {
         let seeds: Vec<(u32, bool)> =
             std::iter::once((vertex, false)).chain(mirror.map(|m| (m, true))).collect();
-        Self::with_seeds(mesh, &seeds, soft_radius)
+        Self::with_seeds(mesh, &seeds, soft_radius, None)
     }
 
     /// Starts moving the tips of the `selected` columns of `mesh` (with `mirror_of`'s twins,
@@ -164,12 +172,28 @@ impl TipDrag {
                 seeds.push((m, true));
             }
         }
-        Self::with_seeds(mesh, &seeds, soft_radius)
+        Self::with_seeds(mesh, &seeds, soft_radius, None)
     }
 
-    fn with_seeds(mesh: &HairMesh, seeds: &[(u32, bool)], soft_radius: f64) -> Self {
-        let tip = mesh.layers.len() - 1;
-        let tips = &mesh.layers[tip];
+    /// The same drag holding layer `layer` (1..=L; the tips at L) of the columns instead of
+    /// their tips: soft selection measured there too.
+    #[must_use]
+    pub fn at_layer(self, layer: u32) -> Self {
+        let mut held = Self::with_seeds(&self.rest, &self.seeds, self.soft_radius, Some(layer));
+        held.mirror = self.mirror;
+        held.head = self.head;
+        held
+    }
+
+    /// The layer the drag holds (the outer one for the tips).
+    fn held_layer(&self) -> usize {
+        self.layer.map_or(self.rest.layers.len() - 1, |l| l as usize)
+    }
+
+    fn with_seeds(mesh: &HairMesh, seeds: &[(u32, bool)], soft_radius: f64, layer: Option<u32>) -> Self {
+        let last = mesh.layers.len() - 1;
+        let held = layer.map_or(last, |l| (l as usize).clamp(1, last.max(1)));
+        let tips = &mesh.layers[held];
         let mut weights: Vec<(f64, bool)> = vec![(0.0, false); mesh.vertex_count()];
         for &(centre, mirrored) in seeds {
             let Some(&c) = tips.get(centre as usize) else { continue };
@@ -189,6 +213,7 @@ impl TipDrag {
         Self {
             seeds: seeds.to_vec(),
             soft_radius,
+            layer: (held != last).then_some(held as u32),
             mirror: MirrorPlane::default(),
             rest: mesh.clone(),
             columns,
@@ -220,6 +245,7 @@ impl TipDrag {
             transform,
             outside_head: self.head.is_some(),
             mirror: self.mirror,
+            layer: self.layer,
         }
     }
 
@@ -265,6 +291,7 @@ impl TipDrag {
         Self {
             seeds: Vec::new(),
             soft_radius: 0.0,
+            layer: None,
             mirror: MirrorPlane::default(),
             rest: mesh.clone(),
             columns,
@@ -278,13 +305,24 @@ impl TipDrag {
     /// head.
     fn moves_for(&mut self, tip_move: impl Fn(&Column, DVec3) -> DVec3) -> Vec<VertexMove> {
         let tip = self.rest.layers.len() - 1;
+        let held = self.held_layer();
         let mut mesh = self.rest.clone();
         let mut moves = Vec::new();
         for c in &self.columns {
-            let d = tip_move(c, self.rest.layers[tip][c.vertex as usize]);
+            let v = c.vertex as usize;
+            let d = tip_move(c, self.rest.layers[held][v]);
+            let reach = self.inner.along(held as u32, c.vertex);
             for k in 1..=tip {
-                let position =
-                    self.rest.layers[k][c.vertex as usize] + self.inner.along(k as u32, c.vertex) * d;
+                // At and above the held layer each vertex undergoes the transform itself; below
+                // it, the column bends by its share of the held vertex's move.
+                let step = if k >= held {
+                    tip_move(c, self.rest.layers[k][v])
+                } else if reach > 0.0 {
+                    d * (self.inner.along(k as u32, c.vertex) / reach)
+                } else {
+                    DVec3::ZERO
+                };
+                let position = self.rest.layers[k][v] + step;
                 mesh.layers[k][c.vertex as usize] = position;
                 if self.inner.is_outer(k as u32, c.vertex) {
                     moves.push(VertexMove { layer: k as u32, vertex: c.vertex, position });
@@ -312,6 +350,49 @@ pub(crate) mod tests {
         let scalp = hairmesh::procedural::head_cap(6, 24);
         HairMesh::extrude(&scalp, &hairmesh::ExtrudeParams { layers: 4, length: 0.2, ..Default::default() })
             .expect("extrudes")
+    }
+
+    /// Holding a layer: it and the layers above undergo the transform, the ones below bend by
+    /// their share of the held vertex's move, the roots stay; the recipe makes it again.
+    #[test]
+    fn a_held_layer_takes_the_transform_and_the_column_bends_below_it() {
+        // A strip of quads: every column is on the hair mesh's surface (outer).
+        let positions: Vec<DVec3> =
+            (0..2).flat_map(|j| (0..4).map(move |i| DVec3::new(f64::from(i), 0.0, -f64::from(j)))).collect();
+        let faces = (0..3u32).map(|i| vec![i, i + 1, i + 5, i + 4]).collect();
+        let scalp = hairmesh::ScalpMesh { positions, faces, ..Default::default() };
+        let mesh = HairMesh::extrude(
+            &scalp,
+            &hairmesh::ExtrudeParams { layers: 4, length: 2.0, ..Default::default() },
+        )
+        .expect("extrudes");
+        let selected = [1u32, 2, 5, 6];
+        let mut drag = TipDrag::selection(&mesh, &selected, |_| None, 0.0).at_layer(2);
+        let pivot = selected.iter().map(|&v| mesh.layers[2][v as usize]).sum::<DVec3>() / 4.0;
+        let scale = DAffine3::from_translation(pivot)
+            * DAffine3::from_scale(DVec3::splat(0.5))
+            * DAffine3::from_translation(-pivot);
+        let moves = drag.moves_with(&scale);
+        let inner = InnerVertices::new(&mesh);
+        let at =
+            |layer: u32, v: u32| moves.iter().find(|m| m.layer == layer && m.vertex == v).map(|m| m.position);
+        for &v in &selected {
+            for k in 2..=4u32 {
+                let expected = scale.transform_point3(mesh.layers[k as usize][v as usize]);
+                let got = at(k, v).expect("a moved vertex");
+                assert!(got.distance(expected) < 1e-12, "layer {k} of column {v}: {got} vs {expected}");
+            }
+            let d2 = at(2, v).expect("held") - mesh.layers[2][v as usize];
+            let share = inner.along(1, v) / inner.along(2, v);
+            let got = at(1, v).expect("below");
+            assert!(got.distance(mesh.layers[1][v as usize] + d2 * share) < 1e-12, "layer 1 of column {v}");
+            assert!(moves.iter().all(|m| m.layer > 0), "a root moved");
+        }
+        let recipe = drag.recipe(scale);
+        assert_eq!(recipe.layer, Some(2));
+        assert_eq!(recipe.moves(&mesh, None), moves, "the session's recipe makes the same moves");
+        // Holding the outer layer is holding the tips.
+        assert_eq!(TipDrag::selection(&mesh, &selected, |_| None, 0.0).at_layer(4).recipe(scale).layer, None);
     }
 
     #[test]

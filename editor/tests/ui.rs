@@ -557,6 +557,30 @@ fn grab_rotate_scale_the_selection_like_a_modeller(_: &gen_gpu::Context) -> Resu
     }
     let back = h.state().doc.as_ref().context("doc")?.asset().mesh().clone();
     ensure!(back == mesh, "undo did not give the hair mesh back");
+    // Holding layer 2 (the panel's G/R/S hold), S 0.5: the selected columns gather around the
+    // layer's median point from there up; the roots stay; a session records the held layer.
+    h.state_mut().held_layer = 2;
+    h.key_press(egui::Key::S);
+    h.step();
+    h.event(egui::Event::Text("0.5".into()));
+    h.step();
+    h.key_press(egui::Key::Enter);
+    h.step();
+    let doc = h.state().doc.as_ref().context("doc")?;
+    let held = doc.asset().mesh().clone();
+    let pivot = editor::transform::median_point(selection.iter().map(|&v| mesh.layers[2][v as usize]))
+        .context("a pivot")?;
+    let spread = |m: &hairmesh::HairMesh, k: usize| {
+        selection.iter().map(|&v| m.layers[k][v as usize].distance(pivot)).sum::<f64>()
+    };
+    ensure!(held.layers[0] == mesh.layers[0], "a root moved");
+    let (before, after) = (spread(&mesh, tip), spread(&held, tip));
+    ensure!(after < 0.6 * before, "the tips did not gather: {before} → {after}");
+    let last = doc.history().last().context("an edit")?;
+    ensure!(
+        matches!(last, editor::document::Edit::Vertices { made_by: Some(s), .. } if s.layer == Some(2)),
+        "the edit does not record the held layer: {last:?}"
+    );
     Ok(())
 }
 

@@ -155,9 +155,11 @@ impl EditorApp {
     pub fn start_transform(&mut self, kind: TransformKind, pointer: Vec2) {
         let Some(doc) = &self.doc else { return };
         let mesh = doc.asset().mesh();
+        // The layer G/R/S take hold of: the tips, or the one the panel names.
         let tip = mesh.layers.len() - 1;
+        let held = if self.held_layer == 0 { tip } else { (self.held_layer as usize).min(tip) };
         self.selection.retain(|&v| (v as usize) < mesh.vertex_count());
-        let Some(pivot) = median_point(self.selection.iter().map(|&v| mesh.layers[tip][v as usize])) else {
+        let Some(pivot) = median_point(self.selection.iter().map(|&v| mesh.layers[held][v as usize])) else {
             self.note = Some("select tips first (click, Shift-click, Shift-drag a box, A for all)".into());
             return;
         };
@@ -171,6 +173,9 @@ impl EditorApp {
             soft_radius,
         )
         .across(plane);
+        if held != tip {
+            sculpt = sculpt.at_layer(held as u32);
+        }
         if let Some(head) = doc.head_surface() {
             sculpt = sculpt.outside(head);
         }

@@ -360,6 +360,17 @@ impl EditorApp {
                     );
                 }
             });
+            ui.horizontal(|ui| {
+                let label = ui.label("G/R/S hold");
+                self.held_layer = self.held_layer.min(layers);
+                ui.add(
+                    egui::DragValue::new(&mut self.held_layer)
+                        .range(0..=layers)
+                        .custom_formatter(|v, _| if v < 0.5 { "tips".into() } else { format!("layer {v:.0}") }),
+                )
+                .labelled_by(label.id)
+                .on_hover_text("The layer of the selected columns a grab, rotation or scale takes hold of: it and the layers above follow the transform, the ones below bend");
+            });
         }
         ui.horizontal(|ui| {
             ui.label("Selected bundles");
