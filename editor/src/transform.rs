@@ -1,6 +1,6 @@
 //! Grab, rotate and scale the selected tips with a polygon modeller's habits (Blender's): press
 //! G, R or S over the viewport, move the pointer, optionally press X, Y or Z to constrain to
-//! that axis (again to free it) and type a value (a distance, degrees or a factor); Enter or a
+//! that axis, or Shift+X/Y/Z to the plane across it (again to free it), and type a value (a distance, degrees or a factor); Enter or a
 //! click confirms, Escape or a right click cancels. Rotation and scaling pivot on the selected
 //! tips' median point.
 //!
@@ -43,6 +43,8 @@ impl Axis {
 pub struct ModalTransform {
     pub kind: TransformKind,
     pub axis: Option<Axis>,
+    /// The constraint is the plane across `axis`, not the axis (Shift+X/Y/Z).
+    pub plane: bool,
     /// The value typed so far (digits, `.`, a leading `-`); empty when the pointer decides.
     pub typed: String,
     /// The median point of the selected tips.
@@ -54,12 +56,21 @@ pub struct ModalTransform {
 impl ModalTransform {
     /// Starts `kind` on tips whose median point is `pivot`, with the pointer at `start`.
     pub fn new(kind: TransformKind, pivot: DVec3, start: Vec2) -> Self {
-        Self { kind, axis: None, typed: String::new(), pivot, start }
+        Self { kind, axis: None, plane: false, typed: String::new(), pivot, start }
     }
 
     /// Constrains to `axis`, or frees it when it already is.
     pub fn toggle_axis(&mut self, axis: Axis) {
-        self.axis = if self.axis == Some(axis) { None } else { Some(axis) };
+        self.axis = if self.axis == Some(axis) && !self.plane { None } else { Some(axis) };
+        self.plane = false;
+    }
+
+    /// Constrains to the plane across `axis` (a grab in it, a scale of its two directions, a
+    /// rotation about `axis`), or frees it when it already is.
+    pub fn toggle_plane(&mut self, axis: Axis) {
+        let again = self.axis == Some(axis) && self.plane;
+        self.axis = (!again).then_some(axis);
+        self.plane = !again;
     }
 
     /// Adds a typed character (digits, `.`, `-` to negate); others are ignored. `true` when it
@@ -103,13 +114,17 @@ impl ModalTransform {
             .map_or(size / 2.0, |(pixel, _)| pixel);
         match self.kind {
             TransformKind::Grab => {
-                let delta = match self.typed_value() {
-                    // Blender: a typed distance without an axis moves along X.
-                    Some(v) => self.axis.unwrap_or(Axis::X).vector() * v,
-                    None => {
+                let delta = match (self.typed_value(), self.axis, self.plane) {
+                    // Blender: a typed distance without an axis moves along X; in a plane, along
+                    // its first axis.
+                    (Some(v), Some(Axis::X), true) => DVec3::Y * v,
+                    (Some(v), Some(_), true) | (Some(v), None, _) => DVec3::X * v,
+                    (Some(v), Some(a), false) => a.vector() * v,
+                    (None, axis, plane) => {
                         let moved = camera.drag_point(self.pivot.as_vec3(), pointer - self.start, size.y);
                         let d = moved.as_dvec3() - self.pivot;
-                        match self.axis {
+                        match axis {
+                            Some(a) if plane => d - a.vector() * d.dot(a.vector()),
                             Some(a) => a.vector() * d.dot(a.vector()),
                             None => d,
                         }
@@ -142,6 +157,7 @@ impl ModalTransform {
                     }
                 };
                 let scale = match self.axis {
+                    Some(a) if self.plane => DVec3::ONE + (DVec3::ONE - a.vector()) * (factor - 1.0),
                     Some(a) => DVec3::ONE + a.vector() * (factor - 1.0),
                     None => DVec3::splat(factor),
                 };
@@ -152,7 +168,11 @@ impl ModalTransform {
 
     /// What the status bar says while it runs.
     pub fn describe(&self, transform: &DAffine3) -> String {
-        let axis = self.axis.map_or(String::new(), |a| format!(" along {a:?}"));
+        let axis = match self.axis {
+            Some(a) if self.plane => format!(" across {a:?}"),
+            Some(a) => format!(" along {a:?}"),
+            None => String::new(),
+        };
         let value = match self.kind {
             TransformKind::Grab => {
                 let d = transform.translation;
@@ -169,12 +189,26 @@ impl ModalTransform {
                     .x
                     .max(transform.matrix3.y_axis.y)
                     .max(transform.matrix3.z_axis.z);
-                let s = if self.axis.is_none() { transform.matrix3.x_axis.x } else { s };
+                let s = match self.axis {
+                    None => transform.matrix3.x_axis.x,
+                    Some(a) if self.plane => {
+                        let d = DVec3::new(
+                            transform.matrix3.x_axis.x,
+                            transform.matrix3.y_axis.y,
+                            transform.matrix3.z_axis.z,
+                        );
+                        // One of the plane's two directions (both scale alike).
+                        if a == Axis::X { d.y } else { d.x }
+                    }
+                    Some(_) => s,
+                };
                 format!("Scale{axis}: {s:.3}")
             }
         };
         let typed = if self.typed.is_empty() { String::new() } else { format!(" [typed {}]", self.typed) };
-        format!("{value}{typed} — X/Y/Z constrain, type a value, Enter or click to confirm, Esc to cancel")
+        format!(
+            "{value}{typed} — X/Y/Z constrain (Shift: the plane across), type a value, Enter or click to confirm, Esc to cancel"
+        )
     }
 }
 
@@ -243,6 +277,34 @@ mod tests {
         });
         let p = r.transform(&camera(), SIZE, SIZE).transform_point3(DVec3::X);
         assert!(p.distance(DVec3::NEG_Z) < 1e-9, "{p}");
+    }
+
+    #[test]
+    fn a_plane_constraint_scales_and_grabs_across_its_axis() {
+        let camera = OrbitCamera::default();
+        let size = Vec2::new(800.0, 600.0);
+        let mut s =
+            ModalTransform::new(TransformKind::Scale, DVec3::new(0.0, 1.0, 0.0), Vec2::new(500.0, 300.0));
+        s.toggle_plane(Axis::Y);
+        for c in "0.5".chars() {
+            s.type_char(c);
+        }
+        let t = s.transform(&camera, size, Vec2::new(500.0, 300.0));
+        let diagonal = DVec3::new(t.matrix3.x_axis.x, t.matrix3.y_axis.y, t.matrix3.z_axis.z);
+        assert!(diagonal.distance(DVec3::new(0.5, 1.0, 0.5)) < 1e-12, "{diagonal}");
+        assert!(s.describe(&t).contains("across Y"), "{}", s.describe(&t));
+        // The pivot stays; again frees it; an axis replaces it.
+        assert!(t.transform_point3(s.pivot).distance(s.pivot) < 1e-12);
+        s.toggle_plane(Axis::Y);
+        assert_eq!((s.axis, s.plane), (None, false));
+        s.toggle_plane(Axis::Y);
+        s.toggle_axis(Axis::Y);
+        assert_eq!((s.axis, s.plane), (Some(Axis::Y), false));
+        // A pointer grab in the plane across Z keeps z.
+        let mut g = ModalTransform::new(TransformKind::Grab, DVec3::ZERO, Vec2::new(400.0, 300.0));
+        g.toggle_plane(Axis::Z);
+        let t = g.transform(&camera, size, Vec2::new(470.0, 260.0));
+        assert!(t.translation.z.abs() < 1e-12 && t.translation.length() > 0.0, "{}", t.translation);
     }
 
     #[test]

@@ -730,12 +730,27 @@ fn author_shipped_sessions(dir: &Path) -> Result<()> {
         let r = frame.radius;
         match name {
             "ponytail" => {
-                // Long hair combed back, gathered behind the nape and pulled down into a tail.
+                // Long hair combed back, gathered at a band two thirds down (S in the plane
+                // across up, holding that layer: the band and the tail below it gather, the
+                // hair above bends to it), then the tips pulled down into a tail.
                 h.state_mut().apply_preset(preset("Long wavy")?);
                 settle(&mut h)?;
                 select_tips(&mut h, |p| p.z < 0.3)?;
-                typed_transform(&mut h, egui::Key::S, None, "0.12")?;
-                typed_transform(&mut h, egui::Key::G, Some(egui::Key::Y), &format!("{:.4}", -1.2 * r))?;
+                let layers = h.state().doc.as_ref().context("doc")?.asset().mesh().layer_count() as u32;
+                h.state_mut().held_layer = (2 * layers).div_ceil(3);
+                let rect = h.state().viewport_rect;
+                h.hover_at(rect.center());
+                h.step();
+                h.key_press(egui::Key::S);
+                h.step();
+                h.key_press_modifiers(egui::Modifiers::SHIFT, egui::Key::Y);
+                h.event(egui::Event::Text("0.15".into()));
+                h.step();
+                h.key_press(egui::Key::Enter);
+                h.step();
+                settle(&mut h)?;
+                h.state_mut().held_layer = 0;
+                typed_transform(&mut h, egui::Key::G, Some(egui::Key::Y), &format!("{:.4}", -0.8 * r))?;
                 typed_transform(
                     &mut h,
                     egui::Key::G,

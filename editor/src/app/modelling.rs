@@ -194,10 +194,19 @@ impl EditorApp {
                     egui::Event::Text(t) => t.chars().for_each(|c| {
                         modal.op.type_char(c);
                     }),
-                    egui::Event::Key { key, pressed: true, .. } => match key {
-                        Key::X => modal.op.toggle_axis(Axis::X),
-                        Key::Y => modal.op.toggle_axis(Axis::Y),
-                        Key::Z => modal.op.toggle_axis(Axis::Z),
+                    egui::Event::Key { key, pressed: true, modifiers, .. } => match key {
+                        Key::X | Key::Y | Key::Z => {
+                            let axis = match key {
+                                Key::X => Axis::X,
+                                Key::Y => Axis::Y,
+                                _ => Axis::Z,
+                            };
+                            if modifiers.shift {
+                                modal.op.toggle_plane(axis);
+                            } else {
+                                modal.op.toggle_axis(axis);
+                            }
+                        }
                         Key::Backspace => modal.op.backspace(),
                         Key::Enter => confirm = true,
                         Key::Escape => cancel = true,
