@@ -30,6 +30,7 @@ use crate::EditorError;
 mod brushing;
 mod chrome;
 mod files;
+mod inner_edit;
 mod modelling;
 mod panels;
 mod preview_link;
@@ -169,6 +170,14 @@ pub struct EditorApp {
     /// Where the suggested hairline is (skull radii; [`hairmesh::head_frame::HAIRLINE_OFFSET`]).
     pub hairline_offset: f64,
     pub hovered_vertex: Option<u32>,
+    /// *Inner vertices*: every hair-mesh vertex is drawn and dragged by hand
+    /// ([`inner_edit`]), instead of the tips.
+    pub show_inner: bool,
+    /// The vertex (layer, vertex) under the pointer in that mode.
+    pub hovered_inner: Option<(u32, u32)>,
+    inner_drag: Option<inner_edit::InnerDrag>,
+    /// The vertex under the pointer when the primary button went down in that mode.
+    press_inner: Option<(u32, u32)>,
     /// The occluder's depth as the viewport sees it, and the view it was made for: the overlay
     /// hides and does not pick vertices behind the head.
     overlay_depth: Option<(OverlayView, Arc<DepthGrid>)>,
@@ -269,6 +278,10 @@ impl EditorApp {
             brush_radius: 30.0,
             hairline_offset: hairmesh::head_frame::HAIRLINE_OFFSET,
             hovered_vertex: None,
+            show_inner: false,
+            hovered_inner: None,
+            inner_drag: None,
+            press_inner: None,
             overlay_depth: None,
             selection: Vec::new(),
             modal: None,

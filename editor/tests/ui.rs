@@ -182,6 +182,44 @@ fn vertex_drag_undo_redo_restores_exactly(_: &gen_gpu::Context) -> Result<()> {
         "F framed {target}, not the selected column around {centre}"
     );
     settle(&mut h)?;
+    // *Inner vertices*: a vertex inside the hair mesh dragged by hand moves alone, one undo step.
+    h.state_mut().show_inner = true;
+    let (rect, camera) = (h.state().viewport_rect, h.state().camera);
+    let projection = Projection::new(&camera, glam::Vec2::new(rect.width(), rect.height()));
+    let before = h.state().doc.as_ref().context("doc")?.asset().mesh().clone();
+    let layer = before.layer_count() / 2;
+    let (inner, pixel) = (0..before.vertex_count())
+        .filter_map(|v| projection.project(before.layers[layer][v].as_vec3()).map(|(px, z)| (v, px, z)))
+        .filter(|(_, px, _)| {
+            px.x > 60.0 && px.y > 60.0 && px.x < rect.width() - 60.0 && px.y < rect.height() - 60.0
+        })
+        .min_by(|a, b| a.2.total_cmp(&b.2))
+        .map(|(v, px, _)| (v, px))
+        .context("no inner vertex in view")?;
+    let start = rect.min + egui::vec2(pixel.x, pixel.y);
+    h.hover_at(start);
+    h.step();
+    let (held_layer, held) = h.state().hovered_inner.context("no vertex under the pointer")?;
+    h.drag_at(start);
+    h.step();
+    for k in 1..=4 {
+        h.hover_at(start + egui::vec2(6.0 * k as f32, 0.0));
+        h.step();
+    }
+    h.drop_at(start + egui::vec2(24.0, 0.0));
+    h.step();
+    let by_hand = h.state().doc.as_ref().context("doc")?.asset().mesh().clone();
+    let moved: Vec<(usize, usize)> = (0..by_hand.layers.len())
+        .flat_map(|k| (0..by_hand.vertex_count()).map(move |v| (k, v)))
+        .filter(|&(k, v)| by_hand.layers[k][v] != before.layers[k][v])
+        .collect();
+    ensure!(
+        moved == [(held_layer as usize, held as usize)],
+        "the hand drag of layer {held_layer} vertex {held} (nearest {inner}) moved {moved:?}"
+    );
+    h.key_press_modifiers(egui::Modifiers::COMMAND, egui::Key::Z);
+    h.step();
+    ensure!(h.state().doc.as_ref().context("doc")?.asset().mesh().layers == before.layers, "undo");
     Ok(())
 }
 

@@ -323,6 +323,9 @@ impl EditorApp {
         ui.checkbox(&mut e.shadows, "Self-shadowing (deep opacity maps)");
         ui.checkbox(&mut e.ao, "Ambient occlusion");
         ui.checkbox(&mut self.show_overlay, "Hair-mesh overlay");
+        ui.checkbox(&mut self.show_inner, "Inner vertices (drag by hand)").on_hover_text(
+            "Every hair-mesh vertex is shown (inner ones hollow) and dragged on its own, instead of the tips; a later move of outer vertices places the inner ones again",
+        );
         ui.checkbox(&mut self.mirror_x, "Mirror (symmetric edits)").on_hover_text(
             "Edits move the columns mirrored across the head's plane of symmetry too (x = 0 without a head)",
         );

@@ -79,7 +79,9 @@ impl EditorApp {
             )
             .map(|i| i as u32)
         };
-        self.hovered_vertex = if self.show_overlay && self.drag.is_none() && self.modal.is_none() {
+        let by_hand = self.show_inner && self.show_overlay && self.scalp_paint.is_none();
+        self.hovered_vertex = if self.show_overlay && !by_hand && self.drag.is_none() && self.modal.is_none()
+        {
             pointer.and_then(pick_at)
         } else {
             None
@@ -96,8 +98,12 @@ impl EditorApp {
         if response.hovered() && ui.input(|i| i.pointer.primary_pressed()) {
             self.press_vertex = self.hovered_vertex;
         }
-        let modelling = self.brush_input(ui, &response, rect, &tips, &painter)
-            || self.hair_brush.is_none() && self.modelling_input(ui, &response, rect, &tips, &painter);
+        let modelling = if by_hand {
+            self.inner_vertex_input(ui, &response, rect, &projection, &painter)
+        } else {
+            self.brush_input(ui, &response, rect, &tips, &painter)
+                || self.hair_brush.is_none() && self.modelling_input(ui, &response, rect, &tips, &painter)
+        };
         let Some(doc) = self.doc.as_ref() else { return };
         let mesh = doc.asset().mesh();
         let primary = response.drag_started_by(egui::PointerButton::Primary);
