@@ -29,7 +29,7 @@
 //!   bytes (`vec4(position, width)`, `vec4(tangent, tau)`), `strand_info[slot]` its bundle,
 //!   index, vertex count and LOD width scale, `offsets[]`/`total_strands` how many slots are live.
 //! * **A compute consumer generating inside its own shader** (fused generation, no strand buffer):
-//!   include `hair_gen.glsl` with bindings 0–6 bound as the generator binds them, take a
+//!   include `hair_gen.glsl` with bindings 0–7 bound as the generator binds them, take a
 //!   bundle's `bundle_lod(bundle)` (or the LOD pass's `lods[]`), then either
 //!   - one strand per invocation (what `generate.comp` does in the strand-coherent variant):
 //!     `StrandStream s = strand_stream(bundle, strand, lod, from_control)`, then
@@ -60,7 +60,7 @@ pub mod binding {
     /// The hair-mesh 3D texture (sampler3D).
     pub const HAIR_MESH_TEXTURE: u32 = 4;
     /// û in rgb and w in alpha (sampler3D): the asset's two layer textures in one, so a
-    /// fetch reads both (7 is free: w had it before).
+    /// fetch reads both.
     pub const U_TEXTURE: u32 = 5;
     /// v̂ (sampler3D).
     pub const V_TEXTURE: u32 = 6;

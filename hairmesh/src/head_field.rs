@@ -68,7 +68,7 @@ impl HeadField {
         // the surface (a sample's eight corners are within a cell diagonal of it, plus the
         // margin and the deepest a strand goes in). Elsewhere, a coarse grid's trilinear value
         // (every COARSE-th point, exact) gives sign and size, which is all a point that is never
-        // pushed needs. That is about a third of the queries.
+        // pushed needs.
         const COARSE: u32 = 4;
         let at = |x: u32, y: u32, z: u32| lo + DVec3::new(f64::from(x), f64::from(y), f64::from(z)) * cell;
         let coarse_size = [w, h, d].map(|n| (n - 1).div_ceil(COARSE) + 1);
@@ -116,9 +116,9 @@ impl HeadField {
         });
         // Half floats, as the files and the GPU keep them (near the surface, where the values
         // are read, they are small and keep their precision), so every generator reads the
-        // same field.
+        // same field. Far values only need their sign and size: clamped into half's range.
         for v in &mut data {
-            *v = half::f16::from_f64(*v).to_f64();
+            *v = half::f16::from_f64(v.clamp(-60_000.0, 60_000.0)).to_f64();
         }
         if !data.iter().all(|v| v.is_finite()) {
             return None;
