@@ -252,6 +252,7 @@ fn check_finds_strands_inside_the_head() {
     assert!(ok, "{stderr}");
     let (ok, stdout, stderr) = hairmesh(&["check", out_text]);
     assert!(ok && stdout.contains("strands entering the head: 0 (0.00 %)"), "{stdout}{stderr}");
+    assert!(stdout.contains("collision:                none"), "{stdout}");
     assert!(stdout.contains("head frame:") && stdout.contains("strands over the face:"), "{stdout}");
     // Pull every tip to the middle of the head (the cap is centred at y = 1.6).
     let (mut asset, _) = hairmesh::asset_io::read_asset(&out).expect("asset");
@@ -290,6 +291,7 @@ fn check_finds_strands_inside_the_head() {
     hairmesh::asset_io::write_asset(&pulled, &asset, Default::default(), "metres", Some(&cap))
         .expect("write");
     let (_, stdout, _) = hairmesh(&["check", pulled.to_str().expect("utf-8"), "--head", &cap]);
+    assert!(stdout.contains("collision:                head field of"), "{stdout}");
     let kept_out: u64 = stdout
         .lines()
         .find_map(|l| l.strip_prefix("strands entering the head: "))

@@ -451,6 +451,15 @@ fn check(path: &Path, head: Option<&Path>) -> Result<()> {
     let share = |n: u64| 100.0 * n as f64 / c.strands.max(1) as f64;
     println!("{} against {}", path.display(), head.display());
     println!("strands:                  {}", c.strands);
+    match &asset.head_field {
+        Some(f) => println!(
+            "collision:                head field of {}×{}×{} points, strands kept {:.4} out (file units)",
+            f.distance.width, f.distance.height, f.distance.depth, f.margin
+        ),
+        None => println!(
+            "collision:                none (no head field: converted with --no-collision or before it)"
+        ),
+    }
     println!("strands entering the head: {} ({:.2} %)", c.entering, share(c.entering));
     if c.entering > 0 {
         println!("deepest point inside:     {:.4} (file units)", c.deepest);
