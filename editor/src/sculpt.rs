@@ -148,6 +148,37 @@ fn mirrored(a: &DAffine3, plane: &MirrorPlane) -> DAffine3 {
     m * *a * m
 }
 
+/// The layer `layer` asks a drag to hold (`None`: the tips, also for the outer layer) and the
+/// columns that take part: the seeds and, within `soft_radius` of a seed at that layer, the
+/// columns around them by [`falloff`].
+fn held_columns(
+    mesh: &HairMesh,
+    seeds: &[(u32, bool)],
+    soft_radius: f64,
+    layer: Option<u32>,
+) -> (Option<u32>, Vec<Column>) {
+    let last = mesh.layers.len() - 1;
+    let held = layer.map_or(last, |l| (l as usize).clamp(1, last.max(1)));
+    let at = &mesh.layers[held];
+    let mut weights: Vec<(f64, bool)> = vec![(0.0, false); mesh.vertex_count()];
+    for &(centre, mirrored) in seeds {
+        let Some(&c) = at.get(centre as usize) else { continue };
+        for (v, p) in at.iter().enumerate() {
+            let w = falloff(p.distance(c), soft_radius);
+            if w > weights[v].0 {
+                weights[v] = (w, mirrored);
+            }
+        }
+    }
+    let columns = weights
+        .iter()
+        .enumerate()
+        .filter(|(_, (w, _))| *w > 0.0)
+        .map(|(v, &(weight, mirrored))| Column { vertex: v as u32, weight, mirrored })
+        .collect();
+    ((held != last).then_some(held as u32), columns)
+}
+
 impl TipDrag {
     /// Starts dragging the tip of `vertex` (and of `mirror`, mirrored) of `mesh`; tips within
     /// `soft_radius` of a dragged tip follow with [`falloff`].
@@ -178,11 +209,11 @@ impl TipDrag {
     /// The same drag holding layer `layer` (1..=L; the tips at L) of the columns instead of
     /// their tips: soft selection measured there too.
     #[must_use]
-    pub fn at_layer(self, layer: u32) -> Self {
-        let mut held = Self::with_seeds(&self.rest, &self.seeds, self.soft_radius, Some(layer));
-        held.mirror = self.mirror;
-        held.head = self.head;
-        held
+    pub fn at_layer(mut self, layer: u32) -> Self {
+        let (held, columns) = held_columns(&self.rest, &self.seeds, self.soft_radius, Some(layer));
+        self.layer = held;
+        self.columns = columns;
+        self
     }
 
     /// The layer the drag holds (the outer one for the tips).
@@ -191,29 +222,11 @@ impl TipDrag {
     }
 
     fn with_seeds(mesh: &HairMesh, seeds: &[(u32, bool)], soft_radius: f64, layer: Option<u32>) -> Self {
-        let last = mesh.layers.len() - 1;
-        let held = layer.map_or(last, |l| (l as usize).clamp(1, last.max(1)));
-        let tips = &mesh.layers[held];
-        let mut weights: Vec<(f64, bool)> = vec![(0.0, false); mesh.vertex_count()];
-        for &(centre, mirrored) in seeds {
-            let Some(&c) = tips.get(centre as usize) else { continue };
-            for (v, p) in tips.iter().enumerate() {
-                let w = falloff(p.distance(c), soft_radius);
-                if w > weights[v].0 {
-                    weights[v] = (w, mirrored);
-                }
-            }
-        }
-        let columns = weights
-            .iter()
-            .enumerate()
-            .filter(|(_, (w, _))| *w > 0.0)
-            .map(|(v, &(weight, mirrored))| Column { vertex: v as u32, weight, mirrored })
-            .collect();
+        let (layer, columns) = held_columns(mesh, seeds, soft_radius, layer);
         Self {
             seeds: seeds.to_vec(),
             soft_radius,
-            layer: (held != last).then_some(held as u32),
+            layer,
             mirror: MirrorPlane::default(),
             rest: mesh.clone(),
             columns,

@@ -123,16 +123,15 @@ fn style_slider_changes_the_style_and_requests_a_preview(_: &gen_gpu::Context) -
     Ok(())
 }
 
-fn vertex_drag_undo_redo_restores_exactly(_: &gen_gpu::Context) -> Result<()> {
-    let mut h = editor();
-    open_sample(&mut h)?;
-    let (rect, camera) = (h.state().viewport_rect, h.state().camera);
-    let doc = h.state().doc.as_ref().context("doc")?;
-    let mesh = doc.asset().mesh().clone();
-    let outer = mesh.layers.len() - 1;
-    let projection = Projection::new(&camera, glam::Vec2::new(rect.width(), rect.height()));
-    // The outer-layer vertex nearest to the camera that projects well inside the viewport.
-    let (vertex, pixel) = mesh.layers[outer]
+/// Of `points`, the one nearest to the camera that projects well inside the viewport `rect`:
+/// its index and where it is on the screen.
+fn nearest_in_view(
+    camera: &editor::camera::OrbitCamera,
+    rect: egui::Rect,
+    points: &[glam::DVec3],
+) -> Option<(usize, egui::Pos2)> {
+    let projection = Projection::new(camera, glam::Vec2::new(rect.width(), rect.height()));
+    points
         .iter()
         .enumerate()
         .filter_map(|(i, p)| projection.project(p.as_vec3()).map(|(px, z)| (i, px, z)))
@@ -140,9 +139,18 @@ fn vertex_drag_undo_redo_restores_exactly(_: &gen_gpu::Context) -> Result<()> {
             px.x > 60.0 && px.y > 60.0 && px.x < rect.width() - 60.0 && px.y < rect.height() - 60.0
         })
         .min_by(|a, b| a.2.total_cmp(&b.2))
-        .map(|(i, px, _)| (i, px))
-        .context("no vertex in view")?;
-    let start = rect.min + egui::vec2(pixel.x, pixel.y);
+        .map(|(i, px, _)| (i, rect.min + egui::vec2(px.x, px.y)))
+}
+
+fn vertex_drag_undo_redo_restores_exactly(_: &gen_gpu::Context) -> Result<()> {
+    let mut h = editor();
+    open_sample(&mut h)?;
+    let (rect, camera) = (h.state().viewport_rect, h.state().camera);
+    let doc = h.state().doc.as_ref().context("doc")?;
+    let mesh = doc.asset().mesh().clone();
+    let outer = mesh.layers.len() - 1;
+    // The outer-layer vertex nearest to the camera that projects well inside the viewport.
+    let (vertex, start) = nearest_in_view(&camera, rect, &mesh.layers[outer]).context("no vertex in view")?;
     h.hover_at(start);
     h.step();
     ensure!(h.state().hovered_vertex.is_some(), "no vertex under the pointer at {start:?}");
@@ -184,19 +192,11 @@ fn vertex_drag_undo_redo_restores_exactly(_: &gen_gpu::Context) -> Result<()> {
     settle(&mut h)?;
     // *Inner vertices*: a vertex inside the hair mesh dragged by hand moves alone, one undo step.
     h.state_mut().show_inner = true;
-    let (rect, camera) = (h.state().viewport_rect, h.state().camera);
-    let projection = Projection::new(&camera, glam::Vec2::new(rect.width(), rect.height()));
+    let camera = h.state().camera;
     let before = h.state().doc.as_ref().context("doc")?.asset().mesh().clone();
     let layer = before.layer_count() / 2;
-    let (inner, pixel) = (0..before.vertex_count())
-        .filter_map(|v| projection.project(before.layers[layer][v].as_vec3()).map(|(px, z)| (v, px, z)))
-        .filter(|(_, px, _)| {
-            px.x > 60.0 && px.y > 60.0 && px.x < rect.width() - 60.0 && px.y < rect.height() - 60.0
-        })
-        .min_by(|a, b| a.2.total_cmp(&b.2))
-        .map(|(v, px, _)| (v, px))
-        .context("no inner vertex in view")?;
-    let start = rect.min + egui::vec2(pixel.x, pixel.y);
+    let (inner, start) =
+        nearest_in_view(&camera, rect, &before.layers[layer]).context("no inner vertex in view")?;
     h.hover_at(start);
     h.step();
     let (held_layer, held) = h.state().hovered_inner.context("no vertex under the pointer")?;

@@ -114,6 +114,16 @@ fn texels(tex: &Texture3, channels: u32, half: bool) -> Vec<u8> {
     out
 }
 
+/// Whether two assets keep strands out of the same head: the field an edit shares (cheap), or
+/// an equal one.
+fn same_head_field(a: &HairAsset, b: &HairAsset) -> bool {
+    match (&a.head_field, &b.head_field) {
+        (Some(x), Some(y)) => std::sync::Arc::ptr_eq(x, y) || x == y,
+        (None, None) => true,
+        _ => false,
+    }
+}
+
 /// Bundle `b`'s entry of the GPU bundle table.
 fn gpu_bundle(asset: &HairAsset, b: usize) -> GpuBundle {
     let squares = asset.square_sets.len() as u32;
@@ -175,14 +185,20 @@ impl GpuHair {
         let half = precision == TexturePrecision::F16;
         let t = &asset.textures;
         let max3d = caps.max_image_dimension_3d;
-        if t.layout.width > max3d || t.layout.height > max3d || t.layout.curve_slices() > max3d {
-            return Err(GpuError::OverBudget {
-                name: "hair-mesh texture".into(),
-                requested: u64::from(t.layout.width.max(t.layout.height).max(t.layout.curve_slices())),
-                budget: u64::from(max3d),
-                why: "maxImageDimension3D",
-            });
-        }
+        // A 3D texture's longest side against the device's limit.
+        let fits_3d = |name: &str, sides: [u32; 3]| -> Result<()> {
+            let longest = sides.into_iter().max().unwrap_or(0);
+            if longest > max3d {
+                return Err(GpuError::OverBudget {
+                    name: name.into(),
+                    requested: u64::from(longest),
+                    budget: u64::from(max3d),
+                    why: "maxImageDimension3D",
+                });
+            }
+            Ok(())
+        };
+        fits_3d("hair-mesh texture", [t.layout.width, t.layout.height, t.layout.curve_slices()])?;
         let (rgba, rg) = if half {
             (vk::Format::R16G16B16A16_SFLOAT, vk::Format::R16G16_SFLOAT)
         } else {
@@ -213,14 +229,7 @@ impl GpuHair {
         let (v, v_bytes) = upload("v", &t.v, rgba, texels(&t.v, 4, half))?;
         let placeholder = Texture3 { width: 2, height: 2, depth: 2, channels: 1, data: vec![0.0; 8] };
         let field = asset.head_field.as_ref().map_or(&placeholder, |f| &f.distance);
-        if field.width.max(field.height).max(field.depth) > max3d {
-            return Err(GpuError::OverBudget {
-                name: "head field".into(),
-                requested: u64::from(field.width.max(field.height).max(field.depth)),
-                budget: u64::from(max3d),
-                why: "maxImageDimension3D",
-            });
-        }
+        fits_3d("head field", [field.width, field.height, field.depth])?;
         let field_texels: Vec<u8> =
             field.data.iter().flat_map(|&d| half::f16::from_f64(d).to_bits().to_le_bytes()).collect();
         let (head_field, field_bytes) = upload("head field", field, vk::Format::R16_SFLOAT, field_texels)?;
@@ -317,7 +326,7 @@ impl GpuHair {
             || old.bundles.len() != new.bundles.len()
             || old.square_sets != new.square_sets
             || old.triangle_sets != new.triangle_sets
-            || old.head_field != new.head_field
+            || !same_head_field(old, new)
         {
             return Err(GpuError::Mismatch(
                 "the asset's layout, normalization, bundles, sample sets or head field changed: upload it again".into(),

@@ -239,9 +239,10 @@ pub struct HairAsset {
     #[serde(default)]
     pub provenance: Option<ScalpProvenance>,
     /// The head strands are kept out of ([`crate::head_field`]), when the asset was made
-    /// with a head: every generator pushes strand vertices out of it.
+    /// with a head: every generator pushes strand vertices out of it. Shared: an edit clones
+    /// the asset (the editor's preview may hold the last one), never the field.
     #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub head_field: Option<crate::head_field::HeadField>,
+    pub head_field: Option<std::sync::Arc<crate::head_field::HeadField>>,
     /// Edits since the asset was built or loaded ([`Self::move_vertices`]).
     #[serde(skip)]
     pub(crate) revision: u64,
@@ -514,7 +515,18 @@ impl HairAsset {
         let margin = self.style.max_displacement();
         let bundles =
             (0..mesh.faces.len()).map(|b| bundle_info(&mesh, b, self.bundles[b].strands, margin)).collect();
-        Ok(HairAsset { textures, bundles, mesh, revision: 0, ..self.clone() })
+        Ok(HairAsset {
+            textures,
+            curve: self.curve,
+            bundles,
+            square_sets: self.square_sets.clone(),
+            triangle_sets: self.triangle_sets.clone(),
+            style: self.style,
+            mesh,
+            provenance: self.provenance.clone(),
+            head_field: self.head_field.clone(),
+            revision: 0,
+        })
     }
 
     /// Union of the bundles' bounds (object space, with the styling margin).

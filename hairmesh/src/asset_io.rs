@@ -303,12 +303,12 @@ pub fn read_asset(path: &Path) -> Result<(HairAsset, Manifest)> {
         mesh: m.mesh.clone(),
         provenance: m.scalp.clone(),
         head_field: match &m.head_field {
-            Some(f) => Some(HeadField {
+            Some(f) => Some(std::sync::Arc::new(HeadField {
                 lo: f.lo,
                 cell: f.cell,
                 margin: f.margin,
                 distance: read_texture_sized(&dir.join(&f.file), "head_field", Precision::F16, f.size, 1)?,
-            }),
+            })),
             None => None,
         },
         revision: 0,

@@ -313,7 +313,8 @@ pub fn convert_scalp(
         let (lo, hi) = asset.bounds();
         let room = DVec3::splat(0.2 * lo.distance(hi));
         asset.head_field =
-            crate::head_field::HeadField::build(&head, (lo - room, hi + room), strand_clearance(&head));
+            crate::head_field::HeadField::build(&head, (lo - room, hi + room), strand_clearance(&head))
+                .map(std::sync::Arc::new);
     }
     asset.provenance =
         Some(ScalpProvenance { file: input.display().to_string(), selector: settings.scalp.clone(), layers });

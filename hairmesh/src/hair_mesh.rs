@@ -106,23 +106,28 @@ impl HairMesh {
         self.tip_layers.as_ref().and_then(|t| t.get(face)).map_or(last, |&t| t.clamp(1, last.max(1)))
     }
 
-    /// Sets the tip layers of `faces` to `layer`, clamped to 1..=L; returns whether anything
-    /// changed. A mesh whose faces all reach the last layer drops the list (the older form).
-    pub fn set_tip_layer(&mut self, faces: &[u32], layer: u32) -> bool {
-        let last = self.layer_count() as u32;
-        let layer = layer.clamp(1, last.max(1));
-        let mut tips: Vec<u32> = (0..self.faces.len()).map(|f| self.tip_layer(f)).collect();
-        let mut changed = false;
+    /// Every face's tip layer ([`Self::tip_layer`]).
+    pub fn tips(&self) -> Vec<u32> {
+        (0..self.faces.len()).map(|f| self.tip_layer(f)).collect()
+    }
+
+    /// Sets the tip layers of `faces` (those that exist) to `layer`, clamped to 1..=L.
+    pub fn set_tip_layer(&mut self, faces: &[u32], layer: u32) {
+        let layer = layer.clamp(1, (self.layer_count() as u32).max(1));
+        let mut tips = self.tips();
         for &f in faces {
-            if let Some(t) = tips.get_mut(f as usize)
-                && *t != layer
-            {
+            if let Some(t) = tips.get_mut(f as usize) {
                 *t = layer;
-                changed = true;
             }
         }
+        self.set_tips(tips);
+    }
+
+    /// Sets every face's tip layer; a mesh whose faces all reach the last layer drops the list
+    /// (the older form).
+    pub(crate) fn set_tips(&mut self, tips: Vec<u32>) {
+        let last = self.layer_count() as u32;
         self.tip_layers = if tips.iter().all(|&t| t == last) { None } else { Some(tips) };
-        changed
     }
 
     /// Whether the tip layers fit the mesh: one per face, each in 1..=L.

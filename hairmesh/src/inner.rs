@@ -56,9 +56,9 @@ impl InnerVertices {
     pub fn new(rest: &HairMesh) -> Self {
         let layers = rest.layers.len();
         let per_layer = rest.vertex_count();
-        let border = border_vertices(rest);
+        let outer = outer_vertices(rest);
         let id = |k: usize, v: usize| k * per_layer + v;
-        let inner = |k: usize, v: usize| k > 0 && k + 1 < layers && !border[v];
+        let inner = |k: usize, v: usize| !outer[k][v];
         let mut unknown = vec![None; layers * per_layer];
         let mut vertex_of = Vec::new();
         for k in 0..layers {
@@ -193,6 +193,15 @@ impl InnerVertices {
         self.last = x;
         moves
     }
+}
+
+/// Per layer per vertex: whether the vertex is outer — a root, on the tip layer, or in a column
+/// on the border of the scalp region (a vertex of an edge that only one face uses) — shaped by
+/// the user; the others are inner, placed by [`InnerVertices::place`].
+pub fn outer_vertices(mesh: &HairMesh) -> Vec<Vec<bool>> {
+    let layers = mesh.layers.len();
+    let border = border_vertices(mesh);
+    (0..layers).map(|k| border.iter().map(|&b| k == 0 || k + 1 == layers || b).collect()).collect()
 }
 
 /// Vertices on the border of the mesh's faces: those of an edge only one face uses.

@@ -35,7 +35,7 @@ impl HairMesh {
                 segments[at - 1].eval(0.5)
             })
             .collect();
-        let tips: Vec<u32> = (0..self.faces.len()).map(|f| self.tip_layer(f)).collect();
+        let tips = self.tips();
         self.layers.insert(at, middle);
         let shifted = tips.iter().map(|&t| if t as usize >= at { t + 1 } else { t }).collect();
         self.set_tips(shifted);
@@ -52,7 +52,7 @@ impl HairMesh {
         if !(1..=last).contains(&layer) {
             return Err(refused(format!("layer {layer} is not one of layers 1..={last}")));
         }
-        let tips: Vec<u32> = (0..self.faces.len()).map(|f| self.tip_layer(f)).collect();
+        let tips = self.tips();
         self.layers.remove(layer);
         let shifted = tips.iter().map(|&t| if t as usize >= layer { (t - 1).max(1) } else { t }).collect();
         self.set_tips(shifted);
@@ -68,7 +68,7 @@ impl HairMesh {
             return Err(refused(format!("face {f} does not exist ({} faces)", self.faces.len())));
         }
         let last = self.layer_count();
-        let mut tips: Vec<u32> = (0..self.faces.len()).map(|f| self.tip_layer(f)).collect();
+        let mut tips = self.tips();
         let grow = faces.iter().any(|&f| tips[f as usize] as usize == last);
         if grow {
             if last as u32 >= MAX_LAYERS {
@@ -84,12 +84,6 @@ impl HairMesh {
         }
         self.set_tips(tips);
         Ok(grow)
-    }
-
-    /// Sets every face's tip layer, dropping the list when all reach the outer layer.
-    fn set_tips(&mut self, tips: Vec<u32>) {
-        let last = self.layer_count() as u32;
-        self.tip_layers = if tips.iter().all(|&t| t == last) { None } else { Some(tips) };
     }
 }
 

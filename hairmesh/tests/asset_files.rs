@@ -448,7 +448,7 @@ fn the_head_field_round_trips_and_bad_ones_are_refused() {
     let head = hairmesh::head::HeadSurface::from_mesh(&scalp);
     let mut a = asset();
     let (lo, hi) = a.bounds();
-    a.head_field = hairmesh::head_field::HeadField::build(&head, (lo, hi), 0.01);
+    a.head_field = hairmesh::head_field::HeadField::build(&head, (lo, hi), 0.01).map(std::sync::Arc::new);
     assert!(a.head_field.is_some(), "the patch gives a field");
     let dir = tempfile::tempdir().expect("temp dir");
     let path = dir.path().join("with_field");

@@ -210,7 +210,8 @@ fn asset_folders() {
         &hairmesh::head::HeadSurface::from_mesh(&scalp),
         (lo, hi),
         1e-3,
-    );
+    )
+    .map(std::sync::Arc::new);
     assert!(asset.head_field.is_some(), "the cap gives a head field");
     let dir = tempfile::tempdir().expect("temp dir");
     write_asset(dir.path(), &asset, Precision::F16, "m", None).expect("write");

@@ -33,8 +33,7 @@ impl EditorApp {
     ) -> bool {
         let Some(doc) = self.doc.as_ref() else { return false };
         let mesh = doc.asset().mesh();
-        let border = border_vertices(mesh);
-        let outer_layer = mesh.layer_count();
+        let outer = hairmesh::inner::outer_vertices(mesh);
         let to_screen =
             |p: DVec3| projection.project(p.as_vec3()).map(|(px, _)| rect.min + Vec2::new(px.x, px.y));
         let dot = Color32::from_rgba_unmultiplied(160, 220, 255, 170);
@@ -43,8 +42,7 @@ impl EditorApp {
         for (k, layer) in mesh.layers.iter().enumerate().skip(1) {
             for (v, p) in layer.iter().enumerate() {
                 let Some(s) = to_screen(*p) else { continue };
-                // The paper's outer vertices: the outer layer and the mesh's border columns.
-                if k == outer_layer || border[v] {
+                if outer[k][v] {
                     painter.circle_filled(s, 1.5, dot);
                 } else {
                     painter.circle_stroke(s, 2.5, Stroke::new(1.0, dot));
@@ -104,24 +102,4 @@ impl EditorApp {
         }
         true
     }
-}
-
-/// The vertices on the border of the hair mesh's faces (on an edge of one face only).
-fn border_vertices(mesh: &hairmesh::HairMesh) -> Vec<bool> {
-    let mut uses = std::collections::HashMap::<(u32, u32), u32>::new();
-    for face in &mesh.faces {
-        let vs = face.vertices();
-        for i in 0..vs.len() {
-            let (a, b) = (vs[i], vs[(i + 1) % vs.len()]);
-            *uses.entry((a.min(b), a.max(b))).or_default() += 1;
-        }
-    }
-    let mut border = vec![false; mesh.vertex_count()];
-    for ((a, b), n) in uses {
-        if n == 1 {
-            border[a as usize] = true;
-            border[b as usize] = true;
-        }
-    }
-    border
 }

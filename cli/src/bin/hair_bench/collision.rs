@@ -14,7 +14,8 @@ fn with_head_field(strands: u64) -> Result<HairAsset> {
         &head,
         (lo - room, hi + room),
         hairmesh::convert::strand_clearance(&head),
-    );
+    )
+    .map(std::sync::Arc::new);
     anyhow::ensure!(asset.head_field.is_some(), "the head cap gave no head field");
     Ok(asset)
 }
