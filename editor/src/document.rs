@@ -358,15 +358,6 @@ impl Document {
     /// longer bundles of the same hair mesh, one undo step.
     pub fn set_tip_layers(&mut self, tips: &[(u32, u32)]) -> Result<(), EditorError> {
         let last = self.asset.mesh().layer_count() as u32;
-        let bundles = self.asset.bundles.len() as u32;
-        if let Some(&(b, _)) = tips.iter().find(|(b, _)| *b >= bundles) {
-            return Err(EditorError::Edit {
-                source: hairmesh::HairMeshError::InvalidParameter {
-                    what: "tip layer",
-                    message: format!("bundle {b} does not exist ({bundles} bundles)"),
-                },
-            });
-        }
         let after: Vec<(u32, u32)> = tips.iter().map(|&(b, l)| (b, l.clamp(1, last.max(1)))).collect();
         let before: Vec<(u32, u32)> = after.iter().map(|&(b, _)| (b, self.asset.tip_layer(b))).collect();
         if before == after {
@@ -498,18 +489,13 @@ impl Document {
         Ok(())
     }
 
-    /// Sets each bundle's tip layer, one asset change per layer given.
+    /// Sets each bundle's tip layer in one asset change (an unknown bundle is refused with
+    /// nothing changed).
     fn apply_tips(&mut self, tips: &[(u32, u32)]) -> Result<(), EditorError> {
-        let mut by_layer = std::collections::BTreeMap::<u32, Vec<u32>>::new();
-        for &(b, l) in tips {
-            by_layer.entry(l).or_default().push(b);
-        }
-        for (layer, bundles) in by_layer {
-            let change = Arc::make_mut(&mut self.asset)
-                .set_tip_layer(&bundles, layer)
-                .map_err(|source| EditorError::Edit { source })?;
-            self.push_change(change);
-        }
+        let change = Arc::make_mut(&mut self.asset)
+            .set_tip_layers(tips)
+            .map_err(|source| EditorError::Edit { source })?;
+        self.push_change(change);
         Ok(())
     }
 

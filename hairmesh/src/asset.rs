@@ -465,18 +465,30 @@ impl HairAsset {
     }
 
     /// Ends the strands of `bundles` at `layer` (clamped to 1..=L): a shorter or longer bundle
-    /// of the same hair mesh. Rewrites those bundles' table entries (bounds, length); the
-    /// textures stay.
+    /// of the same hair mesh ([`Self::set_tip_layers`]).
     pub fn set_tip_layer(&mut self, bundles: &[u32], layer: u32) -> Result<AssetChange> {
-        if let Some(&b) = bundles.iter().find(|&&b| b as usize >= self.bundles.len()) {
+        let tips: Vec<(u32, u32)> = bundles.iter().map(|&b| (b, layer)).collect();
+        self.set_tip_layers(&tips)
+    }
+
+    /// Ends each bundle of `tips` (`(bundle, layer)`) at its layer (clamped to 1..=L). Rewrites
+    /// those bundles' table entries (bounds, length), one change; the textures stay. An unknown
+    /// bundle is refused before anything changes.
+    pub fn set_tip_layers(&mut self, tips: &[(u32, u32)]) -> Result<AssetChange> {
+        if let Some(&(b, _)) = tips.iter().find(|(b, _)| *b as usize >= self.bundles.len()) {
             return Err(HairMeshError::InvalidParameter {
                 what: "tip layer",
                 message: format!("bundle {b} does not exist ({} bundles)", self.bundles.len()),
             });
         }
-        self.mesh.set_tip_layer(bundles, layer);
+        let last = (self.mesh.layer_count() as u32).max(1);
+        let mut all = self.mesh.tips();
+        for &(b, layer) in tips {
+            all[b as usize] = layer.clamp(1, last);
+        }
+        self.mesh.set_tips(all);
         let margin = self.style.max_displacement();
-        let mut changed: Vec<u32> = bundles.to_vec();
+        let mut changed: Vec<u32> = tips.iter().map(|&(b, _)| b).collect();
         changed.sort_unstable();
         changed.dedup();
         for &b in &changed {

@@ -111,18 +111,6 @@ impl HairMesh {
         (0..self.faces.len()).map(|f| self.tip_layer(f)).collect()
     }
 
-    /// Sets the tip layers of `faces` (those that exist) to `layer`, clamped to 1..=L.
-    pub fn set_tip_layer(&mut self, faces: &[u32], layer: u32) {
-        let layer = layer.clamp(1, (self.layer_count() as u32).max(1));
-        let mut tips = self.tips();
-        for &f in faces {
-            if let Some(t) = tips.get_mut(f as usize) {
-                *t = layer;
-            }
-        }
-        self.set_tips(tips);
-    }
-
     /// Sets every face's tip layer; a mesh whose faces all reach the last layer drops the list
     /// (the older form).
     pub(crate) fn set_tips(&mut self, tips: Vec<u32>) {
